@@ -1,0 +1,99 @@
+"""The layout a user gets back (DESIGN.md §2): rooms as polygons plus a checked report."""
+
+from __future__ import annotations
+
+from enum import StrEnum
+
+from pydantic import BaseModel, ConfigDict, Field
+
+Point = tuple[float, float]
+
+
+class Termination(StrEnum):
+    """Why the solve stopped."""
+
+    OPTIMAL = "optimal"
+    """Every MIQP was solved to optimality (within SCIP's default gap)."""
+    TIME_LIMIT = "timelimit"
+    """The time limit was reached; the best layout found so far is returned."""
+    INFEASIBLE = "infeasible"
+    """No layout satisfies the hard constraints (see `Report.infeasibility`)."""
+    INTERRUPTED = "interrupted"
+    """Stopped on request (`should_stop`); the best layout so far is returned."""
+    NO_SOLUTION = "no_solution"
+    """The time ran out before any layout was found; feasibility is unknown."""
+
+
+class Rect(BaseModel):
+    """An axis-aligned rectangle: bottom-left corner, width along x, depth along y."""
+
+    model_config = ConfigDict(frozen=True)
+
+    x: float
+    y: float
+    width: float
+    depth: float
+
+
+class RoomLayout(BaseModel):
+    id: str
+    type: str
+    polygon: list[Point] = Field(description="counter-clockwise outline, the union of rectangles")
+    rectangles: list[Rect]
+    area: float
+
+
+class Door(BaseModel):
+    between: tuple[str, str]
+    segment: tuple[Point, Point]
+
+
+class Window(BaseModel):
+    room: str
+    segment: tuple[Point, Point]
+
+
+class ConstraintCheck(BaseModel):
+    """One constraint of the request, verified on the final polygons."""
+
+    kind: str = Field(description="inside, overlap, size, aspect_ratio, position, boundary, "
+                      "adjacency or coverage")
+    rooms: list[str]
+    satisfied: bool
+    detail: str = ""
+
+
+class Infeasibility(BaseModel):
+    """Why no layout was returned."""
+
+    reason: str
+    findings: list[str] = Field(default_factory=list, description="cheap impossibilities")
+    active_families: list[str] = Field(default_factory=list)
+    relaxations_tried: list[str] = Field(default_factory=list)
+
+
+class Report(BaseModel):
+    coverage: float = Field(description="covered share of the free area, 0..1")
+    uncovered_area: float
+    constraints: list[ConstraintCheck] = Field(default_factory=list)
+    size_error: dict[str, float] = Field(
+        default_factory=dict,
+        description="per room with a target: (W-W*)^2 + (D-D*)^2 of its bounding box (Eq. 6)",
+    )
+    objective: float | None = None
+    levels: int = 0
+    solve_time: float = 0.0
+    termination: Termination = Termination.OPTIMAL
+    valid: bool = Field(True, description="every hard constraint holds on the polygons")
+    infeasibility: Infeasibility | None = None
+    relaxation: float = Field(
+        0.0, description="how far the size bounds were relaxed beyond the 90-110 % start (Sec. 5.4)"
+    )
+
+
+class Layout(BaseModel):
+    name: str = "layout"
+    rooms: list[RoomLayout] = Field(default_factory=list)
+    doors: list[Door] = Field(default_factory=list)
+    windows: list[Window] = Field(default_factory=list)
+    report: Report

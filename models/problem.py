@@ -1,0 +1,297 @@
+"""The problem a user sends: a building outline, rooms and their constraints (DESIGN.md §1).
+
+Structural checks (types, signs, finiteness) are pydantic field constraints; the
+cross-field checks (a valid outline, points inside the free area, known room ids)
+run in `Problem._check_geometry_and_references` and raise one ``ValidationError``
+whose entries name the offending field, e.g. ``("rooms", 2, "positions", 0)``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from typing import Annotated, Any, Literal, Self
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import InitErrorDetails, PydanticCustomError
+from shapely.geometry import Point as ShapelyPoint
+from shapely.geometry import Polygon, box
+
+#: Largest absolute coordinate or length we accept, in metres. Keeps big-M values sane.
+MAX_COORDINATE = 1e5
+#: Default cap on rooms per problem; pass ``context={"max_rooms": n}`` to change it.
+DEFAULT_MAX_ROOMS = 400
+#: Geometric tolerance in metres for "on the boundary" and similar tests.
+TOLERANCE = 1e-6
+
+Coordinate = Annotated[float, Field(allow_inf_nan=False, ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
+Length = Annotated[float, Field(allow_inf_nan=False, ge=0, le=MAX_COORDINATE)]
+PositiveLength = Annotated[float, Field(allow_inf_nan=False, gt=0, le=MAX_COORDINATE)]
+Point = tuple[Coordinate, Coordinate]
+#: [width, depth]: width along x (east), depth along y (north).
+Size = tuple[Length, Length]
+Compass = Literal["north", "south", "east", "west"]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Obstacle(_Strict):
+    """A rectangle no room may cover (stairs core, shaft, courtyard)."""
+
+    x: Coordinate
+    y: Coordinate
+    width: PositiveLength
+    depth: PositiveLength
+    label: str = "obstacle"
+
+    def to_box(self) -> Polygon:
+        return box(self.x, self.y, self.x + self.width, self.y + self.depth)
+
+
+class Room(_Strict):
+    """One room to place, with its optional constraints."""
+
+    id: Annotated[str, Field(min_length=1, max_length=100)]
+    type: Annotated[str, Field(max_length=100)] = "room"
+    min_size: Size | None = Field(None, description="[width, depth] lower bounds, C_size (Eq. 5)")
+    max_size: Size | None = Field(None, description="[width, depth] upper bounds, C_size (Eq. 5)")
+    target_size: Size | None = Field(None, description="[width, depth] wanted, E_size (Eq. 6)")
+    aspect_ratio: tuple[PositiveLength, PositiveLength] | None = Field(
+        None, description="[lo, hi], lo >= 1: long side / short side, C_ratio (Eq. 7)"
+    )
+    positions: Annotated[list[Point], Field(max_length=2)] = Field(
+        default_factory=list, description="points the room must cover, C_pos (Eq. 8)"
+    )
+    boundary: list[Annotated[int, Field(ge=0)] | Compass] = Field(
+        default_factory=list,
+        description="exterior edges (indices or compass words); touch one, C_boundary (Eq. 9)",
+    )
+
+    @model_validator(mode="after")
+    def _check_bounds(self) -> Self:
+        errors: list[InitErrorDetails] = []
+        if self.min_size and self.max_size:
+            for axis, name in enumerate(("width", "depth")):
+                if self.min_size[axis] > self.max_size[axis]:
+                    errors.append(
+                        _error(
+                            ("min_size", axis),
+                            self.min_size[axis],
+                            "min_above_max",
+                            f"minimum {name} {self.min_size[axis]} exceeds maximum "
+                            f"{self.max_size[axis]}",
+                        )
+                    )
+        if self.aspect_ratio:
+            lo, hi = self.aspect_ratio
+            if lo < 1:
+                errors.append(
+                    _error(("aspect_ratio", 0), lo, "ratio_below_one", "lower ratio must be >= 1")
+                )
+            if lo > hi:
+                errors.append(
+                    _error(("aspect_ratio", 0), lo, "ratio_order", "lower ratio exceeds upper")
+                )
+        if errors:
+            raise ValidationError.from_exception_data(type(self).__name__, errors)
+        return self
+
+
+class Adjacency(_Strict):
+    """C_adj (Eq. 10): `a` shares a wall of at least `min_contact` metres with `b`,
+    or, with `any_of`, with at least one of the listed rooms (Eq. 11 generalised)."""
+
+    a: str
+    b: str | None = None
+    any_of: Annotated[list[str], Field(min_length=1)] | None = None
+    min_contact: Length = 0.9
+
+    @model_validator(mode="after")
+    def _exactly_one_partner_field(self) -> Self:
+        if (self.b is None) == (self.any_of is None):
+            raise PydanticCustomError(
+                "adjacency_partner", "give exactly one of 'b' and 'any_of'"
+            )
+        return self
+
+    @property
+    def partners(self) -> list[str]:
+        return [self.b] if self.b is not None else list(self.any_of or [])
+
+
+class Weights(_Strict):
+    """lambda_cover and lambda_size of Eq. 12."""
+
+    cover: Annotated[float, Field(ge=0, le=1e3, allow_inf_nan=False)] = 1.0
+    size: Annotated[float, Field(ge=0, le=1e3, allow_inf_nan=False)] = 1.0
+
+
+class Options(_Strict):
+    """How to run the solve."""
+
+    time_limit: Annotated[float, Field(gt=0, le=86400, allow_inf_nan=False)] | None = Field(
+        None, description="seconds for the whole job; default 5 s up to 20 rooms, then 0.25 s/room"
+    )
+    seed: Annotated[int, Field(ge=0, le=2**31 - 1)] = 0
+    max_levels: Annotated[int, Field(ge=1, le=10)] = 4
+    size_error_threshold: Annotated[float, Field(ge=0, allow_inf_nan=False)] = Field(
+        0.5,
+        description="a room whose relative size error exceeds this is refined (Sec. 5.3); "
+        "relative size error = E_size of the room / |target|^2",
+    )
+
+
+class Problem(_Strict):
+    """A layout request: the domain, the rooms and their constraints (DESIGN.md §1)."""
+
+    name: Annotated[str, Field(max_length=200)] = "layout"
+    boundary: Annotated[list[Point], Field(min_length=4, max_length=1000)]
+    obstacles: Annotated[list[Obstacle], Field(max_length=1000)] = Field(default_factory=list)
+    entrance: Point | None = None
+    rooms: Annotated[list[Room], Field(min_length=1)]
+    adjacency: list[Adjacency] = Field(default_factory=list)
+    weights: Weights = Field(default_factory=Weights)
+    options: Options = Field(default_factory=Options)
+
+    @field_validator("boundary", mode="before")
+    @classmethod
+    def _drop_closing_vertex(cls, value: Any) -> Any:
+        # GeoJSON-style rings repeat the first vertex; edge k still runs from vertex k.
+        if isinstance(value, list) and len(value) > 4 and value[0] == value[-1]:
+            return value[:-1]
+        return value
+
+    @field_validator("rooms")
+    @classmethod
+    def _room_count_within_limit(cls, rooms: list[Room], info: ValidationInfo) -> list[Room]:
+        limit = (info.context or {}).get("max_rooms", DEFAULT_MAX_ROOMS)
+        if len(rooms) > limit:
+            raise PydanticCustomError(
+                "too_many_rooms", "{count} rooms exceed the limit of {limit}",
+                {"count": len(rooms), "limit": limit},
+            )
+        return rooms
+
+    @model_validator(mode="after")
+    def _check_geometry_and_references(self) -> Self:
+        errors = list(_boundary_errors(self.boundary))
+        if not errors:
+            errors += _placement_errors(self)
+        errors += _reference_errors(self)
+        if errors:
+            raise ValidationError.from_exception_data(type(self).__name__, errors)
+        return self
+
+    # Derived values used by the solver and the checker.
+
+    def outline(self) -> Polygon:
+        """The boundary as a shapely polygon (not yet minus obstacles)."""
+        return Polygon(self.boundary)
+
+    def free_area(self) -> Polygon:
+        """The outline minus the obstacles: where rooms may go."""
+        free = self.outline()
+        for obstacle in self.obstacles:
+            free = free.difference(obstacle.to_box())
+        return free
+
+    def room(self, room_id: str) -> Room:
+        for room in self.rooms:
+            if room.id == room_id:
+                return room
+        raise KeyError(room_id)
+
+
+def _error(loc: tuple[str | int, ...], value: Any, kind: str, message: str) -> InitErrorDetails:
+    return InitErrorDetails(
+        type=PydanticCustomError(kind, message), loc=loc, input=value
+    )
+
+
+def _boundary_errors(boundary: list[tuple[float, float]]) -> Iterator[InitErrorDetails]:
+    n = len(boundary)
+    for k in range(n):
+        (x0, y0), (x1, y1) = boundary[k], boundary[(k + 1) % n]
+        if math.isclose(x0, x1, abs_tol=TOLERANCE) and math.isclose(y0, y1, abs_tol=TOLERANCE):
+            yield _error(("boundary", k), boundary[k], "degenerate_edge",
+                         f"edge {k} has zero length (vertex {k} repeats)")
+        elif not (x0 == x1 or y0 == y1):
+            yield _error(("boundary", k), boundary[k], "not_axis_aligned",
+                         f"edge {k} from {boundary[k]} to {boundary[(k + 1) % n]} is not "
+                         "axis-aligned")
+    polygon = Polygon(boundary)
+    if not polygon.is_valid:
+        yield _error(("boundary",), boundary, "self_intersecting",
+                     "the boundary crosses or touches itself")
+    elif polygon.area <= TOLERANCE:
+        yield _error(("boundary",), boundary, "degenerate_boundary", "the boundary has no area")
+
+
+def _placement_errors(problem: Problem) -> list[InitErrorDetails]:
+    errors: list[InitErrorDetails] = []
+    outline = problem.outline()
+    grown = outline.buffer(TOLERANCE, join_style="mitre")
+    boxes = [o.to_box() for o in problem.obstacles]
+    for i, (obstacle, shape) in enumerate(zip(problem.obstacles, boxes, strict=True)):
+        if not grown.contains(shape):
+            errors.append(_error(("obstacles", i), obstacle.model_dump(), "obstacle_outside",
+                                 f"obstacle {i} is not inside the boundary"))
+        for j in range(i):
+            if shape.intersection(boxes[j]).area > TOLERANCE:
+                errors.append(_error(("obstacles", i), obstacle.model_dump(), "obstacle_overlap",
+                                     f"obstacle {i} overlaps obstacle {j}"))
+    if problem.entrance is not None and outline.exterior.distance(
+        ShapelyPoint(problem.entrance)
+    ) > 1e-3:
+        errors.append(_error(("entrance",), problem.entrance, "entrance_off_boundary",
+                             "the entrance must lie on the boundary"))
+    for r, room in enumerate(problem.rooms):
+        for p, point in enumerate(room.positions):
+            where = ShapelyPoint(point)
+            if not grown.contains(where):
+                errors.append(_error(("rooms", r, "positions", p), point, "point_outside",
+                                     f"position {point} of room '{room.id}' is outside the "
+                                     "boundary"))
+            elif any(shape.buffer(-TOLERANCE).contains(where) for shape in boxes):
+                errors.append(_error(("rooms", r, "positions", p), point, "point_in_obstacle",
+                                     f"position {point} of room '{room.id}' is inside an "
+                                     "obstacle"))
+        for b, edge in enumerate(room.boundary):
+            if isinstance(edge, int) and edge >= len(problem.boundary):
+                errors.append(_error(("rooms", r, "boundary", b), edge, "unknown_edge",
+                                     f"edge {edge} does not exist: the boundary has "
+                                     f"{len(problem.boundary)} edges"))
+    return errors
+
+
+def _reference_errors(problem: Problem) -> list[InitErrorDetails]:
+    errors: list[InitErrorDetails] = []
+    seen: set[str] = set()
+    for r, room in enumerate(problem.rooms):
+        if room.id in seen:
+            errors.append(_error(("rooms", r, "id"), room.id, "duplicate_id",
+                                 f"room id '{room.id}' is used twice"))
+        seen.add(room.id)
+    for k, adjacency in enumerate(problem.adjacency):
+        if adjacency.a not in seen:
+            errors.append(_error(("adjacency", k, "a"), adjacency.a, "unknown_room",
+                                 f"unknown room id '{adjacency.a}'"))
+        field = "b" if adjacency.b is not None else "any_of"
+        for p, partner in enumerate(adjacency.partners):
+            if partner not in seen:
+                loc: tuple[str | int, ...] = (
+                    ("adjacency", k, "b") if field == "b" else ("adjacency", k, "any_of", p)
+                )
+                errors.append(_error(loc, partner, "unknown_room",
+                                     f"unknown room id '{partner}'"))
+    return errors

@@ -1,0 +1,233 @@
+"""Plane geometry for layouts: the domain as bounding box minus blocked rectangles
+(paper Sec. 5.3), boundary edges with their compass facing, and shapely helpers."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import shapely
+from shapely.geometry import MultiPolygon, Polygon, box
+from shapely.geometry.base import BaseGeometry
+from shapely.prepared import prep
+
+from models import Problem, Rect
+
+#: Coordinates are snapped to this grid (metres) when polygons are merged.
+GRID = 1e-6
+#: Lengths and areas below this count as zero.
+EPS = 1e-6
+
+Facing = Literal["north", "south", "east", "west"]
+
+
+class GeometryError(ValueError):
+    """Rectangles that do not form the shape they should."""
+
+
+@dataclass(frozen=True)
+class Box:
+    """An axis-aligned rectangle by its corners; the solver's constant rectangles."""
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+
+    @property
+    def width(self) -> float:
+        return self.x1 - self.x0
+
+    @property
+    def depth(self) -> float:
+        return self.y1 - self.y0
+
+    @property
+    def area(self) -> float:
+        return self.width * self.depth
+
+    def to_polygon(self) -> Polygon:
+        return box(self.x0, self.y0, self.x1, self.y1)
+
+    def to_rect(self) -> Rect:
+        return Rect(x=self.x0, y=self.y0, width=self.width, depth=self.depth)
+
+    @classmethod
+    def of(cls, rect: Rect) -> Box:
+        return cls(rect.x, rect.y, rect.x + rect.width, rect.y + rect.depth)
+
+    def contains_point(self, x: float, y: float, tol: float = EPS) -> bool:
+        return self.x0 - tol <= x <= self.x1 + tol and self.y0 - tol <= y <= self.y1 + tol
+
+
+@dataclass(frozen=True)
+class Edge:
+    """Boundary edge `index` from vertex `index` to the next, with its outward facing."""
+
+    index: int
+    start: tuple[float, float]
+    end: tuple[float, float]
+    facing: Facing
+
+    @property
+    def horizontal(self) -> bool:
+        return self.facing in ("north", "south")
+
+    @property
+    def line(self) -> float:
+        """The edge's constant coordinate: y for a horizontal edge, x for a vertical one."""
+        return self.start[1] if self.horizontal else self.start[0]
+
+    @property
+    def span(self) -> tuple[float, float]:
+        """The edge's extent along its own direction, low to high."""
+        a, b = (self.start[0], self.end[0]) if self.horizontal else (self.start[1], self.end[1])
+        return (min(a, b), max(a, b))
+
+    @property
+    def length(self) -> float:
+        lo, hi = self.span
+        return hi - lo
+
+
+@dataclass(frozen=True)
+class Domain:
+    """Where rooms go: the bounding box minus `blocked` rectangles (obstacles and the
+    parts of the box outside the outline)."""
+
+    bbox: Box
+    free: Polygon | MultiPolygon
+    blocked: tuple[Box, ...]
+    edges: tuple[Edge, ...]
+
+    @property
+    def area(self) -> float:
+        return float(self.free.area)
+
+
+def boundary_edges(boundary: Sequence[tuple[float, float]]) -> tuple[Edge, ...]:
+    """Edges of an axis-aligned ring with the compass direction of their outward normal.
+
+    >>> [e.facing for e in boundary_edges([(0, 0), (4, 0), (4, 3), (0, 3)])]
+    ['south', 'east', 'north', 'west']
+    >>> [e.facing for e in boundary_edges([(0, 0), (0, 3), (4, 3), (4, 0)])]
+    ['west', 'north', 'east', 'south']
+    """
+    ccw = Polygon(boundary).exterior.is_ccw
+    edges = []
+    n = len(boundary)
+    for k in range(n):
+        (x0, y0), (x1, y1) = boundary[k], boundary[(k + 1) % n]
+        dx, dy = x1 - x0, y1 - y0
+        # Outward normal: (dy, -dx) for a counter-clockwise ring, the opposite otherwise.
+        nx, ny = (dy, -dx) if ccw else (-dy, dx)
+        if abs(nx) > abs(ny):
+            facing: Facing = "east" if nx > 0 else "west"
+        else:
+            facing = "north" if ny > 0 else "south"
+        edges.append(Edge(k, (x0, y0), (x1, y1), facing))
+    return tuple(edges)
+
+
+def edges_named(problem: Problem, edges: Sequence[Edge], names: Iterable[int | str]) -> list[Edge]:
+    """The edges a room's `boundary` list names: indices, or every edge facing a compass word."""
+    chosen: dict[int, Edge] = {}
+    for name in names:
+        for edge in edges:
+            if edge.index == name or edge.facing == name:
+                chosen[edge.index] = edge
+    return [chosen[k] for k in sorted(chosen)]
+
+
+def rectangles_of(region: BaseGeometry) -> list[Box]:
+    """Split a rectilinear region into few disjoint rectangles (maximal horizontal strips
+    merged vertically when they line up).
+
+    >>> rectangles_of(box(0, 0, 4, 3))
+    [Box(x0=0.0, y0=0.0, x1=4.0, y1=3.0)]
+    >>> l_shape = box(0, 0, 4, 2).union(box(0, 2, 2, 4))
+    >>> sorted((b.x0, b.y0, b.x1, b.y1) for b in rectangles_of(l_shape))
+    [(0.0, 0.0, 4.0, 2.0), (0.0, 2.0, 2.0, 4.0)]
+    """
+    if region.is_empty or region.area <= EPS:
+        return []
+    coords = shapely.get_coordinates(shapely.boundary(region))
+    xs = sorted({round(float(c), 9) for c in coords[:, 0]})
+    ys = sorted({round(float(c), 9) for c in coords[:, 1]})
+    prepared = prep(region)
+    # Horizontal runs of inside cells per row of the grid the region's vertices span.
+    rows: list[list[tuple[float, float]]] = []
+    for j in range(len(ys) - 1):
+        runs: list[tuple[float, float]] = []
+        cy = (ys[j] + ys[j + 1]) / 2
+        start: float | None = None
+        for i in range(len(xs) - 1):
+            inside = prepared.contains(shapely.Point((xs[i] + xs[i + 1]) / 2, cy))
+            if inside and start is None:
+                start = xs[i]
+            if not inside and start is not None:
+                runs.append((start, xs[i]))
+                start = None
+        if start is not None:
+            runs.append((start, xs[-1]))
+        rows.append(runs)
+    # Stack identical runs of consecutive rows into one rectangle.
+    result: list[Box] = []
+    open_runs: dict[tuple[float, float], float] = {}
+    for j, runs in enumerate(rows):
+        current = set(runs)
+        for run in list(open_runs):
+            if run not in current:
+                result.append(Box(run[0], open_runs.pop(run), run[1], ys[j]))
+        for run in runs:
+            open_runs.setdefault(run, ys[j])
+    for run, y0 in open_runs.items():
+        result.append(Box(run[0], y0, run[1], ys[-1]))
+    return result
+
+
+def make_domain(problem: Problem) -> Domain:
+    """The paper's polygonal domain: bounding box minus obstacle rectangles, where the
+    part of the box outside the outline is decomposed into rectangles too."""
+    outline = problem.outline()
+    x0, y0, x1, y1 = outline.bounds
+    bbox = Box(x0, y0, x1, y1)
+    outside = rectangles_of(bbox.to_polygon().difference(outline))
+    obstacles = [Box.of(Rect(x=o.x, y=o.y, width=o.width, depth=o.depth))
+                 for o in problem.obstacles]
+    return Domain(
+        bbox=bbox,
+        free=problem.free_area(),
+        blocked=tuple(obstacles + outside),
+        edges=boundary_edges(problem.boundary),
+    )
+
+
+def shared_wall_length(a: BaseGeometry, b: BaseGeometry) -> float:
+    """Length in metres of the boundary two rooms share.
+
+    >>> shared_wall_length(box(0, 0, 3, 3), box(3, 1, 5, 4))
+    2.0
+    >>> shared_wall_length(box(0, 0, 1, 1), box(2, 0, 3, 1))
+    0.0
+    """
+    return float(a.boundary.intersection(b.boundary).length)
+
+
+def room_polygon(rects: Sequence[Box]) -> Polygon:
+    """One counter-clockwise polygon from a room's rectangles.
+
+    >>> room_polygon([Box(0, 0, 2, 1), Box(0, 1, 1, 2)]).area
+    3.0
+    """
+    merged = shapely.union_all([r.to_polygon() for r in rects], grid_size=GRID)
+    if not isinstance(merged, Polygon):
+        raise GeometryError(f"rectangles form a {merged.geom_type}, not one polygon")
+    return shapely.orient_polygons(merged)
+
+
+def polygon_coords(polygon: Polygon) -> list[tuple[float, float]]:
+    """Exterior vertices without the repeated closing one, collinear ones removed."""
+    simple = polygon.simplify(0)
+    return [(float(x), float(y)) for x, y in list(simple.exterior.coords)[:-1]]
