@@ -1,0 +1,364 @@
+"""Verify every constraint of a problem on the final room shapes, independently of the MIQP.
+
+The verdicts feed `Report.constraints` (DESIGN.md §2). Nothing here reads solver variables:
+each check works on the rectangles a room ended up with, so a wrong formulation shows up
+as a failed check instead of being repeated.
+
+Coordinates a solver returns are only feasible within its own tolerance (SCIP: 1e-6), so
+two rooms meant to share a wall may sit 1e-7 m apart, and exact shapely predicates would
+then see no contact at all. Before the relational checks (inside, connected, overlap,
+boundary, adjacency, coverage) the room coordinates closer than `tol` to each other, or to
+a wall or obstacle of the domain, are therefore snapped onto one line. Measurements
+(size, aspect ratio, size error, position) use the rectangles as given.
+"""
+
+from __future__ import annotations
+
+import bisect
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+
+import shapely
+from shapely.geometry import LineString, Point
+from shapely.geometry.base import BaseGeometry
+
+from models import Adjacency, ConstraintCheck, Problem, Room
+from solver.geometry import (
+    GRID,
+    Box,
+    GeometryError,
+    boundary_edges,
+    edges_named,
+    room_polygon,
+    shared_wall_length,
+)
+
+#: Coverage at or above this share of the free area counts as covered (a soft goal).
+COVERAGE_GOAL = 0.99
+#: Kinds that do not decide `valid`: coverage is an objective term (Eq. 3), not a constraint.
+SOFT_KINDS = frozenset({"coverage"})
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    """Every verdict on a layout, plus the coverage and size-error measurements."""
+
+    constraints: list[ConstraintCheck]
+    coverage: float
+    uncovered_area: float
+    size_error: dict[str, float]
+    valid: bool
+
+
+@dataclass(frozen=True)
+class PlacedRoom:
+    """A room's rectangles as given (`shape`) and snapped to the shared lines (`snapped`)."""
+
+    rects: tuple[Box, ...]
+    snapped_rects: tuple[Box, ...]
+    shape: BaseGeometry
+    snapped: BaseGeometry
+
+    @property
+    def size(self) -> tuple[float, float]:
+        """Width and depth of the bounding box, the room's (w_i, d_i) in the paper."""
+        x0, y0, x1, y1 = self.shape.bounds
+        return x1 - x0, y1 - y0
+
+
+Placed = Mapping[str, PlacedRoom]
+
+
+def check_layout(
+    problem: Problem, rooms: Mapping[str, Sequence[Box]], *, tol: float = 1e-4
+) -> CheckResult:
+    """Check every constraint of `problem` on `rooms` (room id -> its rectangles)."""
+    placed = place_rooms(problem, rooms, tol)
+    free = problem.free_area()
+    cover, coverage, uncovered = check_coverage(free, placed)
+    checks = [
+        *check_placed(problem, rooms),
+        *check_inside(problem, free, placed, tol),
+        *check_connected(problem, placed, tol),
+        *check_overlap(problem, placed, tol),
+        *check_size(problem, placed, tol),
+        *check_aspect_ratio(problem, placed, tol),
+        *check_position(problem, placed, tol),
+        *check_boundary(problem, placed, tol),
+        *check_adjacency(problem, placed, tol),
+        cover,
+    ]
+    return CheckResult(
+        constraints=checks,
+        coverage=coverage,
+        uncovered_area=uncovered,
+        size_error=size_error(problem, placed),
+        valid=all(c.satisfied for c in checks if c.kind not in SOFT_KINDS),
+    )
+
+
+# Preparing the shapes.
+
+
+def place_rooms(problem: Problem, rooms: Mapping[str, Sequence[Box]], tol: float) -> Placed:
+    """The problem's rooms that have at least one rectangle, with snapped copies."""
+    given = {r.id: tuple(rooms.get(r.id, ())) for r in problem.rooms}
+    given = {room_id: rects for room_id, rects in given.items() if rects}
+    all_rects = [b for rects in given.values() for b in rects]
+    xs, ys = _domain_lines(problem)
+    snap_x = snap_map(xs, [v for b in all_rects for v in (b.x0, b.x1)], tol)
+    snap_y = snap_map(ys, [v for b in all_rects for v in (b.y0, b.y1)], tol)
+    placed = {}
+    for room_id, rects in given.items():
+        snapped = tuple(Box(snap_x[b.x0], snap_y[b.y0], snap_x[b.x1], snap_y[b.y1])
+                        for b in rects)
+        placed[room_id] = PlacedRoom(rects, snapped, _union(rects), _union(snapped))
+    return placed
+
+
+def snap_map(fixed: Iterable[float], loose: Iterable[float], tol: float) -> dict[float, float]:
+    """Map each loose coordinate to the nearest fixed (domain) one within `tol`, else to the
+    first of its run of loose coordinates spanning at most `tol`.
+
+    >>> snap_map([5.0], [4.99991, 5.00008, 7.0, 7.00001, 7.00011], 1e-4)
+    {4.99991: 5.0, 5.00008: 5.0, 7.0: 7.0, 7.00001: 7.0, 7.00011: 7.00011}
+    """
+    walls = sorted(set(fixed))
+    mapping: dict[float, float] = {}
+    anchor: float | None = None
+    for value in sorted(set(loose)):
+        k = bisect.bisect_left(walls, value)
+        wall = min(walls[max(k - 1, 0):k + 1], key=lambda w: abs(w - value), default=None)
+        if wall is not None and abs(wall - value) <= tol:
+            mapping[value] = wall
+            continue
+        if anchor is None or value - anchor > tol:
+            anchor = value
+        mapping[value] = anchor
+    return mapping
+
+
+def _domain_lines(problem: Problem) -> tuple[list[float], list[float]]:
+    """The x and y coordinates of the outline's and the obstacles' walls."""
+    xs = [x for x, _ in problem.boundary]
+    ys = [y for _, y in problem.boundary]
+    for o in problem.obstacles:
+        xs += [o.x, o.x + o.width]
+        ys += [o.y, o.y + o.depth]
+    return xs, ys
+
+
+def _union(rects: Sequence[Box]) -> BaseGeometry:
+    return shapely.union_all([b.to_polygon() for b in rects], grid_size=GRID)
+
+
+def _per_room(
+    problem: Problem,
+    placed: Placed,
+    kind: str,
+    wanted: Callable[[Room], bool],
+    verdict: Callable[[Room, PlacedRoom], tuple[bool, str]],
+) -> list[ConstraintCheck]:
+    """One check per room that has the constraint; a room not placed fails it."""
+    checks = []
+    for room in problem.rooms:
+        if not wanted(room):
+            continue
+        if room.id in placed:
+            ok, detail = verdict(room, placed[room.id])
+        else:
+            ok, detail = False, "room not placed"
+        checks.append(ConstraintCheck(kind=kind, rooms=[room.id], satisfied=ok, detail=detail))
+    return checks
+
+
+def _always(_: Room) -> bool:
+    return True
+
+
+# One function per constraint family.
+
+
+def check_placed(problem: Problem, rooms: Mapping[str, Sequence[Box]]) -> list[ConstraintCheck]:
+    """Every room of the problem has rectangles, and no unknown room has any."""
+    known = {r.id for r in problem.rooms}
+    missing = [ConstraintCheck(kind="placed", rooms=[r.id], satisfied=False,
+                               detail="room has no rectangles")
+               for r in problem.rooms if not rooms.get(r.id)]
+    unknown = [ConstraintCheck(kind="placed", rooms=[room_id], satisfied=False,
+                               detail="not a room of the problem")
+               for room_id in rooms if room_id not in known]
+    return missing + unknown
+
+
+def check_inside(
+    problem: Problem, free: BaseGeometry, placed: Placed, tol: float
+) -> list[ConstraintCheck]:
+    """C_inside (Eq. 1, with obstacles): each room lies within the outline minus obstacles."""
+
+    def verdict(_: Room, p: PlacedRoom) -> tuple[bool, str]:
+        outside = p.snapped.difference(free).area
+        # Snapping already absorbed offsets below tol; what is left is a real protrusion.
+        if outside <= tol * tol:
+            return True, "inside the free area"
+        return False, f"{outside:.2f} m² outside the free area"
+
+    return _per_room(problem, placed, "inside", _always, verdict)
+
+
+def check_connected(problem: Problem, placed: Placed, tol: float) -> list[ConstraintCheck]:
+    """Each room's rectangles merge into one polygon (corner contact does not join them)."""
+
+    def verdict(_: Room, p: PlacedRoom) -> tuple[bool, str]:
+        try:
+            polygon = room_polygon(p.snapped_rects)
+        except GeometryError as err:
+            return False, str(err)
+        if polygon.area <= tol * tol:
+            return False, "room has no area"
+        return True, f"one polygon of {len(p.rects)} rectangle(s)"
+
+    return _per_room(problem, placed, "connected", _always, verdict)
+
+
+def check_overlap(problem: Problem, placed: Placed, tol: float) -> list[ConstraintCheck]:
+    """C_overlap (Eq. 2): no two rooms' interiors overlap; one check per overlapping pair."""
+    ids = [r.id for r in problem.rooms if r.id in placed]
+    shapes = [placed[i].snapped for i in ids]
+    # The tree keeps this near-linear for hundreds of rooms instead of testing every pair.
+    # (It refuses an empty list, and a single room has no pair anyway.)
+    pairs = shapely.STRtree(shapes).query(shapes, "intersects") if len(shapes) > 1 else [[], []]
+    checks = []
+    for i, j in zip(*map(list, pairs), strict=True):
+        if i >= j:
+            continue
+        area = shapes[i].intersection(shapes[j]).area
+        if area > tol:
+            checks.append(ConstraintCheck(kind="overlap", rooms=[ids[i], ids[j]],
+                                          satisfied=False, detail=f"overlap {area:.2f} m²"))
+    if not checks:
+        checks.append(ConstraintCheck(kind="overlap", rooms=ids, satisfied=True,
+                                      detail="no two rooms overlap"))
+    return checks
+
+
+def check_size(problem: Problem, placed: Placed, tol: float) -> list[ConstraintCheck]:
+    """C_size (Eq. 5): the bounding box's width and depth lie within min_size..max_size."""
+
+    def verdict(room: Room, p: PlacedRoom) -> tuple[bool, str]:
+        size = p.size
+        lo = room.min_size or (0.0, 0.0)
+        hi = room.max_size or (float("inf"), float("inf"))
+        ok = all(lo[k] - tol <= size[k] <= hi[k] + tol for k in (0, 1))
+        return ok, f"{_dims(size)} (needs {_dims(lo)} to {_dims(hi)})"
+
+    return _per_room(problem, placed, "size",
+                     lambda r: r.min_size is not None or r.max_size is not None, verdict)
+
+
+def check_aspect_ratio(problem: Problem, placed: Placed, tol: float) -> list[ConstraintCheck]:
+    """C_ratio (Eq. 7): long side / short side of the bounding box within [lo, hi]."""
+
+    def verdict(room: Room, p: PlacedRoom) -> tuple[bool, str]:
+        assert room.aspect_ratio is not None
+        lo, hi = room.aspect_ratio
+        long, short = max(p.size), min(p.size)
+        # Eq. 7's linear form, so a degenerate room (short side 0) needs no division.
+        ok = lo * short - tol <= long <= hi * short + tol
+        ratio = long / short if short > 0 else float("inf")
+        return ok, f"ratio {ratio:.2f} (needs {lo:.2f} to {hi:.2f})"
+
+    return _per_room(problem, placed, "aspect_ratio",
+                     lambda r: r.aspect_ratio is not None, verdict)
+
+
+def check_position(problem: Problem, placed: Placed, tol: float) -> list[ConstraintCheck]:
+    """C_pos (Eq. 8): the room covers each of its guide points."""
+    checks = []
+    for room in problem.rooms:
+        for x, y in room.positions:
+            if room.id not in placed:
+                ok, detail = False, "room not placed"
+            else:
+                gap = placed[room.id].shape.distance(Point(x, y))
+                ok = gap <= tol
+                detail = (f"covers ({x:.2f}, {y:.2f})" if ok
+                          else f"misses ({x:.2f}, {y:.2f}) by {gap:.2f} m")
+            checks.append(ConstraintCheck(kind="position", rooms=[room.id], satisfied=ok,
+                                          detail=detail))
+    return checks
+
+
+def check_boundary(problem: Problem, placed: Placed, tol: float) -> list[ConstraintCheck]:
+    """C_boundary (Eq. 9): the room's outline runs along one of its named exterior edges."""
+    edges = boundary_edges(problem.boundary)
+
+    def verdict(room: Room, p: PlacedRoom) -> tuple[bool, str]:
+        named = edges_named(problem, edges, room.boundary)
+        contact = {e.index: p.snapped.boundary.intersection(LineString([e.start, e.end])).length
+                   for e in named}
+        best = max(contact, key=contact.__getitem__)
+        edge = f"edge {best} ({edges[best].facing})"
+        if contact[best] > tol:
+            return True, f"{contact[best]:.2f} m along {edge}"
+        return False, f"touches none of edges {', '.join(map(str, contact))}"
+
+    return _per_room(problem, placed, "boundary", lambda r: bool(r.boundary), verdict)
+
+
+def check_adjacency(problem: Problem, placed: Placed, tol: float) -> list[ConstraintCheck]:
+    """C_adj (Eq. 10, Eq. 11 generalised): room a shares a wall of at least min_contact
+    with b, or with the best of any_of."""
+    return [_adjacency(adj, placed, tol) for adj in problem.adjacency]
+
+
+def _adjacency(adj: Adjacency, placed: Placed, tol: float) -> ConstraintCheck:
+    """The verdict on one adjacency requirement."""
+    partners = adj.partners
+    rooms = [adj.a, *partners]
+    needs = f"(needs {adj.min_contact:.2f})"
+    if adj.a in partners:
+        return ConstraintCheck(kind="adjacency", rooms=rooms, satisfied=False,
+                               detail=f"'{adj.a}' cannot be adjacent to itself")
+    if adj.a not in placed:
+        return ConstraintCheck(kind="adjacency", rooms=rooms, satisfied=False,
+                               detail=f"'{adj.a}' not placed")
+    a = placed[adj.a].snapped
+    contact = {b: shared_wall_length(a, placed[b].snapped) for b in partners if b in placed}
+    if not contact:
+        return ConstraintCheck(kind="adjacency", rooms=rooms, satisfied=False,
+                               detail="no partner placed")
+    best = max(contact, key=contact.__getitem__)
+    # With min_contact 0 the rooms must still touch, which a zero length alone cannot show.
+    ok = contact[best] >= adj.min_contact - tol and a.distance(placed[best].snapped) <= tol
+    detail = f"contact {contact[best]:.2f} m {needs}"
+    if adj.any_of is not None:
+        detail = f"best contact {contact[best]:.2f} m with '{best}' {needs}"
+    return ConstraintCheck(kind="adjacency", rooms=rooms, satisfied=ok, detail=detail)
+
+
+def check_coverage(free: BaseGeometry, placed: Placed) -> tuple[ConstraintCheck, float, float]:
+    """The share of the free area the rooms cover (the goal behind E_cover, Eq. 3)."""
+    covered = shapely.union_all([p.snapped for p in placed.values()]).intersection(free).area
+    total = free.area
+    coverage = min(1.0, covered / total) if total > 0 else 1.0
+    uncovered = max(0.0, total - covered)
+    check = ConstraintCheck(kind="coverage", rooms=list(placed),
+                            satisfied=coverage >= COVERAGE_GOAL,
+                            detail=f"coverage {100 * coverage:.1f} %, "
+                                   f"{uncovered:.2f} m² uncovered")
+    return check, coverage, uncovered
+
+
+def size_error(problem: Problem, placed: Placed) -> dict[str, float]:
+    """E_size (Eq. 6) per placed room with a target: (W-W*)^2 + (D-D*)^2 of its bounding box."""
+    errors = {}
+    for room in problem.rooms:
+        if room.target_size is not None and room.id in placed:
+            (w, d), (tw, td) = placed[room.id].size, room.target_size
+            errors[room.id] = (w - tw) ** 2 + (d - td) ** 2
+    return errors
+
+
+def _dims(size: Sequence[float]) -> str:
+    return " x ".join("any" if v == float("inf") else f"{v:.2f}" for v in size)
