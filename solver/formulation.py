@@ -1,0 +1,419 @@
+"""The MIQP of one level (paper Sec. 5.1-5.3), built on SCIP through pyscipopt.
+
+A `LevelSpec` describes what to place: variable rectangles (`RectSpec`) inside a
+region given as a bounding box minus constant `blocked` boxes. Level 1 has one
+rectangle per room; a refinement level has the two halves of each split room plus
+C_refine. Every constraint family is one function below, named after the paper's
+symbol and citing its equation; `FAMILIES` lists them once.
+
+Big-M values are per axis (the region's width for x-disjunctions, its depth for y),
+the smallest that are valid, and the objective is minimised through one convex
+epigraph per rectangle so SCIP can separate gradient cuts term by term.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from pyscipopt import Model, Variable, quicksum
+
+from solver.geometry import EPS, Box, Edge
+
+Split = Literal["vertical", "horizontal"]
+
+
+@dataclass(frozen=True)
+class Refine:
+    """C_refine (Eq. 13): this rectangle is half `child` (0 = left/bottom, 1 = right/top,
+    -1 = the whole parent, unsplit) of `parent`, split by a `direction` line, and may
+    grow outward by at most `delta`."""
+
+    parent: Box
+    direction: Split
+    child: int
+    delta: float
+
+
+@dataclass(frozen=True)
+class RectSpec:
+    """One variable rectangle of a level and the constraints that apply to it alone."""
+
+    name: str
+    room: str
+    min_size: tuple[float, float] = (0.0, 0.0)
+    max_size: tuple[float, float] = (math.inf, math.inf)
+    target: tuple[float, float] | None = None
+    aspect_ratio: tuple[float, float] | None = None
+    positions: tuple[tuple[float, float], ...] = ()
+    edges: tuple[Edge, ...] = ()
+    refine: Refine | None = None
+
+
+@dataclass(frozen=True)
+class ContactSpec:
+    """C_adj (Eq. 10/11): some rectangle of `a` touches some rectangle of one of the
+    `partners` groups along at least `min_contact` metres."""
+
+    name: str
+    a: tuple[str, ...]
+    partners: tuple[tuple[str, ...], ...]
+    min_contact: float
+
+
+@dataclass(frozen=True)
+class EnvelopeSpec:
+    """Size and ratio bounds on the bounding box of a room made of several rectangles.
+
+    The rectangles grow from `previous` (their union's bounding box before this level),
+    so the true bounding box lies between `previous` and the envelope variables; the
+    bounds are imposed conservatively in that sandwich."""
+
+    room: str
+    rects: tuple[str, ...]
+    previous: Box
+    max_size: tuple[float, float]
+    aspect_ratio: tuple[float, float] | None
+
+
+@dataclass(frozen=True)
+class LevelSpec:
+    """Everything one MIQP needs."""
+
+    name: str
+    region: Box
+    blocked: tuple[Box, ...]
+    free_area: float
+    rects: tuple[RectSpec, ...]
+    contacts: tuple[ContactSpec, ...] = ()
+    envelopes: tuple[EnvelopeSpec, ...] = ()
+    cover_weight: float = 1.0
+    size_weight: float = 1.0
+
+
+@dataclass
+class RectVars:
+    x: Variable
+    y: Variable
+    w: Variable
+    d: Variable
+
+
+@dataclass
+class LevelModel:
+    """A built, unsolved SCIP model and its named variables."""
+
+    spec: LevelSpec
+    model: Model
+    rects: dict[str, RectVars]
+    families: list[str] = field(default_factory=list)
+
+    @property
+    def big_m_x(self) -> float:
+        return self.spec.region.width
+
+    @property
+    def big_m_y(self) -> float:
+        return self.spec.region.depth
+
+
+def add_rect_vars(m: Model, spec: LevelSpec) -> dict[str, RectVars]:
+    """Position and size variables, bounded only by the region's box."""
+    region = spec.region
+    return {
+        r.name: RectVars(
+            x=m.addVar(f"x[{r.name}]", lb=region.x0, ub=region.x1),
+            y=m.addVar(f"y[{r.name}]", lb=region.y0, ub=region.y1),
+            w=m.addVar(f"w[{r.name}]", lb=0, ub=region.width),
+            d=m.addVar(f"d[{r.name}]", lb=0, ub=region.depth),
+        )
+        for r in spec.rects
+    }
+
+
+def c_size(lm: LevelModel) -> None:
+    """C_size (Eq. 5): min <= w <= max and min <= d <= max, as variable bounds."""
+    m = lm.model
+    for r in lm.spec.rects:
+        v = lm.rects[r.name]
+        m.chgVarLb(v.w, r.min_size[0])
+        m.chgVarUb(v.w, min(r.max_size[0], lm.spec.region.width))
+        m.chgVarLb(v.d, r.min_size[1])
+        m.chgVarUb(v.d, min(r.max_size[1], lm.spec.region.depth))
+
+
+def c_inside(lm: LevelModel) -> None:
+    """C_inside (Eq. 1) for the region's bounding box, plus no overlap with any blocked
+    box (obstacles, the box outside the outline, fixed rooms): Eq. 2 against constants."""
+    m, spec = lm.model, lm.spec
+    for r in spec.rects:
+        v = lm.rects[r.name]
+        m.addCons(v.x + v.w <= spec.region.x1, name=f"inside_x[{r.name}]")
+        m.addCons(v.y + v.d <= spec.region.y1, name=f"inside_y[{r.name}]")
+        for k, b in enumerate(spec.blocked):
+            if not _may_intersect(r, spec.region, b):
+                continue
+            sides = [m.addVar(f"clear[{r.name},{k},{s}]", vtype="B") for s in range(4)]
+            mx, my = lm.big_m_x, lm.big_m_y
+            m.addCons(v.x + v.w <= b.x0 + mx * (1 - sides[0]), name=f"clear_w[{r.name},{k}]")
+            m.addCons(v.x >= b.x1 - mx * (1 - sides[1]), name=f"clear_e[{r.name},{k}]")
+            m.addCons(v.y + v.d <= b.y0 + my * (1 - sides[2]), name=f"clear_s[{r.name},{k}]")
+            m.addCons(v.y >= b.y1 - my * (1 - sides[3]), name=f"clear_n[{r.name},{k}]")
+            m.addCons(quicksum(sides) >= 1, name=f"clear[{r.name},{k}]")
+
+
+def c_overlap(lm: LevelModel) -> None:
+    """C_overlap (Eq. 2): each pair is apart along one of four sides."""
+    m = lm.model
+    mx, my = lm.big_m_x, lm.big_m_y
+    for a, b in itertools.combinations(lm.spec.rects, 2):
+        i, j = lm.rects[a.name], lm.rects[b.name]
+        pair = f"{a.name},{b.name}"
+        side = {s: m.addVar(f"side[{pair},{s}]", vtype="B") for s in ("L", "R", "B", "T")}
+        m.addCons(i.x + i.w <= j.x + mx * (1 - side["L"]), name=f"left[{pair}]")
+        m.addCons(j.x + j.w <= i.x + mx * (1 - side["R"]), name=f"right[{pair}]")
+        m.addCons(i.y + i.d <= j.y + my * (1 - side["B"]), name=f"below[{pair}]")
+        m.addCons(j.y + j.d <= i.y + my * (1 - side["T"]), name=f"above[{pair}]")
+        m.addCons(quicksum(side.values()) >= 1, name=f"overlap[{pair}]")
+
+
+def c_ratio(lm: LevelModel) -> None:
+    """C_ratio (Eq. 7): lo <= long/short <= hi, the binary choosing the orientation."""
+    m = lm.model
+    for r in lm.spec.rects:
+        if r.aspect_ratio is None:
+            continue
+        lo, hi = r.aspect_ratio
+        v = lm.rects[r.name]
+        big = hi * max(lm.big_m_x, lm.big_m_y)
+        tall = m.addVar(f"tall[{r.name}]", vtype="B")  # sigma_i = 1: a vertical room
+        m.addCons(lo * v.d <= v.w + big * tall, name=f"ratio_wide_lo[{r.name}]")
+        m.addCons(hi * v.d >= v.w - big * tall, name=f"ratio_wide_hi[{r.name}]")
+        m.addCons(lo * v.w <= v.d + big * (1 - tall), name=f"ratio_tall_lo[{r.name}]")
+        m.addCons(hi * v.w >= v.d - big * (1 - tall), name=f"ratio_tall_hi[{r.name}]")
+
+
+def c_pos(lm: LevelModel) -> None:
+    """C_pos (Eq. 8): the rectangle covers each of its guide points."""
+    m = lm.model
+    for r in lm.spec.rects:
+        v = lm.rects[r.name]
+        for k, (px, py) in enumerate(r.positions):
+            m.addCons(v.x <= px, name=f"pos_w[{r.name},{k}]")
+            m.addCons(v.x + v.w >= px, name=f"pos_e[{r.name},{k}]")
+            m.addCons(v.y <= py, name=f"pos_s[{r.name},{k}]")
+            m.addCons(v.y + v.d >= py, name=f"pos_n[{r.name},{k}]")
+
+
+def c_boundary(lm: LevelModel) -> None:
+    """C_boundary (Eq. 9, all four facings): one whole side of the rectangle lies on
+    one of the candidate exterior edges; a binary rho_k per candidate edge."""
+    m = lm.model
+    for r in lm.spec.rects:
+        if not r.edges:
+            continue
+        v = lm.rects[r.name]
+        rho = {}
+        if len(r.edges) == 1:
+            rho[r.edges[0].index] = 1.0  # one candidate: no choice to make
+        else:
+            for e in r.edges:
+                rho[e.index] = m.addVar(f"rho[{r.name},{e.index}]", vtype="B")
+            m.addCons(quicksum(rho.values()) >= 1, name=f"boundary[{r.name}]")
+        for e in r.edges:
+            off = 1 - rho[e.index]
+            lo, hi = e.span
+            along, length, across, extent = (
+                (v.x, v.w, v.y, v.d) if e.horizontal else (v.y, v.d, v.x, v.w)
+            )
+            m_along = lm.big_m_x if e.horizontal else lm.big_m_y
+            m_across = lm.big_m_y if e.horizontal else lm.big_m_x
+            tag = f"{r.name},{e.index}"
+            m.addCons(along >= lo - m_along * off, name=f"edge_lo[{tag}]")
+            m.addCons(along + length <= hi + m_along * off, name=f"edge_hi[{tag}]")
+            if e.facing in ("south", "west"):
+                m.addCons(across <= e.line + m_across * off, name=f"edge_on[{tag}]")
+            else:
+                m.addCons(across + extent >= e.line - m_across * off, name=f"edge_on[{tag}]")
+
+
+def c_adj(lm: LevelModel) -> None:
+    """C_adj (Eq. 10) and its any-of form (Eq. 11 generalised to k candidates): the
+    two rectangles overlap in x by >= c (theta = 1, a horizontal shared wall) or in y
+    by >= c (theta = 0), and touch; C_overlap keeps their interiors apart."""
+    m = lm.model
+    mx, my = lm.big_m_x, lm.big_m_y
+    for c in lm.spec.contacts:
+        pairs = [(a, b) for group in c.partners for b in group for a in c.a]
+        if len(pairs) == 1:
+            chosen: dict[tuple[str, str], Any] = {pairs[0]: 1.0}
+        else:
+            chosen = {p: m.addVar(f"adj_pick[{c.name},{p[0]},{p[1]}]", vtype="B") for p in pairs}
+            m.addCons(quicksum(chosen.values()) >= 1, name=f"adj_any[{c.name}]")
+        for (a, b), pick in chosen.items():
+            i, j = lm.rects[a], lm.rects[b]
+            tag = f"{c.name},{a},{b}"
+            theta = m.addVar(f"theta[{tag}]", vtype="B")
+            off = 1 - pick
+            cc = c.min_contact
+            m.addCons(i.x <= j.x + j.w - cc * theta + (mx + cc) * off, name=f"adj_x1[{tag}]")
+            m.addCons(i.x + i.w >= j.x + cc * theta - (mx + cc) * off, name=f"adj_x2[{tag}]")
+            m.addCons(i.y <= j.y + j.d - cc * (1 - theta) + (my + cc) * off,
+                      name=f"adj_y1[{tag}]")
+            m.addCons(i.y + i.d >= j.y + cc * (1 - theta) - (my + cc) * off,
+                      name=f"adj_y2[{tag}]")
+            # The overlap of two intervals is also bounded by each length: without these
+            # a narrow room nested in a wide neighbour's span would pass Eq. 10 with less
+            # than c of wall.
+            for v, which in ((i, "i"), (j, "j")):
+                m.addCons(v.w >= cc * theta - cc * off, name=f"adj_wlen[{tag},{which}]")
+                m.addCons(v.d >= cc * (1 - theta) - cc * off, name=f"adj_dlen[{tag},{which}]")
+
+
+def c_refine(lm: LevelModel) -> None:
+    """C_refine (Eq. 13): each half keeps the parent's extent along the split line and
+    its own outer side, and may grow outward by at most delta. Eq. 13 is the vertical
+    split (halves side by side); the horizontal one swaps the roles of x and y."""
+    m = lm.model
+    for r in lm.spec.rects:
+        if r.refine is None:
+            continue
+        v, f = lm.rects[r.name], r.refine
+        p, delta = f.parent, f.delta
+        # (along, along_len) is the axis across the split; (cross, cross_len) runs along it.
+        if f.direction == "vertical":
+            along, along_len, lo, hi = v.x, v.w, p.x0, p.x1
+            cross, cross_len, c_lo, c_hi = v.y, v.d, p.y0, p.y1
+        else:
+            along, along_len, lo, hi = v.y, v.d, p.y0, p.y1
+            cross, cross_len, c_lo, c_hi = v.x, v.w, p.x0, p.x1
+        tag = r.name
+        m.addCons(cross >= c_lo - delta, name=f"refine_cross_lo[{tag}]")
+        m.addCons(cross <= c_lo, name=f"refine_cross_lo2[{tag}]")
+        m.addCons(cross + cross_len >= c_hi, name=f"refine_cross_hi[{tag}]")
+        m.addCons(cross + cross_len <= c_hi + delta, name=f"refine_cross_hi2[{tag}]")
+        # child -1 is a rectangle refined without a split: both outer sides apply.
+        if f.child in (0, -1):
+            m.addCons(along >= lo - delta, name=f"refine_low[{tag}]")
+            m.addCons(along <= lo, name=f"refine_low2[{tag}]")
+        if f.child in (1, -1):
+            m.addCons(along + along_len >= hi, name=f"refine_high[{tag}]")
+            m.addCons(along + along_len <= hi + delta, name=f"refine_high2[{tag}]")
+
+
+def c_envelope(lm: LevelModel) -> None:
+    """C_size (Eq. 5) and C_ratio (Eq. 7) on the bounding box of a room of several
+    rectangles. Envelope variables bound the true box from outside; the previous box
+    bounds it from inside, so the inequalities below are sufficient, never optimistic."""
+    m = lm.model
+    for e in lm.spec.envelopes:
+        vs = [lm.rects[n] for n in e.rects]
+        tag = e.room
+        x0 = m.addVar(f"env_x0[{tag}]", lb=lm.spec.region.x0, ub=e.previous.x0)
+        x1 = m.addVar(f"env_x1[{tag}]", lb=e.previous.x1, ub=lm.spec.region.x1)
+        y0 = m.addVar(f"env_y0[{tag}]", lb=lm.spec.region.y0, ub=e.previous.y0)
+        y1 = m.addVar(f"env_y1[{tag}]", lb=e.previous.y1, ub=lm.spec.region.y1)
+        for k, v in enumerate(vs):
+            m.addCons(x0 <= v.x, name=f"env_w[{tag},{k}]")
+            m.addCons(x1 >= v.x + v.w, name=f"env_e[{tag},{k}]")
+            m.addCons(y0 <= v.y, name=f"env_s[{tag},{k}]")
+            m.addCons(y1 >= v.y + v.d, name=f"env_n[{tag},{k}]")
+        m.addCons(x1 - x0 <= e.max_size[0], name=f"env_wmax[{tag}]")
+        m.addCons(y1 - y0 <= e.max_size[1], name=f"env_dmax[{tag}]")
+        if e.aspect_ratio is not None:
+            lo, hi = e.aspect_ratio
+            w0, d0 = e.previous.width, e.previous.depth
+            # Keep the orientation the room already has: long side / short side stays
+            # within [lo, hi] whatever the true box is inside the sandwich.
+            if w0 >= d0:
+                m.addCons(x1 - x0 <= hi * d0, name=f"env_ratio_hi[{tag}]")
+                m.addCons(lo * (y1 - y0) <= w0, name=f"env_ratio_lo[{tag}]")
+            else:
+                m.addCons(y1 - y0 <= hi * w0, name=f"env_ratio_hi[{tag}]")
+                m.addCons(lo * (x1 - x0) <= d0, name=f"env_ratio_lo[{tag}]")
+
+
+def e_objective(lm: LevelModel) -> None:
+    """Eq. 12: lambda_cover * E_cover (Eq. 3) + lambda_size * E_size (Eq. 6).
+
+    SCIP takes no quadratic objective, so each rectangle's term
+    lambda_s * ((w - w*)^2 + (d - d*)^2) - lambda_c * w * d is bounded by its own epigraph
+    variable. With lambda_s >= lambda_c / 2 each term is convex (Hessian
+    [[2 ls, -lc], [-lc, 2 ls]]), which SCIP detects. The constant Area(D) of E_cover is
+    the objective offset."""
+    m, spec = lm.model, lm.spec
+    ls, lc = spec.size_weight, spec.cover_weight
+    terms = []
+    for r in spec.rects:
+        v = lm.rects[r.name]
+        w_hi = min(r.max_size[0], spec.region.width)
+        d_hi = min(r.max_size[1], spec.region.depth)
+        tw, td = r.target if r.target is not None else _range_middle(r, w_hi, d_hi)
+        z = m.addVar(f"energy[{r.name}]", lb=-lc * w_hi * d_hi)
+        m.addCons(
+            ls * ((v.w - tw) * (v.w - tw) + (v.d - td) * (v.d - td)) - lc * v.w * v.d <= z,
+            name=f"energy_epigraph[{r.name}]",
+        )
+        terms.append(z)
+    m.setObjective(quicksum(terms) + lc * spec.free_area, "minimize")
+
+
+Family = Callable[[LevelModel], None]
+#: Every constraint family of a level, in the paper's order.
+FAMILIES: tuple[Family, ...] = (c_inside, c_overlap, c_size, c_ratio, c_pos, c_boundary, c_adj,
+                                c_refine, c_envelope)
+
+
+def build_level(
+    spec: LevelSpec, *, families: Sequence[Family] = FAMILIES, feasibility: bool = False
+) -> LevelModel:
+    """The level's SCIP model, unsolved. With `feasibility` the objective is zero: SCIP's
+    MILP heuristics then find a first layout far sooner than the MIQP does, and that
+    layout warm-starts the MIQP."""
+    m = Model(f"layout[{spec.name}]")
+    m.hideOutput()
+    lm = LevelModel(spec=spec, model=m, rects=add_rect_vars(m, spec))
+    for family in families:
+        family(lm)
+        lm.families.append(family.__name__)
+    if not feasibility:
+        e_objective(lm)
+    return lm
+
+
+def active_families(spec: LevelSpec) -> list[str]:
+    """Names of the constraint families that constrain anything in `spec`, for reports."""
+    names = ["C_inside", "C_overlap", "C_size"]
+    if any(r.aspect_ratio for r in spec.rects):
+        names.append("C_ratio")
+    if any(r.positions for r in spec.rects):
+        names.append("C_pos")
+    if any(r.edges for r in spec.rects):
+        names.append("C_boundary")
+    if spec.contacts:
+        names.append("C_adj")
+    if any(r.refine for r in spec.rects):
+        names.append("C_refine")
+    return names
+
+
+def _range_middle(r: RectSpec, w_hi: float, d_hi: float) -> tuple[float, float]:
+    """Without a target a room aims for the middle of its size range: this keeps the
+    objective convex (a bare -w*d term is not) while E_cover still pulls it larger."""
+    return ((r.min_size[0] + w_hi) / 2, (r.min_size[1] + d_hi) / 2)
+
+
+def _may_intersect(r: RectSpec, region: Box, b: Box) -> bool:
+    """False when the rectangle cannot reach `b` whatever its position (it must still
+    fit in the region), so the four disjunction binaries would be wasted."""
+    if b.width <= EPS or b.depth <= EPS:
+        return False
+    if r.refine is not None:
+        p, delta = r.refine.parent, r.refine.delta
+        reach = Box(p.x0 - delta, p.y0 - delta, p.x1 + delta, p.y1 + delta)
+        return not (reach.x1 <= b.x0 or reach.x0 >= b.x1 or reach.y1 <= b.y0
+                    or reach.y0 >= b.y1)
+    return True

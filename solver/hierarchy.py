@@ -1,0 +1,316 @@
+"""The hierarchical framework (paper Sec. 5.3): select sub-domains, split their rooms
+into halves, update the constraints, re-solve each sub-domain.
+
+A layout in progress is a list of `Piece`s, the rectangles of the rooms. Under
+C_refine every half covers its share of the parent and can only grow, so what held
+at the previous level (positions, boundary contact, adjacency, minimum sizes) keeps
+holding; the sub-problem only has to bound growth (room envelopes) and keep the two
+halves of each split together.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, replace
+
+import shapely
+from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
+
+from models import Problem
+from solver.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
+from solver.geometry import EPS, Box, Domain, Edge, rectangles_of
+
+#: Uncovered parts smaller than this (m²) are numerical dust, not gaps.
+GAP_AREA = 1e-3
+#: A split never makes a half thinner than this (metres); a thinner room is split the other way.
+MIN_HALF = 0.25
+#: Pieces per room at most; beyond it a room's rectangles are no longer split.
+MAX_PIECES_PER_ROOM = 16
+
+
+@dataclass(frozen=True)
+class Piece:
+    """One rectangle of a room, with the guide points and edges it answers for."""
+
+    name: str
+    room: str
+    box: Box
+    positions: tuple[tuple[float, float], ...] = ()
+    edges: tuple[Edge, ...] = ()
+
+
+@dataclass(frozen=True)
+class SubDomain:
+    """Rooms to refine together and the gaps they surround (paper Sec. 5.3)."""
+
+    rooms: frozenset[str]
+    gaps: tuple[Polygon, ...]
+
+
+def covered(pieces: Iterable[Piece]) -> BaseGeometry:
+    return shapely.union_all([p.box.to_polygon() for p in pieces])
+
+
+def uncovered_gaps(domain: Domain, pieces: Sequence[Piece]) -> list[Polygon]:
+    """The parts of the free area no room covers, each a polygon."""
+    rest = domain.free.difference(covered(pieces))
+    parts = getattr(rest, "geoms", [rest])
+    return [g for g in parts if isinstance(g, Polygon) and g.area > GAP_AREA]
+
+
+def _touching(a: BaseGeometry, b: BaseGeometry) -> bool:
+    """Sharing a stretch of boundary, not only a corner."""
+    return a.distance(b) <= EPS and a.buffer(EPS).intersection(b).length > 10 * EPS
+
+
+def room_boxes(pieces: Iterable[Piece]) -> dict[str, list[Box]]:
+    rooms: dict[str, list[Box]] = {}
+    for p in pieces:
+        rooms.setdefault(p.room, []).append(p.box)
+    return rooms
+
+
+def bounding_box(boxes: Sequence[Box]) -> Box:
+    return Box(min(b.x0 for b in boxes), min(b.y0 for b in boxes),
+               max(b.x1 for b in boxes), max(b.y1 for b in boxes))
+
+
+def relative_size_error(problem: Problem, rooms: dict[str, list[Box]]) -> dict[str, float]:
+    """E_size (Eq. 6) of each room's bounding box over |target|², for rooms with a target."""
+    errors = {}
+    for room in problem.rooms:
+        if room.target_size is None or room.id not in rooms:
+            continue
+        b = bounding_box(rooms[room.id])
+        tw, td = room.target_size
+        errors[room.id] = ((b.width - tw) ** 2 + (b.depth - td) ** 2) / max(tw * tw + td * td, EPS)
+    return errors
+
+
+def select_subdomains(
+    problem: Problem, domain: Domain, pieces: Sequence[Piece]
+) -> list[SubDomain]:
+    """Sec. 5.3: the rooms around each uncovered region; and a room whose size error
+    exceeds the threshold with its neighbours. Only rooms below their target are
+    taken, as refinement can only grow rooms. Overlapping selections are merged."""
+    rooms = room_boxes(pieces)
+    shapes = {r: shapely.union_all([b.to_polygon() for b in boxes]) for r, boxes in rooms.items()}
+    groups: list[tuple[set[str], list[Polygon]]] = []
+    for gap in uncovered_gaps(domain, pieces):
+        around = {r for r, shape in shapes.items() if _touching(shape, gap)}
+        if around:
+            groups.append((around, [gap]))
+    threshold = problem.options.size_error_threshold
+    for room_id, error in relative_size_error(problem, rooms).items():
+        room = problem.room(room_id)
+        b = bounding_box(rooms[room_id])
+        assert room.target_size is not None
+        too_small = b.width < room.target_size[0] - EPS or b.depth < room.target_size[1] - EPS
+        if error > threshold and too_small:
+            near = {r for r, shape in shapes.items() if _touching(shape, shapes[room_id])}
+            groups.append(({room_id} | near, []))
+    return _merge_groups(groups)
+
+
+def _merge_groups(groups: list[tuple[set[str], list[Polygon]]]) -> list[SubDomain]:
+    merged: list[tuple[set[str], list[Polygon]]] = []
+    for rooms, gaps in groups:
+        rooms, gaps = set(rooms), list(gaps)
+        keep = []
+        for other_rooms, other_gaps in merged:
+            if other_rooms & rooms:
+                rooms |= other_rooms
+                gaps += other_gaps
+            else:
+                keep.append((other_rooms, other_gaps))
+        merged = [*keep, (rooms, gaps)]
+    return [SubDomain(frozenset(r), tuple(g)) for r, g in merged]
+
+
+def split_piece(piece: Piece, direction: Split) -> tuple[Piece, Piece]:
+    """Two halves of equal size (Fig. 6); a guide point goes to the half containing it,
+    an edge to the first half lying on it."""
+    b = piece.box
+    if direction == "vertical":
+        mid = (b.x0 + b.x1) / 2
+        halves = (Box(b.x0, b.y0, mid, b.y1), Box(mid, b.y0, b.x1, b.y1))
+    else:
+        mid = (b.y0 + b.y1) / 2
+        halves = (Box(b.x0, b.y0, b.x1, mid), Box(b.x0, mid, b.x1, b.y1))
+    points = [tuple(p for p in piece.positions if (h.contains_point(*p))) for h in halves]
+    points[1] = tuple(p for p in points[1] if p not in points[0])
+    # An edge goes to one half lying on it; the other keeps touching it anyway, as
+    # the halves cover the parent. An edge neither half lies on is dropped: the room's
+    # C_boundary is already met through another of its candidate edges.
+    edges: list[list[Edge]] = [[], []]
+    for e in piece.edges:
+        for k in (0, 1):
+            if on_edge(halves[k], e):
+                edges[k].append(e)
+                break
+    return tuple(  # type: ignore[return-value]
+        Piece(f"{piece.name}.{k}", piece.room, halves[k], points[k], tuple(edges[k]))
+        for k in range(2)
+    )
+
+
+def on_edge(b: Box, e: Edge) -> bool:
+    """Whether one whole side of `b` lies on edge `e` (what Eq. 9 asks)."""
+    lo, hi = e.span
+    if e.horizontal:
+        side = b.y0 if e.facing == "south" else b.y1
+        return abs(side - e.line) <= 1e-6 and b.x0 >= lo - 1e-6 and b.x1 <= hi + 1e-6
+    side = b.x0 if e.facing == "west" else b.x1
+    return abs(side - e.line) <= 1e-6 and b.y0 >= lo - 1e-6 and b.y1 <= hi + 1e-6
+
+
+def choose_split(piece: Piece, rng: random.Random) -> Split:
+    """A random direction (Sec. 5.3), unless it would make a half too thin."""
+    direction: Split = rng.choice(("vertical", "horizontal"))
+    along = piece.box.width if direction == "vertical" else piece.box.depth
+    if along / 2 < MIN_HALF:
+        direction = "horizontal" if direction == "vertical" else "vertical"
+    return direction
+
+
+@dataclass(frozen=True)
+class RefinementPlan:
+    """A sub-domain's MIQP and the halves it starts from (a feasible warm start)."""
+
+    spec: LevelSpec
+    start: dict[str, Box]
+    pieces: dict[str, Piece]
+
+
+def plan_refinement(
+    problem: Problem,
+    domain: Domain,
+    pieces: Sequence[Piece],
+    sub: SubDomain,
+    *,
+    level: int,
+    index: int,
+    rng: random.Random,
+) -> RefinementPlan:
+    """Initialise the sub-domain by room decomposition and update the constraints."""
+    inside = [p for p in pieces if p.room in sub.rooms]
+    region_shape = shapely.union_all([p.box.to_polygon() for p in inside] + list(sub.gaps))
+    region = Box(*region_shape.bounds)
+    blocked = tuple(rectangles_of(region.to_polygon().difference(region_shape)))
+    delta = max([max(g.bounds[2] - g.bounds[0], g.bounds[3] - g.bounds[1]) for g in sub.gaps],
+                default=0.0)
+    delta = max(delta, 0.5)
+    per_room: dict[str, int] = {}
+    for p in inside:
+        per_room[p.room] = per_room.get(p.room, 0) + 1
+    rects: list[RectSpec] = []
+    contacts: list[ContactSpec] = []
+    start: dict[str, Box] = {}
+    children: dict[str, Piece] = {}
+    for p in inside:
+        if per_room[p.room] * 2 > MAX_PIECES_PER_ROOM:
+            halves: tuple[Piece, ...] = (p,)
+            direction: Split = "vertical"
+        else:
+            direction = choose_split(p, rng)
+            halves = split_piece(p, direction)
+        for k, h in enumerate(halves):
+            rects.append(RectSpec(
+                name=h.name,
+                room=h.room,
+                min_size=_min_half(h.box, direction, len(halves)),
+                target=(h.box.width, h.box.depth),
+                positions=h.positions,
+                edges=h.edges,
+                refine=Refine(parent=p.box, direction=direction,
+                              child=k if len(halves) == 2 else -1, delta=delta),
+            ))
+            start[h.name] = h.box
+            children[h.name] = h
+        if len(halves) == 2:
+            side = p.box.depth if direction == "vertical" else p.box.width
+            contacts.append(ContactSpec(
+                name=f"halves[{p.name}]",
+                a=(halves[0].name,),
+                partners=((halves[1].name,),),
+                min_contact=side * 0.999,  # they share the whole split line
+            ))
+    envelopes = []
+    for room_id in sorted(sub.rooms):
+        room = problem.room(room_id)
+        names = tuple(n for n, h in children.items() if h.room == room_id)
+        previous = bounding_box([p.box for p in inside if p.room == room_id])
+        max_size = room.max_size or (domain.bbox.width, domain.bbox.depth)
+        envelopes.append(EnvelopeSpec(room_id, names, previous, max_size, room.aspect_ratio))
+    spec = LevelSpec(
+        name=f"{problem.name}/level{level}/sub{index}",
+        region=region,
+        blocked=blocked,
+        free_area=float(region_shape.area),
+        rects=tuple(rects),
+        contacts=tuple(contacts),
+        envelopes=tuple(envelopes),
+        cover_weight=problem.weights.cover,
+        size_weight=max(problem.weights.size, problem.weights.cover / 2),
+    )
+    return RefinementPlan(spec, start, children)
+
+
+def _min_half(b: Box, direction: Split, n: int) -> tuple[float, float]:
+    """Halves keep a usable thickness across the split line."""
+    if n == 1:
+        return (b.width, b.depth)
+    if direction == "vertical":
+        return (min(MIN_HALF, b.width), b.depth)
+    return (b.width, min(MIN_HALF, b.depth))
+
+
+def apply_refinement(
+    pieces: Sequence[Piece], plan: RefinementPlan, boxes: dict[str, Box]
+) -> list[Piece]:
+    """Replace the sub-domain's pieces with the solved halves, merging halves that
+    still form one rectangle so rooms do not fragment needlessly."""
+    rooms = {h.room for h in plan.pieces.values()}
+    kept = [p for p in pieces if p.room not in rooms]
+    solved = [replace(h, box=_snap(boxes[name])) for name, h in plan.pieces.items()]
+    return kept + merge_rectangular_pairs(solved)
+
+
+def _snap(b: Box, grid: float = 1e-6) -> Box:
+    return Box(*(round(v / grid) * grid for v in (b.x0, b.y0, b.x1, b.y1)))
+
+
+def merge_rectangular_pairs(pieces: list[Piece]) -> list[Piece]:
+    """Merge two pieces of one room whose union is exactly a rectangle."""
+    result = list(pieces)
+    changed = True
+    while changed:
+        changed = False
+        for i in range(len(result)):
+            for j in range(i + 1, len(result)):
+                a, b = result[i], result[j]
+                if a.room != b.room:
+                    continue
+                joined = _rect_union(a.box, b.box)
+                if joined is None:
+                    continue
+                result[i] = Piece(a.name, a.room, joined, a.positions + b.positions,
+                                  a.edges + tuple(e for e in b.edges if e not in a.edges))
+                del result[j]
+                changed = True
+                break
+            if changed:
+                break
+    return result
+
+
+def _rect_union(a: Box, b: Box, tol: float = 1e-6) -> Box | None:
+    same_x = abs(a.x0 - b.x0) <= tol and abs(a.x1 - b.x1) <= tol
+    same_y = abs(a.y0 - b.y0) <= tol and abs(a.y1 - b.y1) <= tol
+    if same_x and (abs(a.y1 - b.y0) <= tol or abs(b.y1 - a.y0) <= tol):
+        return Box(a.x0, min(a.y0, b.y0), a.x1, max(a.y1, b.y1))
+    if same_y and (abs(a.x1 - b.x0) <= tol or abs(b.x1 - a.x0) <= tol):
+        return Box(min(a.x0, b.x0), a.y0, max(a.x1, b.x1), a.y1)
+    return None

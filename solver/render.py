@@ -1,0 +1,345 @@
+"""A layout as a standalone SVG drawing: walls, rooms coloured by type with their
+labels, hatched obstacles, uncovered gaps in red, the entrance, a scale bar, a title.
+
+The document is built with ``xml.etree`` so every user string (room ids, types,
+labels, the problem name) is escaped by the serializer rather than by hand.
+"""
+
+from __future__ import annotations
+
+import colorsys
+import hashlib
+import math
+import re
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import shapely
+from shapely.geometry import Point as ShapelyPoint
+from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
+
+from models import Layout, Problem, RoomLayout
+from solver.geometry import Box, boundary_edges, rectangles_of
+
+SVG_NS = "http://www.w3.org/2000/svg"
+
+#: Fills for the well-known room types (DESIGN.md §1); anything else gets a hashed pastel.
+PALETTE: dict[str, str] = {
+    "living": "#f6d8a8",
+    "kitchen": "#f4b6a6",
+    "bedroom": "#b9d7f0",
+    "bathroom": "#a8e0df",
+    "dining": "#f7e3a1",
+    "foyer": "#d9cbe8",
+    "corridor": "#e4e4e4",
+    "study": "#c7e3b5",
+    "storage": "#d6ccc2",
+    "balcony": "#cfe8c8",
+    "office": "#c3cdea",
+    "stairs": "#cfcfcf",
+    "laundry": "#bfe3f2",
+    "shop": "#f3c6dc",
+}
+WALL_COLOUR = "#222222"
+GAP_COLOUR = "#ff9d9d"
+ENTRANCE_COLOUR = "#1b7f3b"
+TEXT_COLOUR = "#222222"
+
+# Page furniture is in SVG units (pixels), independent of `scale`, so small drawings
+# of big buildings keep a readable title and scale bar.
+MARGIN = 24.0
+TITLE_FONT = 18.0
+TITLE_BAND = 36.0
+SCALE_BAND = 52.0
+MAX_LABEL_FONT = 14.0
+MIN_LABEL_FONT = 4.0
+#: Typical glyph width / font size for sans-serif text, to estimate label widths.
+GLYPH_WIDTH = 0.6
+
+#: Characters XML 1.0 forbids even when escaped; ids are user input and may carry them.
+_XML_INVALID = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff]")
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """Maps model metres (y north) to SVG units (y down) with the page margins."""
+
+    min_x: float
+    max_y: float
+    scale: float
+    left: float
+    top: float
+
+    def point(self, x: float, y: float) -> tuple[float, float]:
+        return (self.left + (x - self.min_x) * self.scale, self.top + (self.max_y - y) * self.scale)
+
+
+def render_svg(problem: Problem, layout: Layout, *, scale: float = 40.0) -> str:
+    """The layout of `problem` as an SVG document; `scale` is SVG units per metre."""
+    if not (math.isfinite(scale) and scale > 0):
+        raise ValueError(f"scale must be a positive number, not {scale}")
+    outline = problem.outline()
+    min_x, min_y, max_x, max_y = outline.bounds
+    frame = _Frame(min_x, max_y, scale, MARGIN, MARGIN + TITLE_BAND)
+    plan_w, plan_h = (max_x - min_x) * scale, (max_y - min_y) * scale
+    width = plan_w + 2 * MARGIN
+    height = frame.top + plan_h + SCALE_BAND + MARGIN
+
+    svg = ET.Element("svg", {
+        "xmlns": SVG_NS, "version": "1.1",
+        "width": _num(width), "height": _num(height),
+        "viewBox": f"0 0 {_num(width)} {_num(height)}",
+        "font-family": "Helvetica, Arial, sans-serif",
+    })
+    ET.SubElement(svg, "title").text = _clean(problem.name)
+    _add_hatch_pattern(svg)
+    ET.SubElement(svg, "rect", {"width": "100%", "height": "100%", "fill": "white"})
+    _add_gaps(svg, frame, problem.free_area(), layout.rooms)
+    for room in layout.rooms:
+        _add_room(svg, frame, room)
+    for index, obstacle in enumerate(problem.obstacles):
+        _add_obstacle(svg, frame, Box(obstacle.x, obstacle.y, obstacle.x + obstacle.width,
+                                      obstacle.y + obstacle.depth), obstacle.label, index)
+    _add_openings(svg, frame, layout)
+    _add_outline(svg, frame, outline)
+    if problem.entrance is not None:
+        _add_entrance(svg, frame, problem)
+    _add_title(svg, problem.name)
+    _add_scale_bar(svg, frame, max_x - min_x, frame.top + plan_h + SCALE_BAND / 2)
+    _indent(svg)
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(svg, encoding="unicode")
+
+
+def room_fill(room_type: str) -> str:
+    """The fill colour for a room type: the palette's, else a pastel derived from a
+    stable digest of the name (not `hash()`, which changes between processes)."""
+    key = room_type.strip().lower()
+    if key in PALETTE:
+        return PALETTE[key]
+    hue = int.from_bytes(hashlib.sha256(key.encode()).digest()[:2], "big") / 65536
+    red, green, blue = colorsys.hls_to_rgb(hue, 0.85, 0.6)
+    return "#{:02x}{:02x}{:02x}".format(*(round(c * 255) for c in (red, green, blue)))
+
+
+def scale_bar_length(width_m: float) -> float:
+    """A round length (1, 2 or 5 times a power of ten) close to a fifth of `width_m`.
+
+    >>> [scale_bar_length(w) for w in (10, 12, 30, 100, 3)]
+    [2.0, 2.0, 5.0, 20.0, 0.5]
+    """
+    target = max(width_m, 1e-9) / 5
+    exponent = math.floor(math.log10(target))
+    candidates = [m * 10.0**e for e in (exponent - 1, exponent, exponent + 1) for m in (1, 2, 5)]
+    return min(candidates, key=lambda c: abs(math.log(c / target)))
+
+
+# Building blocks, in drawing order.
+
+
+def _add_hatch_pattern(svg: ET.Element) -> None:
+    # One diagonal line per tile; rotating the tile keeps the lines continuous.
+    defs = ET.SubElement(svg, "defs")
+    pattern = ET.SubElement(defs, "pattern", {
+        "id": "fp-hatch", "patternUnits": "userSpaceOnUse", "width": "8", "height": "8",
+        "patternTransform": "rotate(45)",
+    })
+    ET.SubElement(pattern, "rect", {"width": "8", "height": "8", "fill": "#eeeeee"})
+    ET.SubElement(pattern, "line", {"x1": "0", "y1": "0", "x2": "0", "y2": "8",
+                                    "stroke": "#666666", "stroke-width": "2"})
+
+
+def _add_gaps(svg: ET.Element, frame: _Frame, free: BaseGeometry,
+              rooms: Sequence[RoomLayout]) -> None:
+    shapes = [_room_shape(room) for room in rooms]
+    covered = shapely.union_all([s for s in shapes if s is not None])
+    gaps = free.difference(covered)
+    parts = [p for p in shapely.get_parts(gaps) if isinstance(p, Polygon) and p.area > 1e-6]
+    if parts:
+        ET.SubElement(svg, "path", {
+            "class": "uncovered", "d": " ".join(_polygon_path(frame, p) for p in parts),
+            "fill": GAP_COLOUR, "fill-opacity": "0.6", "fill-rule": "evenodd",
+        })
+
+
+def _add_room(svg: ET.Element, frame: _Frame, room: RoomLayout) -> None:
+    shape = _room_shape(room)
+    if shape is None:
+        return
+    group = ET.SubElement(svg, "g", {"class": "room", "data-id": _clean(room.id),
+                                     "data-type": _clean(room.type)})
+    ET.SubElement(group, "polygon", {
+        "points": _points(frame, room.polygon), "fill": room_fill(room.type),
+        "stroke": "#555555", "stroke-width": "1",
+    })
+    _add_label(group, frame, _label_box(shape), [room.id, f"{room.area:.1f} m²"], "room-label")
+
+
+def _add_obstacle(svg: ET.Element, frame: _Frame, box: Box, label: str, index: int) -> None:
+    group = ET.SubElement(svg, "g", {"class": "obstacle", "data-index": str(index)})
+    x, y = frame.point(box.x0, box.y1)
+    ET.SubElement(group, "rect", {
+        "x": _num(x), "y": _num(y), "width": _num(box.width * frame.scale),
+        "height": _num(box.depth * frame.scale), "fill": "url(#fp-hatch)",
+        "stroke": WALL_COLOUR, "stroke-width": "1.5",
+    })
+    _add_label(group, frame, box, [label], "obstacle-label")
+
+
+def _add_openings(svg: ET.Element, frame: _Frame, layout: Layout) -> None:
+    # Doors and windows are part of the returned layout; thin marks keep them legible
+    # without hiding the room colours.
+    for door in layout.doors:
+        _add_segment(svg, frame, door.segment, "door", "#8a5a2b", 3.0)
+    for window in layout.windows:
+        _add_segment(svg, frame, window.segment, "window", "#3a7bd5", 3.0)
+
+
+def _add_outline(svg: ET.Element, frame: _Frame, outline: Polygon) -> None:
+    ET.SubElement(svg, "path", {
+        "class": "outline", "d": _polygon_path(frame, outline), "fill": "none",
+        "stroke": WALL_COLOUR, "stroke-width": _num(max(2.0, 0.12 * frame.scale)),
+        "stroke-linejoin": "miter",
+    })
+
+
+def _add_entrance(svg: ET.Element, frame: _Frame, problem: Problem) -> None:
+    # An arrow outside the wall pointing in through the door, so it reads as "way in".
+    assert problem.entrance is not None
+    ex, ey = problem.entrance
+    edges = boundary_edges(problem.boundary)
+    nearest = min(edges, key=lambda e: shapely.LineString([e.start, e.end]).distance(
+        ShapelyPoint(ex, ey)))
+    out_x, out_y = {"north": (0, 1), "south": (0, -1), "east": (1, 0), "west": (-1, 0)}[
+        nearest.facing]
+    size = 14.0
+    tip = frame.point(ex, ey)
+    # SVG y runs down, so the outward normal's y flips.
+    back = (tip[0] + out_x * size, tip[1] - out_y * size)
+    side = (out_y * size / 2, out_x * size / 2)
+    corners = [tip, (back[0] + side[0], back[1] + side[1]), (back[0] - side[0], back[1] - side[1])]
+    group = ET.SubElement(svg, "g", {"class": "entrance"})
+    ET.SubElement(group, "title").text = "entrance"
+    ET.SubElement(group, "polygon", {
+        "points": " ".join(f"{_num(x)},{_num(y)}" for x, y in corners),
+        "fill": ENTRANCE_COLOUR, "stroke": "white", "stroke-width": "1",
+    })
+    ET.SubElement(group, "circle", {"cx": _num(tip[0]), "cy": _num(tip[1]), "r": "3",
+                                    "fill": ENTRANCE_COLOUR})
+
+
+def _add_title(svg: ET.Element, name: str) -> None:
+    text = ET.SubElement(svg, "text", {
+        "class": "title", "x": _num(MARGIN), "y": _num(MARGIN + TITLE_FONT * 0.8),
+        "font-size": _num(TITLE_FONT), "font-weight": "bold", "fill": TEXT_COLOUR,
+    })
+    text.text = _clean(name)
+
+
+def _add_scale_bar(svg: ET.Element, frame: _Frame, width_m: float, y: float) -> None:
+    length = scale_bar_length(width_m)
+    x0, x1 = frame.left, frame.left + length * frame.scale
+    group = ET.SubElement(svg, "g", {"class": "scale-bar", "stroke": WALL_COLOUR,
+                                     "stroke-width": "2"})
+    ET.SubElement(group, "line", {"x1": _num(x0), "y1": _num(y), "x2": _num(x1), "y2": _num(y)})
+    for x in (x0, x1):
+        ET.SubElement(group, "line", {"x1": _num(x), "y1": _num(y - 5),
+                                      "x2": _num(x), "y2": _num(y + 5)})
+    label = ET.SubElement(svg, "text", {
+        "class": "scale-label", "x": _num(x1 + 8), "y": _num(y + 4), "font-size": "12",
+        "fill": TEXT_COLOUR,
+    })
+    label.text = f"{length:g} m"
+
+
+# Helpers.
+
+
+def _add_label(parent: ET.Element, frame: _Frame, box: Box, lines: Sequence[str],
+               css_class: str) -> None:
+    """Centred lines of text in `box`, with a font small enough to fit (within limits)."""
+    lines = [_clean(line) for line in lines]
+    box_w, box_h = box.width * frame.scale, box.depth * frame.scale
+    longest = max((len(line) for line in lines), default=1) or 1
+    font = min(MAX_LABEL_FONT, 0.9 * box_w / (GLYPH_WIDTH * longest),
+               0.8 * box_h / (1.2 * len(lines)))
+    font = max(MIN_LABEL_FONT, font)
+    cx, cy = frame.point((box.x0 + box.x1) / 2, (box.y0 + box.y1) / 2)
+    # Centre the block of lines vertically; each baseline sits ~0.35 em below its middle.
+    first = cy - (len(lines) - 1) * 0.6 * font + 0.35 * font
+    text = ET.SubElement(parent, "text", {
+        "class": css_class, "x": _num(cx), "y": _num(first), "font-size": _num(font),
+        "text-anchor": "middle", "fill": TEXT_COLOUR,
+    })
+    for index, line in enumerate(lines):
+        span = ET.SubElement(text, "tspan", {"x": _num(cx)})
+        if index:
+            span.set("dy", "1.2em")
+        span.text = line
+
+
+def _indent(svg: ET.Element) -> None:
+    """Indent for readable output, except inside <text>: whitespace there is rendered,
+    and it would shift centred labels."""
+    ET.indent(svg)
+    for text in svg.iter("text"):
+        if len(text):
+            text.text = None
+            for span in text:
+                span.tail = None
+
+
+def _label_box(shape: BaseGeometry) -> Box:
+    # The largest rectangle of the room's decomposition keeps an L-shaped room's label
+    # inside the room, where the bounding-box centre might fall outside it.
+    boxes = rectangles_of(shape)
+    if boxes:
+        return max(boxes, key=lambda b: b.area)
+    return Box(*shape.bounds)
+
+
+def _room_shape(room: RoomLayout) -> BaseGeometry | None:
+    if len(room.polygon) < 3:
+        return None
+    # A hand-made or buggy polygon may cross itself; keep its areal parts rather than fail.
+    repaired = shapely.make_valid(Polygon(room.polygon))
+    shape = shapely.union_all([p for p in shapely.get_parts(repaired) if isinstance(p, Polygon)])
+    return shape if shape.area > 0 else None
+
+
+def _add_segment(svg: ET.Element, frame: _Frame, segment: Sequence[tuple[float, float]],
+                 css_class: str, colour: str, width: float) -> None:
+    (x1, y1), (x2, y2) = (frame.point(*p) for p in segment)
+    ET.SubElement(svg, "line", {
+        "class": css_class, "x1": _num(x1), "y1": _num(y1), "x2": _num(x2), "y2": _num(y2),
+        "stroke": colour, "stroke-width": _num(width), "stroke-linecap": "butt",
+    })
+
+
+def _polygon_path(frame: _Frame, polygon: Polygon) -> str:
+    rings = [polygon.exterior, *polygon.interiors]
+    return " ".join(_ring_path(frame, list(ring.coords)[:-1]) for ring in rings)
+
+
+def _ring_path(frame: _Frame, coords: Iterable[Sequence[float]]) -> str:
+    return "M " + " L ".join(_pair(frame, x, y) for x, y in coords) + " Z"
+
+
+def _points(frame: _Frame, coords: Iterable[Sequence[float]]) -> str:
+    return " ".join(_pair(frame, x, y) for x, y in coords)
+
+
+def _pair(frame: _Frame, x: float, y: float) -> str:
+    sx, sy = frame.point(x, y)
+    return f"{_num(sx)},{_num(sy)}"
+
+
+def _num(value: float) -> str:
+    """Compact coordinates: two decimals are far below a pixel, and no '-0'."""
+    text = f"{value:.2f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def _clean(text: str) -> str:
+    return _XML_INVALID.sub("\ufffd", text)

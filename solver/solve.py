@@ -1,0 +1,268 @@
+"""`solve(problem) -> Layout`: level 1, then the hierarchy, then the independent check.
+
+Time policy (paper Sec. 5.4): 5 s up to 20 rooms, growing in proportion beyond. Level 1
+gets `LEVEL_ONE_SHARE` of it; the refinement levels share the rest.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+from models import (
+    Infeasibility,
+    Layout,
+    Problem,
+    Report,
+    RoomLayout,
+    Termination,
+)
+from solver.checker import check_layout
+from solver.formulation import active_families, build_level
+from solver.geometry import Box, Domain, edges_named, make_domain, polygon_coords, room_polygon
+from solver.hierarchy import (
+    Piece,
+    apply_refinement,
+    on_edge,
+    plan_refinement,
+    select_subdomains,
+)
+from solver.level_one import level_one_spec, windows_to_try
+from solver.precheck import find_impossibilities
+from solver.scip_run import Incumbent, LevelResult, LevelStatus, rect_values, run_level, warm_start
+
+#: Seconds per job up to `BASE_ROOMS` rooms (Sec. 5.4) ...
+BASE_TIME = 5.0
+BASE_ROOMS = 20
+#: Share of the time limit level 1 may use.
+LEVEL_ONE_SHARE = 0.6
+#: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
+ATTEMPT_SHARE = 0.5
+
+
+def default_time_limit(rooms: int) -> float:
+    """5 s up to 20 rooms, then in proportion to the room count."""
+    return BASE_TIME * max(1.0, rooms / BASE_ROOMS)
+
+
+class Phase(StrEnum):
+    RELAXATION = "relaxation"  # a feasibility attempt of the size-window schedule ended
+    LEVEL = "level"  # a level starts
+    SUBDOMAIN = "subdomain"  # a sub-domain solve ended
+    INCUMBENT = "incumbent"  # SCIP found a better solution of the current MIQP
+    DONE = "done"
+
+
+@dataclass(frozen=True)
+class SolveEvent:
+    """Progress of a solve, for logs, progress bars and event streams."""
+
+    phase: Phase
+    level: int
+    elapsed: float
+    subdomain: int = 0
+    subdomains: int = 0
+    objective: float | None = None
+    dual_bound: float | None = None
+    detail: str = ""
+
+
+EventSink = Callable[[SolveEvent], None]
+
+
+@dataclass
+class _Run:
+    """Book-keeping of one solve: clock, stop flag, status and events."""
+
+    problem: Problem
+    deadline: float
+    started: float
+    on_event: EventSink | None
+    should_stop: Callable[[], bool] | None
+    statuses: list[LevelStatus] = field(default_factory=list)
+    relaxations: list[str] = field(default_factory=list)
+    level: int = 1
+
+    def remaining(self) -> float:
+        return self.deadline - time.monotonic()
+
+    def elapsed(self) -> float:
+        return time.monotonic() - self.started
+
+    def stopped(self) -> bool:
+        return self.should_stop is not None and self.should_stop()
+
+    def emit(self, phase: Phase, **kw: object) -> None:
+        if self.on_event is not None:
+            self.on_event(SolveEvent(phase=phase, level=self.level, elapsed=self.elapsed(),
+                                     **kw))  # type: ignore[arg-type]
+
+    def incumbent_sink(self, sub: int = 0, subs: int = 0) -> Callable[[Incumbent], None]:
+        def sink(inc: Incumbent) -> None:
+            self.emit(Phase.INCUMBENT, subdomain=sub, subdomains=subs,
+                      objective=inc.objective, dual_bound=inc.dual_bound)
+        return sink
+
+    def run(self, lm, limit: float, sub: int = 0, subs: int = 0) -> LevelResult:  # noqa: ANN001
+        result = run_level(lm, time_limit=limit, seed=self.problem.options.seed,
+                           on_incumbent=self.incumbent_sink(sub, subs),
+                           should_stop=self.should_stop)
+        self.statuses.append(result.status)
+        return result
+
+
+def solve(
+    problem: Problem,
+    *,
+    on_event: EventSink | None = None,
+    should_stop: Callable[[], bool] | None = None,
+) -> Layout:
+    """Lay out `problem`: a valid layout, or a report saying why there is none."""
+    started = time.monotonic()
+    limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
+    run = _Run(problem, started + limit, started, on_event, should_stop)
+    domain = make_domain(problem)
+    findings = find_impossibilities(problem, domain)
+    if findings:
+        return _no_layout(run, Termination.INFEASIBLE, Infeasibility(
+            reason="the problem is infeasible before any solving", findings=findings))
+    run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
+    pieces, failure = _level_one(run, domain, started + limit * LEVEL_ONE_SHARE)
+    if pieces is None:
+        assert failure is not None
+        return failure
+    levels = 1
+    rng = random.Random(problem.options.seed)
+    for level in range(2, problem.options.max_levels + 1):
+        if run.remaining() <= 0.05 or run.stopped():
+            break
+        subs = select_subdomains(problem, domain, pieces)
+        if not subs:
+            break
+        run.level = levels = level
+        run.emit(Phase.LEVEL, subdomains=len(subs),
+                 detail=f"level {level}: {len(subs)} sub-domain(s)")
+        levels_left = problem.options.max_levels - level + 1
+        for i, sub in enumerate(subs):
+            if run.remaining() <= 0.05 or run.stopped():
+                break
+            budget = run.remaining() / levels_left / (len(subs) - i)
+            plan = plan_refinement(problem, domain, pieces, sub, level=level, index=i, rng=rng)
+            lm = build_level(plan.spec)
+            warm_start(lm, rect_values(plan.start))
+            result = run.run(lm, budget, i + 1, len(subs))
+            if result.rects is not None:
+                pieces = apply_refinement(pieces, plan, result.rects)
+            run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=len(subs),
+                     objective=result.objective,
+                     detail=f"rooms {', '.join(sorted(sub.rooms))}: {result.status}")
+    return _layout(run, domain, pieces, levels)
+
+
+def _level_one(
+    run: _Run, domain: Domain, deadline: float
+) -> tuple[list[Piece] | None, Layout | None]:
+    """Sec. 5.4: find a first layout with size bounds at target +-10 %, widening by 10 %
+    until one is found; then improve it under the user's own bounds (Eq. 12)."""
+    problem = run.problem
+    first: LevelResult | None = None
+    proven_infeasible = False
+    for window in windows_to_try(problem):
+        left = deadline - time.monotonic()
+        if left <= 0.05 or run.stopped():
+            break
+        spec = level_one_spec(problem, domain, window=window)
+        lm = build_level(spec, feasibility=True)
+        share = left if window is None else left * ATTEMPT_SHARE
+        result = run.run(lm, share)
+        label = "user bounds" if window is None else f"target ±{window:.0%}"
+        run.relaxations.append(f"{label}: {result.status}")
+        run.emit(Phase.RELAXATION, detail=f"size bounds {label}: {result.status}")
+        if result.rects is not None:
+            first = result
+            break
+        proven_infeasible = window is None and result.status is LevelStatus.INFEASIBLE
+    if first is None:
+        spec = level_one_spec(problem, domain, window=None)
+        if proven_infeasible:
+            return None, _no_layout(run, Termination.INFEASIBLE, Infeasibility(
+                reason="SCIP proved that no single-rectangle layout satisfies the constraints",
+                active_families=active_families(spec), relaxations_tried=run.relaxations))
+        termination = Termination.INTERRUPTED if run.stopped() else Termination.NO_SOLUTION
+        return None, _no_layout(run, termination, Infeasibility(
+            reason="no layout was found within the time limit; feasibility is unknown",
+            active_families=active_families(spec), relaxations_tried=run.relaxations))
+    spec = level_one_spec(problem, domain, window=None)
+    boxes = first.rects
+    assert boxes is not None and first.values is not None
+    left = deadline - time.monotonic()
+    if left > 0.05 and not run.stopped():
+        lm = build_level(spec)
+        warm_start(lm, first.values)
+        improved = run.run(lm, left)
+        if improved.rects is not None:
+            boxes = improved.rects
+    return [_piece(problem, domain, room_id, box) for room_id, box in boxes.items()], None
+
+
+def _piece(problem: Problem, domain: Domain, room_id: str, box: Box) -> Piece:
+    room = problem.room(room_id)
+    # Only the candidate edges the room actually lies on carry over to refinement.
+    edges = tuple(e for e in edges_named(problem, domain.edges, room.boundary) if on_edge(box, e))
+    return Piece(room_id, room_id, box, tuple(room.positions), edges)
+
+
+def _termination(run: _Run) -> Termination:
+    if run.stopped():
+        return Termination.INTERRUPTED
+    if all(s is LevelStatus.OPTIMAL for s in run.statuses[-1:]) and all(
+        s in (LevelStatus.OPTIMAL, LevelStatus.INFEASIBLE) for s in run.statuses
+    ):
+        return Termination.OPTIMAL
+    return Termination.TIME_LIMIT
+
+
+def _layout(run: _Run, domain: Domain, pieces: list[Piece], levels: int) -> Layout:
+    problem = run.problem
+    rooms: dict[str, list[Box]] = {}
+    for p in pieces:
+        rooms.setdefault(p.room, []).append(p.box)
+    check = check_layout(problem, rooms)
+    out = []
+    for room in problem.rooms:
+        boxes = rooms[room.id]
+        polygon = room_polygon(boxes)
+        out.append(RoomLayout(
+            id=room.id, type=room.type, polygon=polygon_coords(polygon),
+            rectangles=[b.to_rect() for b in boxes], area=round(float(polygon.area), 6),
+        ))
+    w = problem.weights
+    objective = w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
+    report = Report(
+        coverage=check.coverage, uncovered_area=check.uncovered_area,
+        constraints=check.constraints, size_error=check.size_error,
+        objective=objective, levels=levels, solve_time=run.elapsed(),
+        termination=_termination(run), valid=check.valid,
+        relaxation=_relaxation_used(run),
+    )
+    run.emit(Phase.DONE, objective=objective, detail=f"coverage {check.coverage:.1%}")
+    return Layout(name=problem.name, rooms=out, report=report)
+
+
+def _relaxation_used(run: _Run) -> float:
+    """The size window (fraction of target) of the first layout, as in Sec. 5.4."""
+    last = run.relaxations[-1] if run.relaxations else ""
+    if last.startswith("target"):
+        return float(last.split("±")[1].split("%")[0]) / 100
+    return math.inf if last else 0.0
+
+
+def _no_layout(run: _Run, termination: Termination, why: Infeasibility) -> Layout:
+    report = Report(coverage=0.0, uncovered_area=0.0, termination=termination, valid=False,
+                    infeasibility=why, solve_time=run.elapsed())
+    run.emit(Phase.DONE, detail=why.reason)
+    return Layout(name=run.problem.name, report=report)
