@@ -14,8 +14,7 @@ a wall or obstacle of the domain, are therefore snapped onto one line. Measureme
 
 from __future__ import annotations
 
-import bisect
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import shapely
@@ -28,9 +27,11 @@ from solver.geometry import (
     Box,
     GeometryError,
     boundary_edges,
+    domain_lines,
     edges_named,
     room_polygon,
     shared_wall_length,
+    snap_rooms,
 )
 
 #: Coverage at or above this share of the free area counts as covered (a soft goal).
@@ -104,52 +105,21 @@ def place_rooms(problem: Problem, rooms: Mapping[str, Sequence[Box]], tol: float
     """The problem's rooms that have at least one rectangle, with snapped copies."""
     given = {r.id: tuple(rooms.get(r.id, ())) for r in problem.rooms}
     given = {room_id: rects for room_id, rects in given.items() if rects}
-    all_rects = [b for rects in given.values() for b in rects]
-    xs, ys = _domain_lines(problem)
-    snap_x = snap_map(xs, [v for b in all_rects for v in (b.x0, b.x1)], tol)
-    snap_y = snap_map(ys, [v for b in all_rects for v in (b.y0, b.y1)], tol)
-    placed = {}
-    for room_id, rects in given.items():
-        snapped = tuple(Box(snap_x[b.x0], snap_y[b.y0], snap_x[b.x1], snap_y[b.y1])
-                        for b in rects)
-        placed[room_id] = PlacedRoom(rects, snapped, _union(rects), _union(snapped))
-    return placed
-
-
-def snap_map(fixed: Iterable[float], loose: Iterable[float], tol: float) -> dict[float, float]:
-    """Map each loose coordinate to the nearest fixed (domain) one within `tol`, else to the
-    first of its run of loose coordinates spanning at most `tol`.
-
-    >>> snap_map([5.0], [4.99991, 5.00008, 7.0, 7.00001, 7.00011], 1e-4)
-    {4.99991: 5.0, 5.00008: 5.0, 7.0: 7.0, 7.00001: 7.0, 7.00011: 7.00011}
-    """
-    walls = sorted(set(fixed))
-    mapping: dict[float, float] = {}
-    anchor: float | None = None
-    for value in sorted(set(loose)):
-        k = bisect.bisect_left(walls, value)
-        wall = min(walls[max(k - 1, 0):k + 1], key=lambda w: abs(w - value), default=None)
-        if wall is not None and abs(wall - value) <= tol:
-            mapping[value] = wall
-            continue
-        if anchor is None or value - anchor > tol:
-            anchor = value
-        mapping[value] = anchor
-    return mapping
-
-
-def _domain_lines(problem: Problem) -> tuple[list[float], list[float]]:
-    """The x and y coordinates of the outline's and the obstacles' walls."""
-    xs = [x for x, _ in problem.boundary]
-    ys = [y for _, y in problem.boundary]
-    for o in problem.obstacles:
-        xs += [o.x, o.x + o.width]
-        ys += [o.y, o.y + o.depth]
-    return xs, ys
+    xs, ys = domain_lines(problem)
+    snapped = snap_rooms(given, xs, ys, tol)
+    return {
+        room_id: PlacedRoom(rects, tuple(snapped[room_id]), _union(rects),
+                            _union(snapped[room_id]))
+        for room_id, rects in given.items()
+    }
 
 
 def _union(rects: Sequence[Box]) -> BaseGeometry:
-    return shapely.union_all([b.to_polygon() for b in rects], grid_size=GRID)
+    # set_precision: union_all leaves a lone rectangle off the grid, and walls 1e-16 apart
+    # then share no length.
+    return shapely.set_precision(
+        shapely.union_all([b.to_polygon() for b in rects], grid_size=GRID), GRID
+    )
 
 
 def _per_room(

@@ -3,7 +3,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+import bisect
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -221,7 +222,9 @@ def room_polygon(rects: Sequence[Box]) -> Polygon:
     >>> room_polygon([Box(0, 0, 2, 1), Box(0, 1, 1, 2)]).area
     3.0
     """
-    merged = shapely.union_all([r.to_polygon() for r in rects], grid_size=GRID)
+    merged = shapely.set_precision(
+        shapely.union_all([r.to_polygon() for r in rects], grid_size=GRID), GRID
+    )
     if not isinstance(merged, Polygon):
         raise GeometryError(f"rectangles form a {merged.geom_type}, not one polygon")
     return shapely.orient_polygons(merged)
@@ -231,3 +234,53 @@ def polygon_coords(polygon: Polygon) -> list[tuple[float, float]]:
     """Exterior vertices without the repeated closing one, collinear ones removed."""
     simple = polygon.simplify(0)
     return [(float(x), float(y)) for x, y in list(simple.exterior.coords)[:-1]]
+
+
+def snap_map(fixed: Iterable[float], loose: Iterable[float], tol: float) -> dict[float, float]:
+    """Map each loose coordinate to the nearest fixed (domain) one within `tol`, else to the
+    first of its run of loose coordinates spanning at most `tol`.
+
+    >>> snap_map([5.0], [4.99991, 5.00008, 7.0, 7.00001, 7.00011], 1e-4)
+    {4.99991: 5.0, 5.00008: 5.0, 7.0: 7.0, 7.00001: 7.0, 7.00011: 7.00011}
+    """
+    walls = sorted(set(fixed))
+    mapping: dict[float, float] = {}
+    anchor: float | None = None
+    for value in sorted(set(loose)):
+        k = bisect.bisect_left(walls, value)
+        wall = min(walls[max(k - 1, 0):k + 1], key=lambda w: abs(w - value), default=None)
+        if wall is not None and abs(wall - value) <= tol:
+            mapping[value] = wall
+            continue
+        if anchor is None or value - anchor > tol:
+            anchor = value
+        mapping[value] = anchor
+    return mapping
+
+
+def snap_rooms(
+    rooms: Mapping[str, Sequence[Box]], xs: Iterable[float], ys: Iterable[float], tol: float
+) -> dict[str, list[Box]]:
+    """Rooms with every coordinate within `tol` of a domain line (`xs`, `ys`) or of
+    another room's coordinate moved onto one value, so shared walls are exactly shared.
+
+    >>> snap_rooms({"a": [Box(0, 0, 2.0000001, 1)], "b": [Box(2, 0, 3, 1)]}, [0, 3], [0, 1], 1e-4)
+    {'a': [Box(x0=0, y0=0, x1=2, y1=1)], 'b': [Box(x0=2, y0=0, x1=3, y1=1)]}
+    """
+    boxes = [b for rects in rooms.values() for b in rects]
+    sx = snap_map(xs, [v for b in boxes for v in (b.x0, b.x1)], tol)
+    sy = snap_map(ys, [v for b in boxes for v in (b.y0, b.y1)], tol)
+    return {
+        room_id: [Box(sx[b.x0], sy[b.y0], sx[b.x1], sy[b.y1]) for b in rects]
+        for room_id, rects in rooms.items()
+    }
+
+
+def domain_lines(problem: Problem) -> tuple[list[float], list[float]]:
+    """The x and y coordinates of the outline's and the obstacles' walls."""
+    xs = [x for x, _ in problem.boundary]
+    ys = [y for _, y in problem.boundary]
+    for o in problem.obstacles:
+        xs += [o.x, o.x + o.width]
+        ys += [o.y, o.y + o.depth]
+    return xs, ys

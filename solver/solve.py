@@ -23,12 +23,22 @@ from models import (
 )
 from solver.checker import check_layout
 from solver.formulation import active_families, build_level
-from solver.geometry import Box, Domain, edges_named, make_domain, polygon_coords, room_polygon
+from solver.geometry import (
+    Box,
+    Domain,
+    domain_lines,
+    edges_named,
+    make_domain,
+    polygon_coords,
+    room_polygon,
+    snap_rooms,
+)
 from solver.hierarchy import (
     Piece,
     apply_refinement,
     on_edge,
     plan_refinement,
+    room_boxes,
     select_subdomains,
 )
 from solver.level_one import level_one_spec, windows_to_try
@@ -42,6 +52,8 @@ BASE_ROOMS = 20
 LEVEL_ONE_SHARE = 0.6
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
+#: Output coordinates closer than this (metres) are made equal.
+OUTPUT_SNAP = 1e-5
 
 
 def default_time_limit(rooms: int) -> float:
@@ -107,7 +119,7 @@ class _Run:
                       objective=inc.objective, dual_bound=inc.dual_bound)
         return sink
 
-    def run(self, lm, limit: float, sub: int = 0, subs: int = 0) -> LevelResult:  # noqa: ANN001
+    def run(self, lm, limit: float, sub: int = 0, subs: int = 0) -> LevelResult:
         result = run_level(lm, time_limit=limit, seed=self.problem.options.seed,
                            on_incumbent=self.incumbent_sink(sub, subs),
                            should_stop=self.should_stop)
@@ -228,9 +240,8 @@ def _termination(run: _Run) -> Termination:
 
 def _layout(run: _Run, domain: Domain, pieces: list[Piece], levels: int) -> Layout:
     problem = run.problem
-    rooms: dict[str, list[Box]] = {}
-    for p in pieces:
-        rooms.setdefault(p.room, []).append(p.box)
+    # Walls SCIP placed 1e-7 apart become exactly shared, as a CAD user expects.
+    rooms = snap_rooms(room_boxes(pieces), *domain_lines(problem), OUTPUT_SNAP)
     check = check_layout(problem, rooms)
     out = []
     for room in problem.rooms:

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import doctest
 from typing import Any
 
 import pytest
 
 from models import ConstraintCheck, Problem
-from solver import checker
 from solver.checker import CheckResult, check_layout
 from solver.geometry import Box
 
@@ -279,7 +277,3 @@ def test_unknown_room_id_fails_placed() -> None:
     result = check_layout(problem({"id": "a"}), rooms)
     check = one(result, "placed")
     assert (check.rooms, check.satisfied) == (["ghost"], False)
-
-
-def test_doctests() -> None:
-    assert doctest.testmod(checker).failed == 0
