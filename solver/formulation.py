@@ -51,6 +51,9 @@ class RectSpec:
     positions: tuple[tuple[float, float], ...] = ()
     edges: tuple[Edge, ...] = ()
     refine: Refine | None = None
+    #: A rectangle held at this box: a neighbour that a free rectangle must touch
+    #: (C_adj) but that is otherwise settled; it is also among the level's `blocked`.
+    fixed: Box | None = None
 
 
 @dataclass(frozen=True)
@@ -94,6 +97,11 @@ class LevelSpec:
     size_weight: float = 1.0
 
 
+def free_rects(spec: LevelSpec) -> list[RectSpec]:
+    """The rectangles the level places (all but the fixed ones)."""
+    return [r for r in spec.rects if r.fixed is None]
+
+
 @dataclass
 class RectVars:
     x: Variable
@@ -110,34 +118,48 @@ class LevelModel:
     model: Model
     rects: dict[str, RectVars]
     families: list[str] = field(default_factory=list)
+    #: Event callbacks of the current solve; SCIP takes each handler once per model, so
+    #: the runner installs handlers once and swaps what they call.
+    hooks: dict[str, Any] = field(default_factory=dict)
 
     @property
     def big_m_x(self) -> float:
-        return self.spec.region.width
+        """The smallest valid M for x-disjunctions: the width spanned by the region and
+        any fixed rectangle (which may lie outside it)."""
+        fixed = [r.fixed for r in self.spec.rects if r.fixed is not None]
+        r = self.spec.region
+        return max([r.x1, *(b.x1 for b in fixed)]) - min([r.x0, *(b.x0 for b in fixed)])
 
     @property
     def big_m_y(self) -> float:
-        return self.spec.region.depth
+        """As `big_m_x`, for y."""
+        fixed = [r.fixed for r in self.spec.rects if r.fixed is not None]
+        r = self.spec.region
+        return max([r.y1, *(b.y1 for b in fixed)]) - min([r.y0, *(b.y0 for b in fixed)])
 
 
 def add_rect_vars(m: Model, spec: LevelSpec) -> dict[str, RectVars]:
     """Position and size variables, bounded only by the region's box."""
-    region = spec.region
-    return {
-        r.name: RectVars(
-            x=m.addVar(f"x[{r.name}]", lb=region.x0, ub=region.x1),
-            y=m.addVar(f"y[{r.name}]", lb=region.y0, ub=region.y1),
-            w=m.addVar(f"w[{r.name}]", lb=0, ub=region.width),
-            d=m.addVar(f"d[{r.name}]", lb=0, ub=region.depth),
+    rects = {}
+    for r in spec.rects:
+        b = r.fixed
+        rects[r.name] = RectVars(
+            x=m.addVar(f"x[{r.name}]", lb=b.x0 if b else spec.region.x0,
+                       ub=b.x0 if b else spec.region.x1),
+            y=m.addVar(f"y[{r.name}]", lb=b.y0 if b else spec.region.y0,
+                       ub=b.y0 if b else spec.region.y1),
+            w=m.addVar(f"w[{r.name}]", lb=b.width if b else 0,
+                       ub=b.width if b else spec.region.width),
+            d=m.addVar(f"d[{r.name}]", lb=b.depth if b else 0,
+                       ub=b.depth if b else spec.region.depth),
         )
-        for r in spec.rects
-    }
+    return rects
 
 
 def c_size(lm: LevelModel) -> None:
     """C_size (Eq. 5): min <= w <= max and min <= d <= max, as variable bounds."""
     m = lm.model
-    for r in lm.spec.rects:
+    for r in free_rects(lm.spec):
         v = lm.rects[r.name]
         m.chgVarLb(v.w, r.min_size[0])
         m.chgVarUb(v.w, min(r.max_size[0], lm.spec.region.width))
@@ -149,7 +171,7 @@ def c_inside(lm: LevelModel) -> None:
     """C_inside (Eq. 1) for the region's bounding box, plus no overlap with any blocked
     box (obstacles, the box outside the outline, fixed rooms): Eq. 2 against constants."""
     m, spec = lm.model, lm.spec
-    for r in spec.rects:
+    for r in free_rects(spec):
         v = lm.rects[r.name]
         m.addCons(v.x + v.w <= spec.region.x1, name=f"inside_x[{r.name}]")
         m.addCons(v.y + v.d <= spec.region.y1, name=f"inside_y[{r.name}]")
@@ -169,7 +191,7 @@ def c_overlap(lm: LevelModel) -> None:
     """C_overlap (Eq. 2): each pair is apart along one of four sides."""
     m = lm.model
     mx, my = lm.big_m_x, lm.big_m_y
-    for a, b in itertools.combinations(lm.spec.rects, 2):
+    for a, b in itertools.combinations(free_rects(lm.spec), 2):
         i, j = lm.rects[a.name], lm.rects[b.name]
         pair = f"{a.name},{b.name}"
         side = {s: m.addVar(f"side[{pair},{s}]", vtype="B") for s in ("L", "R", "B", "T")}
@@ -183,7 +205,7 @@ def c_overlap(lm: LevelModel) -> None:
 def c_ratio(lm: LevelModel) -> None:
     """C_ratio (Eq. 7): lo <= long/short <= hi, the binary choosing the orientation."""
     m = lm.model
-    for r in lm.spec.rects:
+    for r in free_rects(lm.spec):
         if r.aspect_ratio is None:
             continue
         lo, hi = r.aspect_ratio
@@ -199,7 +221,7 @@ def c_ratio(lm: LevelModel) -> None:
 def c_pos(lm: LevelModel) -> None:
     """C_pos (Eq. 8): the rectangle covers each of its guide points."""
     m = lm.model
-    for r in lm.spec.rects:
+    for r in free_rects(lm.spec):
         v = lm.rects[r.name]
         for k, (px, py) in enumerate(r.positions):
             m.addCons(v.x <= px, name=f"pos_w[{r.name},{k}]")
@@ -212,7 +234,7 @@ def c_boundary(lm: LevelModel) -> None:
     """C_boundary (Eq. 9, all four facings): one whole side of the rectangle lies on
     one of the candidate exterior edges; a binary rho_k per candidate edge."""
     m = lm.model
-    for r in lm.spec.rects:
+    for r in free_rects(lm.spec):
         if not r.edges:
             continue
         v = lm.rects[r.name]
@@ -229,8 +251,7 @@ def c_boundary(lm: LevelModel) -> None:
             along, length, across, extent = (
                 (v.x, v.w, v.y, v.d) if e.horizontal else (v.y, v.d, v.x, v.w)
             )
-            m_along = lm.big_m_x if e.horizontal else lm.big_m_y
-            m_across = lm.big_m_y if e.horizontal else lm.big_m_x
+            m_along, m_across = _edge_big_m(lm.spec.region, e)
             tag = f"{r.name},{e.index}"
             m.addCons(along >= lo - m_along * off, name=f"edge_lo[{tag}]")
             m.addCons(along + length <= hi + m_along * off, name=f"edge_hi[{tag}]")
@@ -278,7 +299,7 @@ def c_refine(lm: LevelModel) -> None:
     its own outer side, and may grow outward by at most delta. Eq. 13 is the vertical
     split (halves side by side); the horizontal one swaps the roles of x and y."""
     m = lm.model
-    for r in lm.spec.rects:
+    for r in free_rects(lm.spec):
         if r.refine is None:
             continue
         v, f = lm.rects[r.name], r.refine
@@ -347,11 +368,11 @@ def e_objective(lm: LevelModel) -> None:
     m, spec = lm.model, lm.spec
     ls, lc = spec.size_weight, spec.cover_weight
     terms = []
-    for r in spec.rects:
+    for r in free_rects(spec):
         v = lm.rects[r.name]
         w_hi = min(r.max_size[0], spec.region.width)
         d_hi = min(r.max_size[1], spec.region.depth)
-        tw, td = r.target if r.target is not None else _range_middle(r, w_hi, d_hi)
+        tw, td = _aim(spec, r)
         z = m.addVar(f"energy[{r.name}]", lb=-lc * w_hi * d_hi)
         m.addCons(
             ls * ((v.w - tw) * (v.w - tw) + (v.d - td) * (v.d - td)) - lc * v.w * v.d <= z,
@@ -400,10 +421,38 @@ def active_families(spec: LevelSpec) -> list[str]:
     return names
 
 
-def _range_middle(r: RectSpec, w_hi: float, d_hi: float) -> tuple[float, float]:
-    """Without a target a room aims for the middle of its size range: this keeps the
-    objective convex (a bare -w*d term is not) while E_cover still pulls it larger."""
+def _edge_big_m(region: Box, e: Edge) -> tuple[float, float]:
+    """Valid M along and across edge `e` for rectangles in `region`: the extent the
+    region and the edge span together (an edge may lie outside a sub-region)."""
+    lo, hi = e.span
+    if e.horizontal:
+        along = max(region.x1, hi) - min(region.x0, lo)
+        across = max(region.y1, e.line) - min(region.y0, e.line)
+    else:
+        along = max(region.y1, hi) - min(region.y0, lo)
+        across = max(region.x1, e.line) - min(region.x0, e.line)
+    return along, across
+
+
+def _aim(spec: LevelSpec, r: RectSpec) -> tuple[float, float]:
+    """The size a rectangle's E_size term pulls toward: its target, or without one the
+    middle of its size range, which keeps the objective convex (a bare -w*d term is
+    not) while E_cover still pulls the room larger."""
+    if r.target is not None:
+        return r.target
+    w_hi = min(r.max_size[0], spec.region.width)
+    d_hi = min(r.max_size[1], spec.region.depth)
     return ((r.min_size[0] + w_hi) / 2, (r.min_size[1] + d_hi) / 2)
+
+
+def level_objective(spec: LevelSpec, boxes: dict[str, Box]) -> float:
+    """Eq. 12 as `e_objective` states it, evaluated on given rectangles."""
+    total = spec.cover_weight * spec.free_area
+    for r in free_rects(spec):
+        b, (tw, td) = boxes[r.name], _aim(spec, r)
+        total += spec.size_weight * ((b.width - tw) ** 2 + (b.depth - td) ** 2)
+        total -= spec.cover_weight * b.width * b.depth
+    return total
 
 
 def _may_intersect(r: RectSpec, region: Box, b: Box) -> bool:

@@ -42,8 +42,15 @@ from solver.hierarchy import (
     select_subdomains,
 )
 from solver.level_one import level_one_spec, windows_to_try
+from solver.neighbourhood import search_neighbourhoods
 from solver.precheck import find_impossibilities
-from solver.scip_run import Incumbent, LevelResult, LevelStatus, rect_values, run_level, warm_start
+from solver.scip_run import (
+    Incumbent,
+    LevelResult,
+    LevelStatus,
+    complete_start,
+    run_level,
+)
 
 #: Seconds per job up to `BASE_ROOMS` rooms (Sec. 5.4) ...
 BASE_TIME = 5.0
@@ -52,6 +59,8 @@ BASE_ROOMS = 20
 LEVEL_ONE_SHARE = 0.6
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
+#: Share of level 1's improvement time for the full MIQP before neighbourhood search.
+DIRECT_SHARE = 0.4
 #: Output coordinates closer than this (metres) are made equal.
 OUTPUT_SNAP = 1e-5
 
@@ -165,8 +174,12 @@ def solve(
             budget = run.remaining() / levels_left / (len(subs) - i)
             plan = plan_refinement(problem, domain, pieces, sub, level=level, index=i, rng=rng)
             lm = build_level(plan.spec)
-            warm_start(lm, rect_values(plan.start))
-            result = run.run(lm, budget, i + 1, len(subs))
+            start = complete_start(lm, plan.start, time_limit=budget / 4)
+            if start.values is None:
+                run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=len(subs),
+                         detail=f"start not feasible: {start.status}")
+                continue
+            result = run.run(lm, budget - start.seconds, i + 1, len(subs))
             if result.rects is not None:
                 pieces = apply_refinement(pieces, plan, result.rects)
             run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=len(subs),
@@ -208,17 +221,39 @@ def _level_one(
         return None, _no_layout(run, termination, Infeasibility(
             reason="no layout was found within the time limit; feasibility is unknown",
             active_families=active_families(spec), relaxations_tried=run.relaxations))
-    spec = level_one_spec(problem, domain, window=None)
-    boxes = first.rects
-    assert boxes is not None and first.values is not None
-    left = deadline - time.monotonic()
-    if left > 0.05 and not run.stopped():
-        lm = build_level(spec)
-        warm_start(lm, first.values)
-        improved = run.run(lm, left)
-        if improved.rects is not None:
-            boxes = improved.rects
+    assert first.rects is not None
+    boxes = _improve_level_one(run, domain, first.rects, deadline)
     return [_piece(problem, domain, room_id, box) for room_id, box in boxes.items()], None
+
+
+def _improve_level_one(
+    run: _Run, domain: Domain, first: dict[str, Box], deadline: float
+) -> dict[str, Box]:
+    """Minimise Eq. 12 under the user's own bounds from the first layout, by
+    neighbourhood search on the level-1 MIQP."""
+    if deadline - time.monotonic() <= 0.1 or run.stopped():
+        return first
+    lm = build_level(level_one_spec(run.problem, domain, window=None))
+    start = complete_start(lm, first, time_limit=deadline - time.monotonic())
+    if start.values is None:
+        return first
+    # Small models solve outright; the rest of the time goes to neighbourhood search.
+    direct = run.run(lm, (deadline - time.monotonic()) * DIRECT_SHARE)
+    if direct.values is not None and direct.objective is not None and (
+        start.objective is None or direct.objective <= start.objective
+    ):
+        start = direct
+    assert start.rects is not None
+    if direct.status is LevelStatus.OPTIMAL or deadline - time.monotonic() <= 0.1:
+        return start.rects
+    best = search_neighbourhoods(
+        lm.spec, start.rects, domain, deadline=deadline,
+        rng=random.Random(run.problem.options.seed),
+        step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
+    )
+    run.emit(Phase.LEVEL, objective=best.objective,
+             detail=f"neighbourhood search: {best.improvements} of {best.steps} steps improved")
+    return best.rects
 
 
 def _piece(problem: Problem, domain: Domain, room_id: str, box: Box) -> Piece:

@@ -1,0 +1,425 @@
+"""The `floorplan` command line: solve a problem file from the shell.
+
+    floorplan solve PROBLEM.json -o LAYOUT.json [--svg PLAN.svg] [--time-limit S]
+                    [--seed K] [--max-levels N] [--quiet]
+
+Progress goes to stderr (one line per solver event, new incumbents at most a few
+times a second), then a one-line summary; the layout JSON goes to ``-o`` (stdout when
+``-o`` is ``-`` or omitted). Exit codes are the module constants ``EXIT_*`` below.
+
+Ctrl-C stops the solve gracefully: the best layout found so far is written and the
+command exits with 130. A second Ctrl-C aborts at once (see `sigint_flag` for how the
+signal is kept from SCIP). For that, this module imports the solver (and with it numpy,
+which starts native threads) only once SIGINT is blocked: keep its top-level imports
+to the standard library.
+
+The parser is built from subcommands so that ``serve`` and ``submit`` can join ``solve``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager, suppress
+from pathlib import Path
+from types import FrameType
+from typing import TYPE_CHECKING, Any, TextIO
+
+if TYPE_CHECKING:
+    from pydantic import ValidationError
+
+    from models import Layout, Problem
+    from solver.solve import SolveEvent
+
+EXIT_OK = 0
+"""A layout with rooms was written (it may still fail checks: see the warning)."""
+EXIT_FAILURE = 1
+"""The output could not be written."""
+EXIT_INVALID = 2
+"""Bad arguments or an invalid problem; nothing was solved."""
+EXIT_NO_LAYOUT = 3
+"""No layout: infeasible, or no solution within the time limit. The JSON report says why."""
+EXIT_INTERRUPTED = 130
+"""Stopped by Ctrl-C (128 + SIGINT, the shell's convention)."""
+
+#: Least seconds between two printed INCUMBENT events (other events are always printed).
+INCUMBENT_INTERVAL = 0.25
+#: Bounds at or beyond this magnitude are SCIP's infinity and printed as such.
+SCIP_INFINITY = 1e19
+#: `solver.solve.Phase.INCUMBENT` (a StrEnum), spelt out to keep the solver import lazy.
+INCUMBENT = "incumbent"
+#: Stands for "stdin" / "stdout" in file arguments.
+STDIO = "-"
+
+PROG = "floorplan"
+
+
+class UsageError(Exception):
+    """Input the command refuses before solving; the message is shown as is."""
+
+
+# -- the parser -------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Interior layouts from building outlines and room constraints "
+        "(MIQP on SCIP, after Wu et al.).",
+    )
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _add_solve(commands)
+    return parser
+
+
+def _add_solve(commands: Any) -> None:
+    p = commands.add_parser(
+        "solve",
+        help="lay out a problem file locally",
+        description="Solve PROBLEM (the JSON contract of DESIGN.md) and write the layout.",
+        epilog=f"exit codes: {EXIT_OK} layout written, {EXIT_INVALID} invalid input, "
+        f"{EXIT_NO_LAYOUT} no layout (the JSON report says why), "
+        f"{EXIT_INTERRUPTED} interrupted (the best layout so far is written), "
+        f"{EXIT_FAILURE} output not writable",
+    )
+    p.add_argument("problem", metavar="PROBLEM.json", help=f"problem file, '{STDIO}' for stdin")
+    p.add_argument("-o", "--output", metavar="LAYOUT.json", default=STDIO,
+                   help=f"where to write the layout JSON (default and '{STDIO}': stdout)")
+    p.add_argument("--svg", metavar="PLAN.svg", help="also draw the layout as SVG here")
+    p.add_argument("--time-limit", type=float, metavar="S",
+                   help="seconds for the whole solve (overrides options.time_limit)")
+    p.add_argument("--seed", type=int, metavar="K", help="random seed (overrides options.seed)")
+    p.add_argument("--max-levels", type=int, metavar="N",
+                   help="deepest hierarchy level (overrides options.max_levels)")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress or summary on stderr; warnings and errors only")
+    p.set_defaults(func=cmd_solve)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the `floorplan` console script; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)  # exits with 2 on a usage error, as argparse does
+    try:
+        # Before the command imports the solver: see `sigint_flag`.
+        with sigint_flag() as interrupted:
+            return args.func(args, interrupted)
+    except UsageError as err:
+        print(f"{PROG}: error: {err}", file=sys.stderr)
+        return EXIT_INVALID
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+# -- solve ------------------------------------------------------------------------------
+
+
+def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
+    from models import Termination
+    from solver.solve import solve
+
+    problem = load_problem(args.problem)
+    problem = with_overrides(problem, time_limit=args.time_limit, seed=args.seed,
+                             max_levels=args.max_levels)
+    for target in (args.output, args.svg):
+        _check_writable(target)
+    progress = None if args.quiet else ProgressPrinter(sys.stderr)
+    layout = solve(problem, on_event=progress, should_stop=interrupted)
+    stopped = interrupted() or layout.report.termination is Termination.INTERRUPTED
+    written = _write_outputs(args, problem, layout)
+    if not args.quiet:
+        print(summary_line(layout), file=sys.stderr)
+    if not written:
+        return EXIT_FAILURE
+    if not layout.rooms:
+        print(no_layout_message(layout), file=sys.stderr)
+    if stopped:
+        what = "the best layout found so far" if layout.rooms else "the report"
+        print(f"{PROG}: interrupted; wrote {what}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if not layout.rooms:
+        return EXIT_NO_LAYOUT
+    if not layout.report.valid:
+        print(invalid_layout_warning(layout), file=sys.stderr)
+    return EXIT_OK
+
+
+def load_problem(source: str) -> Problem:
+    """Read and validate a problem; raise `UsageError` naming the file, position or field."""
+    from pydantic import ValidationError
+
+    from models import Problem
+
+    name = "<stdin>" if source == STDIO else source
+    try:
+        text = sys.stdin.read() if source == STDIO else Path(source).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise UsageError(f"{name}: no such file") from None
+    except IsADirectoryError:
+        raise UsageError(f"{name}: is a directory, not a problem file") from None
+    except UnicodeDecodeError as err:
+        raise UsageError(f"{name}: not UTF-8 text (byte {err.start})") from None
+    except OSError as err:
+        raise UsageError(f"{name}: cannot read: {err.strerror or err}") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as err:
+        raise UsageError(
+            f"{name}: invalid JSON at line {err.lineno}, column {err.colno}: {err.msg}"
+        ) from None
+    try:
+        return Problem.model_validate(data)
+    except ValidationError as err:
+        raise UsageError(f"{name}: invalid problem\n{format_validation_error(err)}") from None
+
+
+def format_validation_error(err: ValidationError, prefix: str = "") -> str:
+    """One line per error, ``field.path: message``, e.g.
+    ``rooms.2.positions.0: position (20.0, 1.0) of room 'bath' is outside the boundary``."""
+    lines = []
+    for e in err.errors(include_url=False):
+        loc = ((prefix,) if prefix else ()) + tuple(e["loc"])
+        path = ".".join(str(part) for part in loc)
+        lines.append(f"  {path or '(problem)'}: {e['msg']}")
+    return "\n".join(lines)
+
+
+def with_overrides(problem: Problem, **overrides: Any) -> Problem:
+    """`problem` with the given options replaced (None means keep), validated again."""
+    from pydantic import ValidationError
+
+    from models import Options
+
+    update = {k: v for k, v in overrides.items() if v is not None}
+    if not update:
+        return problem
+    try:
+        options = Options.model_validate(problem.options.model_copy(update=update).model_dump())
+    except ValidationError as err:
+        flags = ", ".join(f"--{k.replace('_', '-')}" for k in update)
+        raise UsageError(f"invalid option ({flags})\n"
+                         f"{format_validation_error(err, 'options')}") from None
+    return problem.model_copy(update={"options": options})
+
+
+def _check_writable(target: str | None) -> None:
+    """Refuse before solving rather than lose the result afterwards."""
+    if target is None or target == STDIO:
+        return
+    parent = Path(target).resolve().parent
+    if not parent.is_dir():
+        raise UsageError(f"{target}: directory {parent} does not exist")
+    if Path(target).is_dir():
+        raise UsageError(f"{target}: is a directory")
+    if not os.access(parent, os.W_OK):
+        raise UsageError(f"{target}: directory {parent} is not writable")
+
+
+def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -> bool:
+    """Write the layout JSON and the SVG; False (with a message) when one failed."""
+    from solver.render import render_svg
+
+    ok = True
+    try:
+        _write_text(args.output, layout.model_dump_json(indent=2) + "\n")
+    except OSError as err:
+        print(f"{PROG}: error: cannot write {args.output}: {err}", file=sys.stderr)
+        ok = False
+    if args.svg:
+        try:
+            _write_text(args.svg, render_svg(problem, layout))
+        except OSError as err:
+            print(f"{PROG}: error: cannot write {args.svg}: {err}", file=sys.stderr)
+            ok = False
+    return ok
+
+
+def _write_text(target: str, text: str) -> None:
+    if target == STDIO:
+        sys.stdout.write(text)
+        sys.stdout.flush()
+        return
+    # Write then rename, so a reader never sees half a file.
+    path = Path(target)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+# -- Ctrl-C -----------------------------------------------------------------------------
+
+
+@contextmanager
+def sigint_flag() -> Iterator[Callable[[], bool]]:
+    """Within the block the first SIGINT only sets a flag (read it with the yielded
+    function, a `should_stop` for `solve`); a second one aborts the process at once.
+
+    SCIP installs its own SIGINT handler while it optimises (misc/catchctrlc): it ends
+    the current MIQP only, and a Python handler never hears of the signal, so the solve
+    would go on with the next one. Hence SIGINT is blocked in this thread (and in the
+    threads it starts) and a watcher thread takes it with ``sigwait``: no handler, ours
+    or SCIP's, ever runs. Where ``pthread_sigmask`` is missing a plain handler does."""
+    if threading.current_thread() is not threading.main_thread():
+        yield lambda: False  # signals reach the main thread only; leave them alone
+        return
+    if not hasattr(signal, "pthread_sigmask"):
+        with _sigint_handler() as received:
+            yield received
+        return
+    watcher = _SigintWatcher()
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        watcher.start()
+        yield watcher.received
+    finally:
+        watcher.stop()
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+class _SigintWatcher:
+    """A daemon thread waiting for SIGINT with ``sigwait`` (see `sigint_flag`)."""
+
+    def __init__(self) -> None:
+        self._received = False
+        self._closing = False
+        self._thread = threading.Thread(target=self._watch, name="sigint-watcher", daemon=True)
+
+    def received(self) -> bool:
+        return self._received
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._closing = True
+        if self._thread.ident is not None and self._thread.is_alive():
+            with suppress(OSError):  # it may have just taken a last real SIGINT and ended
+                signal.pthread_kill(self._thread.ident, signal.SIGINT)
+        self._thread.join()
+
+    def _watch(self) -> None:
+        while True:
+            signal.sigwait({signal.SIGINT})
+            if self._closing:
+                return
+            if self._received:
+                print(f"{PROG}: aborted", file=sys.stderr, flush=True)
+                os._exit(EXIT_INTERRUPTED)
+            self._received = True
+            print(f"{PROG}: stopping; the best layout so far will be written "
+                  "(Ctrl-C again to abort)", file=sys.stderr, flush=True)
+
+
+@contextmanager
+def _sigint_handler() -> Iterator[Callable[[], bool]]:
+    received = False
+
+    def handler(_signum: int, _frame: FrameType | None) -> None:
+        nonlocal received
+        if received:
+            raise KeyboardInterrupt
+        received = True
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        yield lambda: received
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+# -- messages ---------------------------------------------------------------------------
+
+
+class ProgressPrinter:
+    """An `on_event` sink printing one line per event, incumbents throttled.
+
+    An incumbent that came too soon after the last printed one is held back and
+    printed before the next other event, so each MIQP's last incumbent shows."""
+
+    def __init__(self, stream: TextIO, interval: float = INCUMBENT_INTERVAL,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.stream = stream
+        self.interval = interval
+        self.clock = clock
+        self._last_incumbent = -math.inf
+        self._held: SolveEvent | None = None
+
+    def __call__(self, event: SolveEvent) -> None:
+        if event.phase == INCUMBENT:
+            now = self.clock()
+            if now - self._last_incumbent < self.interval:
+                self._held = event
+                return
+            self._last_incumbent = now
+        elif self._held is not None:
+            self._print(self._held)
+        self._held = None
+        self._print(event)
+
+    def _print(self, event: SolveEvent) -> None:
+        print(progress_line(event), file=self.stream, flush=True)
+
+
+def progress_line(event: SolveEvent) -> str:
+    """E.g. ``[  1.23s] level 2 sub 1/3  obj 12.41  bound 3.20  rooms a, b: optimal``."""
+    parts = [f"[{event.elapsed:6.2f}s] level {event.level}"]
+    if event.subdomains:
+        parts[0] += f" sub {event.subdomain}/{event.subdomains}"
+    if event.objective is not None:
+        parts.append(f"obj {_number(event.objective)}")
+    if event.dual_bound is not None:
+        parts.append(f"bound {_number(event.dual_bound)}")
+    detail = event.detail.removeprefix(f"level {event.level}: ")  # said already
+    parts.append(detail or ("new incumbent" if event.phase == INCUMBENT else event.phase))
+    return "  ".join(parts)
+
+
+def summary_line(layout: Layout) -> str:
+    r = layout.report
+    return (f"{len(layout.rooms)} rooms  coverage {r.coverage:.1%}  levels {r.levels}  "
+            f"termination {r.termination.value}  valid {'yes' if r.valid else 'no'}  "
+            f"solve time {r.solve_time:.2f} s")
+
+
+def invalid_layout_warning(layout: Layout) -> str:
+    failed = [c for c in layout.report.constraints if not c.satisfied]
+    lines = [f"{PROG}: warning: the layout fails {len(failed)} check(s):"]
+    for c in failed:
+        rooms = ", ".join(c.rooms)
+        lines.append(f"  {c.kind}{' ' + rooms if rooms else ''}"
+                     f"{': ' + c.detail if c.detail else ''}")
+    return "\n".join(lines)
+
+
+def no_layout_message(layout: Layout) -> str:
+    r = layout.report
+    why = r.infeasibility
+    lines = [f"{PROG}: no layout ({r.termination.value}): "
+             f"{why.reason if why else 'no reason given'}"]
+    if why is not None:
+        lines += _section("findings", why.findings)
+        lines += _section("relaxations tried", why.relaxations_tried)
+        lines += _section("constraint families", why.active_families)
+    return "\n".join(lines)
+
+
+def _section(title: str, items: Sequence[str]) -> list[str]:
+    return [f"  {title}:", *(f"    - {item}" for item in items)] if items else []
+
+
+def _number(value: float) -> str:
+    if not math.isfinite(value) or abs(value) >= SCIP_INFINITY:
+        return "-inf" if value < 0 else "inf"
+    value += 0.0  # no "-0.00"
+    return f"{value:.2f}" if abs(value) < 1e6 else f"{value:.3g}"

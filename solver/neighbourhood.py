@@ -1,0 +1,138 @@
+"""Large-neighbourhood search on one level: free a few rooms around a gap, hold the
+others where they are, re-solve. SCIP's branch-and-bound on the full model improves
+the incumbent slowly (big-M disjunctions relax weakly), while the MIQP of five free
+rooms among fixed walls solves in a fraction of a second and may move, swap or
+resize them, which the grow-only refinement levels cannot."""
+
+from __future__ import annotations
+
+import random
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import shapely
+
+from solver.formulation import LevelModel, LevelSpec, build_level, level_objective
+from solver.geometry import Box, Domain
+from solver.scip_run import LevelResult, LevelStatus, complete_start
+
+#: Rooms freed per neighbourhood.
+NEIGHBOURHOOD_SIZE = 5
+#: Seconds one neighbourhood solve may take at most.
+STEP_LIMIT = 0.5
+#: Relative objective gain below which a step counts as no improvement.
+MIN_GAIN = 1e-6
+#: Uncovered parts smaller than this (m²) do not attract a neighbourhood.
+GAP_AREA = 1e-3
+
+Step = Callable[[LevelModel, float], LevelResult]
+
+
+@dataclass(frozen=True)
+class Incumbent:
+    rects: dict[str, Box]
+    objective: float
+    steps: int = 0
+    improvements: int = 0
+
+
+def search_neighbourhoods(
+    spec: LevelSpec,
+    rects: dict[str, Box],
+    domain: Domain,
+    *,
+    deadline: float,
+    rng: random.Random,
+    step: Step,
+    should_stop: Callable[[], bool] | None = None,
+) -> Incumbent:
+    """Improve the layout `rects` of the one-rectangle-per-room level `spec` until
+    `deadline`; each accepted step lowers Eq. 12."""
+    best = Incumbent(dict(rects), level_objective(spec, rects))
+    failures = 0
+    while time.monotonic() < deadline - 0.05 and not (should_stop and should_stop()):
+        if len(rects) <= NEIGHBOURHOOD_SIZE and failures > 0:
+            break  # the neighbourhood is the whole level: nothing more to gain
+        free = choose_neighbourhood(best.rects, domain, rng, around_gap=failures % 3 != 2)
+        sub = neighbourhood_spec(spec, best.rects, free)
+        lm = build_level(sub)
+        limit = min(STEP_LIMIT, deadline - time.monotonic())
+        start = complete_start(lm, {r.name: best.rects[r.name] for r in sub.rects
+                                    if r.fixed is None}, time_limit=limit / 4)
+        result = step(lm, limit - start.seconds) if start.values is not None else start
+        candidate = dict(best.rects)
+        if result.rects is not None:
+            candidate.update({n: b for n, b in result.rects.items() if n in free})
+        objective = level_objective(spec, candidate)
+        gain = best.objective - objective
+        improved = result.rects is not None and gain > MIN_GAIN * max(1.0, abs(best.objective))
+        best = Incumbent(candidate if improved else best.rects,
+                         objective if improved else best.objective,
+                         best.steps + 1, best.improvements + int(improved))
+        failures = 0 if improved else failures + 1
+        if result.status is LevelStatus.INTERRUPTED:
+            break
+    return best
+
+
+def neighbourhood_spec(
+    spec: LevelSpec, rects: dict[str, Box], free: set[str], extra: tuple[Box, ...] = ()
+) -> LevelSpec:
+    """`spec` with only the `free` rooms placed: every other room is a blocked box, and
+    held as a fixed rectangle where a contact of a free room names it."""
+    partners = {n for c in spec.contacts if _names(c.a, c.partners) & free
+                for n in _names(c.a, c.partners)} - free
+    kept = []
+    for r in spec.rects:
+        if r.name in free:
+            kept.append(r)
+        elif r.name in partners:
+            kept.append(replace(r, fixed=rects[r.name]))
+    contacts = tuple(c for c in spec.contacts if _names(c.a, c.partners) & free)
+    # The free rooms rearrange within the box they span with the gap near them: a
+    # smaller box means fewer disjunctions and smaller big-M values.
+    region = _clip(_span([rects[n] for n in free] + list(extra)), spec.region)
+    settled = [rects[r.name] for r in spec.rects if r.name not in free]
+    blocked = tuple(_clip(b, region) for b in (*spec.blocked, *settled) if _overlaps(b, region))
+    return replace(spec, name=f"{spec.name}/lns", region=region, rects=tuple(kept),
+                   contacts=contacts, blocked=blocked)
+
+
+def _span(boxes: list[Box]) -> Box:
+    return Box(min(b.x0 for b in boxes), min(b.y0 for b in boxes),
+               max(b.x1 for b in boxes), max(b.y1 for b in boxes))
+
+
+def _clip(b: Box, region: Box) -> Box:
+    return Box(max(b.x0, region.x0), max(b.y0, region.y0),
+               min(b.x1, region.x1), min(b.y1, region.y1))
+
+
+def _overlaps(a: Box, b: Box) -> bool:
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+def _names(a: tuple[str, ...], partners: tuple[tuple[str, ...], ...]) -> set[str]:
+    return set(a) | {n for group in partners for n in group}
+
+
+def choose_neighbourhood(
+    rects: dict[str, Box], domain: Domain, rng: random.Random, *, around_gap: bool
+) -> set[str]:
+    """The rooms nearest to a gap (a random one, weighted by area), or to a random room."""
+    centre = None
+    if around_gap:
+        rest = domain.free.difference(shapely.union_all([b.to_polygon() for b in rects.values()]))
+        gaps = [g for g in getattr(rest, "geoms", [rest]) if g.area > GAP_AREA]
+        if gaps:
+            centre = rng.choices(gaps, weights=[g.area for g in gaps])[0]
+    if centre is None:
+        centre = rects[rng.choice(sorted(rects))].to_polygon()
+    by_distance = sorted(rects, key=lambda r: (rects[r].to_polygon().distance(centre), r))
+    # The nearest rooms, and now and then a random further one to escape local optima.
+    chosen = set(by_distance[:NEIGHBOURHOOD_SIZE])
+    if len(by_distance) > NEIGHBOURHOOD_SIZE and rng.random() < 0.3:
+        chosen.discard(by_distance[NEIGHBOURHOOD_SIZE - 1])
+        chosen.add(rng.choice(by_distance[NEIGHBOURHOOD_SIZE:]))
+    return chosen
