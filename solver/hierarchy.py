@@ -314,3 +314,71 @@ def _rect_union(a: Box, b: Box, tol: float = 1e-6) -> Box | None:
     if same_y and (abs(a.x1 - b.x0) <= tol or abs(b.x1 - a.x0) <= tol):
         return Box(min(a.x0, b.x0), a.y0, max(a.x1, b.x1), a.y1)
     return None
+
+
+def absorb_gaps(problem: Problem, domain: Domain, pieces: Sequence[Piece]) -> list[Piece]:
+    """The last refinement step: each leftover gap rectangle is cut along the walls of
+    the rooms bordering one of its sides, and each cut goes to the room it borders when
+    that room's bounding box stays within its size and ratio bounds. Rooms only grow,
+    so every other constraint keeps holding."""
+    result = list(pieces)
+    for gap in uncovered_gaps(domain, result):
+        for cell in rectangles_of(gap):
+            result = _absorb_cell(problem, result, cell)
+    return merge_rectangular_pairs(result)
+
+
+def _absorb_cell(problem: Problem, pieces: list[Piece], cell: Box) -> list[Piece]:
+    for side in ("south", "north", "west", "east"):
+        cuts = _cuts_along(pieces, cell, side)
+        if cuts is None:
+            continue
+        grown = list(pieces)
+        for room_id, part in cuts:
+            candidate = [*grown, Piece(f"{room_id}+{len(grown)}", room_id, part)]
+            if _within_bounds(problem, room_id, [p.box for p in candidate if p.room == room_id]):
+                grown = candidate
+        if len(grown) > len(pieces):
+            return grown
+    return pieces
+
+
+def _cuts_along(pieces: Sequence[Piece], cell: Box, side: str) -> list[tuple[str, Box]] | None:
+    """The cell cut perpendicular to `side` where the rooms bordering that side change;
+    None when the side is not bordered by rooms along its whole length."""
+    horizontal = side in ("south", "north")
+    line = {"south": cell.y0, "north": cell.y1, "west": cell.x0, "east": cell.x1}[side]
+    lo, hi = (cell.x0, cell.x1) if horizontal else (cell.y0, cell.y1)
+    spans = []
+    for p in pieces:
+        b = p.box
+        touches = (abs(b.y1 - line) <= 1e-6 if side == "south" else
+                   abs(b.y0 - line) <= 1e-6 if side == "north" else
+                   abs(b.x1 - line) <= 1e-6 if side == "west" else abs(b.x0 - line) <= 1e-6)
+        a0, a1 = (b.x0, b.x1) if horizontal else (b.y0, b.y1)
+        if touches and min(a1, hi) - max(a0, lo) > 1e-6:
+            spans.append((max(a0, lo), min(a1, hi), p.room))
+    spans.sort()
+    at, cuts = lo, []
+    for s0, s1, room_id in spans:
+        if s0 > at + 1e-6:
+            return None
+        if s1 <= at + 1e-6:
+            continue
+        part = (Box(at, cell.y0, s1, cell.y1) if horizontal else Box(cell.x0, at, cell.x1, s1))
+        cuts.append((room_id, part))
+        at = s1
+    return cuts if at >= hi - 1e-6 else None
+
+
+def _within_bounds(problem: Problem, room_id: str, boxes: list[Box]) -> bool:
+    room = problem.room(room_id)
+    b = bounding_box(boxes)
+    if room.max_size and (b.width > room.max_size[0] + 1e-9 or b.depth > room.max_size[1] + 1e-9):
+        return False
+    if room.aspect_ratio:
+        lo, hi = room.aspect_ratio
+        ratio = max(b.width, b.depth) / max(min(b.width, b.depth), EPS)
+        if not lo - 1e-9 <= ratio <= hi + 1e-9:
+            return False
+    return True

@@ -35,6 +35,7 @@ from solver.geometry import (
 )
 from solver.hierarchy import (
     Piece,
+    absorb_gaps,
     apply_refinement,
     on_edge,
     plan_refinement,
@@ -185,6 +186,7 @@ def solve(
             run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=len(subs),
                      objective=result.objective,
                      detail=f"rooms {', '.join(sorted(sub.rooms))}: {result.status}")
+    pieces = absorb_gaps(problem, domain, pieces)
     return _layout(run, domain, pieces, levels)
 
 
