@@ -268,7 +268,8 @@ def c_adj(lm: LevelModel) -> None:
     m = lm.model
     mx, my = lm.big_m_x, lm.big_m_y
     for c in lm.spec.contacts:
-        pairs = [(a, b) for group in c.partners for b in group for a in c.a]
+        # dict.fromkeys: a partner named twice is still one candidate pair.
+        pairs = list(dict.fromkeys((a, b) for group in c.partners for b in group for a in c.a))
         if len(pairs) == 1:
             chosen: dict[tuple[str, str], Any] = {pairs[0]: 1.0}
         else:
@@ -418,6 +419,8 @@ def active_families(spec: LevelSpec) -> list[str]:
         names.append("C_adj")
     if any(r.refine for r in spec.rects):
         names.append("C_refine")
+    if spec.envelopes:
+        names.append("C_envelope")
     return names
 
 

@@ -1,0 +1,209 @@
+"""End-to-end behaviour of `solve`: real SCIP, small problems, small time limits."""
+
+from __future__ import annotations
+
+import itertools
+import random
+import time
+from typing import Any
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from models import Problem, Termination
+from solver.checker import check_layout
+from solver.geometry import Box, shared_wall_length
+from solver.solve import Phase, SolveEvent, solve
+
+
+def problem(**fields: Any) -> Problem:
+    return Problem.model_validate(fields)
+
+
+L_SHAPE_WITH_OBSTACLE = problem(
+    name="l-shape",
+    boundary=[[0, 0], [8, 0], [8, 4], [4, 4], [4, 8], [0, 8]],
+    obstacles=[{"x": 1, "y": 5, "width": 1, "depth": 1, "label": "shaft"}],
+    entrance=[2, 0],
+    rooms=[
+        {"id": "living", "type": "living", "min_size": [2, 2], "max_size": [6, 6],
+         "target_size": [4, 4], "positions": [[2, 0.5]]},
+        {"id": "kitchen", "type": "kitchen", "min_size": [2, 2], "max_size": [5, 5],
+         "target_size": [3, 3], "boundary": ["east"]},
+        {"id": "bed", "type": "bedroom", "min_size": [2, 2], "max_size": [5, 5],
+         "target_size": [3.5, 3.5], "boundary": ["north"]},
+    ],
+    adjacency=[{"a": "living", "b": "kitchen"}, {"a": "living", "b": "bed"}],
+    options={"time_limit": 4, "seed": 1},
+)
+
+
+def test_hierarchy_covers_an_l_shaped_domain_with_an_obstacle_completely() -> None:
+    layout = solve(L_SHAPE_WITH_OBSTACLE)
+    report = layout.report
+    assert report.valid, [c for c in report.constraints if not c.satisfied]
+    assert report.coverage == pytest.approx(1.0, abs=1e-6)
+    assert report.uncovered_area == pytest.approx(0.0, abs=1e-4)
+    # The shaft can only be covered around: some room is not a rectangle.
+    assert any(len(r.polygon) > 4 for r in layout.rooms)
+    for room in layout.rooms:
+        assert room.area > 0
+        assert _counter_clockwise(room.polygon)
+
+
+def _counter_clockwise(ring: list[tuple[float, float]]) -> bool:
+    edges = zip(ring, ring[1:] + ring[:1], strict=True)
+    twice_area = sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in edges)
+    return twice_area > 0
+
+
+def test_report_agrees_with_an_independent_check_of_the_returned_rectangles() -> None:
+    layout = solve(L_SHAPE_WITH_OBSTACLE)
+    rooms = {r.id: [Box.of(rect) for rect in r.rectangles] for r in layout.rooms}
+    again = check_layout(L_SHAPE_WITH_OBSTACLE, rooms)
+    assert again.valid == layout.report.valid
+    assert again.coverage == pytest.approx(layout.report.coverage)
+    assert [c.satisfied for c in again.constraints] == [
+        c.satisfied for c in layout.report.constraints
+    ]
+
+
+def test_progress_events_report_levels_and_a_final_done() -> None:
+    events: list[SolveEvent] = []
+    solve(L_SHAPE_WITH_OBSTACLE, on_event=events.append)
+    phases = [e.phase for e in events]
+    assert phases[0] is Phase.LEVEL and phases[-1] is Phase.DONE
+    assert Phase.INCUMBENT in phases
+    assert all(b.elapsed >= a.elapsed for a, b in itertools.pairwise(events))
+
+
+TWELVE_OFFICES = problem(
+    name="offices",
+    boundary=[[0, 0], [16, 0], [16, 9], [0, 9]],
+    rooms=[{"id": f"office{k}", "min_size": [2, 2], "max_size": [6, 6],
+            "target_size": [4.1 - 0.1 * (k % 3), 3.0]} for k in range(12)],
+    options={"time_limit": 60},
+)
+
+
+def test_should_stop_interrupts_and_keeps_the_best_layout_so_far() -> None:
+    started = time.monotonic()
+    layout = solve(TWELVE_OFFICES, should_stop=lambda: time.monotonic() - started > 1.5)
+    assert layout.report.termination is Termination.INTERRUPTED
+    assert time.monotonic() - started < 10
+    assert layout.report.valid
+    assert len(layout.rooms) == 12
+
+
+@pytest.mark.parametrize(
+    ("fields", "finding"),
+    [
+        ({"rooms": [{"id": "a", "min_size": [3, 3]}, {"id": "b", "min_size": [3, 3]}]},
+         "minimum sizes need"),
+        ({"rooms": [{"id": "a", "min_size": [5, 1]}]}, "fits nowhere"),
+        ({"rooms": [{"id": "a"}, {"id": "b"}], "adjacency": [{"a": "a", "any_of": ["a"]}]},
+         "touch itself"),
+        ({"rooms": [{"id": "a", "min_size": [1, 1], "max_size": [1.5, 1.5],
+                     "aspect_ratio": [2, 3]}]}, "aspect ratio"),
+        ({"rooms": [{"id": "a", "max_size": [1, 1], "positions": [[0.5, 0.5], [3.5, 3.5]]}]},
+         "both its positions"),
+    ],
+)
+def test_cheap_impossibilities_are_reported_before_solving(
+    fields: dict[str, Any], finding: str
+) -> None:
+    p = problem(boundary=[[0, 0], [4, 0], [4, 4], [0, 4]], **fields)
+    layout = solve(p)
+    assert layout.report.termination is Termination.INFEASIBLE
+    assert layout.rooms == []
+    assert layout.report.infeasibility is not None
+    assert any(finding in f for f in layout.report.infeasibility.findings)
+
+
+def test_infeasibility_proved_by_scip_names_families_and_relaxations() -> None:
+    # Each room fits alone, the areas add up, but three 2.6 m squares cannot share a
+    # 5 x 5 square without overlapping.
+    p = problem(
+        boundary=[[0, 0], [5, 0], [5, 5], [0, 5]],
+        rooms=[{"id": k, "min_size": [2.6, 2.6], "max_size": [4.5, 4.5], "target_size": [3, 3]}
+               for k in "abc"],
+        options={"time_limit": 5},
+    )
+    layout = solve(p)
+    report = layout.report
+    assert report.termination is Termination.INFEASIBLE
+    assert report.infeasibility is not None
+    assert "C_overlap" in report.infeasibility.active_families
+    assert report.infeasibility.relaxations_tried[-1].startswith("user bounds")
+    assert len(report.infeasibility.relaxations_tried) > 1
+
+
+def test_same_seed_gives_the_same_layout_on_a_small_problem() -> None:
+    first = solve(L_SHAPE_WITH_OBSTACLE)
+    second = solve(L_SHAPE_WITH_OBSTACLE)
+    if first.report.termination is Termination.OPTIMAL:
+        assert [r.rectangles for r in first.rooms] == [r.rectangles for r in second.rooms]
+    else:  # bounded by wall-clock time: only the quality is comparable
+        assert second.report.valid == first.report.valid
+
+
+# Property: every problem read off a real partition is solved validly.
+
+
+@st.composite
+def partitioned_problems(draw: st.DrawFn) -> Problem:
+    """Cut a rectangle into 2-5 rooms by random guillotine cuts, then ask for what the
+    partition shows: sizes around each room's, shared walls as adjacencies, touched
+    edges as boundary constraints, room centres as positions. Feasible by construction."""
+    seed = draw(st.integers(0, 10_000))
+    count = draw(st.integers(2, 5))
+    rng = random.Random(seed)
+    width, depth = rng.choice([6.0, 8.0, 10.0]), rng.choice([5.0, 6.0, 8.0])
+    boxes = [Box(0, 0, width, depth)]
+    while len(boxes) < count:
+        boxes.sort(key=lambda b: b.area)
+        b = boxes.pop()
+        if b.width >= b.depth:
+            cut = round(b.x0 + b.width * rng.uniform(0.35, 0.65), 1)
+            boxes += [Box(b.x0, b.y0, cut, b.y1), Box(cut, b.y0, b.x1, b.y1)]
+        else:
+            cut = round(b.y0 + b.depth * rng.uniform(0.35, 0.65), 1)
+            boxes += [Box(b.x0, b.y0, b.x1, cut), Box(b.x0, cut, b.x1, b.y1)]
+    rooms = []
+    for k, b in enumerate(boxes):
+        room: dict[str, Any] = {
+            "id": f"r{k}",
+            "min_size": [round(b.width * 0.7, 2), round(b.depth * 0.7, 2)],
+            "max_size": [round(b.width * 1.3, 2), round(b.depth * 1.3, 2)],
+            "target_size": [b.width, b.depth],
+        }
+        if rng.random() < 0.4:
+            room["positions"] = [[(b.x0 + b.x1) / 2, (b.y0 + b.y1) / 2]]
+        touched = [name for name, hit in (("south", b.y0 == 0), ("north", b.y1 == depth),
+                                          ("west", b.x0 == 0), ("east", b.x1 == width)) if hit]
+        if touched and rng.random() < 0.5:
+            room["boundary"] = [rng.choice(touched)]
+        rooms.append(room)
+    adjacency = [
+        {"a": f"r{i}", "b": f"r{j}", "min_contact": 0.9}
+        for i in range(len(boxes)) for j in range(i + 1, len(boxes))
+        if shared_wall_length(boxes[i].to_polygon(), boxes[j].to_polygon()) >= 1.5
+        and rng.random() < 0.6
+    ]
+    return problem(
+        name=f"partition-{seed}",
+        boundary=[[0, 0], [width, 0], [width, depth], [0, depth]],
+        rooms=rooms, adjacency=adjacency,
+        options={"time_limit": 2, "seed": seed % 7, "max_levels": 2},
+    )
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(partitioned_problems())
+def test_solved_layouts_of_feasible_problems_always_pass_the_checker(p: Problem) -> None:
+    layout = solve(p)
+    report = layout.report
+    assert report.termination not in (Termination.INFEASIBLE, Termination.NO_SOLUTION)
+    assert report.valid, [c for c in report.constraints if not c.satisfied]
+    assert {r.id for r in layout.rooms} == {r.id for r in p.rooms}
