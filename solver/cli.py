@@ -141,15 +141,13 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
         return EXIT_FAILURE
     if not layout.rooms:
         print(no_layout_message(layout), file=sys.stderr)
+    elif not layout.report.valid:
+        print(invalid_layout_warning(layout), file=sys.stderr)
     if stopped:
         what = "the best layout found so far" if layout.rooms else "the report"
         print(f"{PROG}: interrupted; wrote {what}", file=sys.stderr)
         return EXIT_INTERRUPTED
-    if not layout.rooms:
-        return EXIT_NO_LAYOUT
-    if not layout.report.valid:
-        print(invalid_layout_warning(layout), file=sys.stderr)
-    return EXIT_OK
+    return EXIT_OK if layout.rooms else EXIT_NO_LAYOUT
 
 
 def load_problem(source: str) -> Problem:
@@ -269,7 +267,10 @@ def sigint_flag() -> Iterator[Callable[[], bool]]:
     the current MIQP only, and a Python handler never hears of the signal, so the solve
     would go on with the next one. Hence SIGINT is blocked in this thread (and in the
     threads it starts) and a watcher thread takes it with ``sigwait``: no handler, ours
-    or SCIP's, ever runs. Where ``pthread_sigmask`` is missing a plain handler does."""
+    or SCIP's, ever runs. Where ``pthread_sigmask`` is missing a plain handler does.
+
+    Threads started before the block keep SIGINT unblocked and may take it (numpy's
+    OpenBLAS starts some on import): enter it before the solver is imported."""
     if threading.current_thread() is not threading.main_thread():
         yield lambda: False  # signals reach the main thread only; leave them alone
         return
@@ -421,5 +422,6 @@ def _section(title: str, items: Sequence[str]) -> list[str]:
 def _number(value: float) -> str:
     if not math.isfinite(value) or abs(value) >= SCIP_INFINITY:
         return "-inf" if value < 0 else "inf"
-    value += 0.0  # no "-0.00"
-    return f"{value:.2f}" if abs(value) < 1e6 else f"{value:.3g}"
+    if abs(value) >= 1e6:
+        return f"{value:.3g}"
+    return f"{round(value, 2) + 0.0:.2f}"  # + 0.0: no "-0.00"
