@@ -7,8 +7,9 @@ Progress goes to stderr (one line per solver event, new incumbents at most a few
 times a second), then a one-line summary; the layout JSON goes to ``-o`` (stdout when
 ``-o`` is ``-`` or omitted). Exit codes are the module constants ``EXIT_*`` below.
 
-Ctrl-C stops the solve gracefully: the best layout found so far is written and the
-command exits with 130. A second Ctrl-C aborts at once (see `sigint_flag` for how the
+Ctrl-C stops the solve gracefully: the best layout found so far is written (exit 0,
+``report.termination`` "interrupted"; 130 when there was none yet). A second Ctrl-C
+aborts at once with 130 (see `sigint_flag` for how the
 signal is kept from SCIP). For that, this module imports the solver (and with it numpy,
 which starts native threads) only once SIGINT is blocked: keep its top-level imports
 to the standard library.
@@ -39,7 +40,8 @@ if TYPE_CHECKING:
     from solver.solve import SolveEvent
 
 EXIT_OK = 0
-"""A layout with rooms was written (it may still fail checks: see the warning)."""
+"""A layout with rooms was written (it may still fail checks: see the warning; a
+Ctrl-C may have cut the solve short: see ``report.termination``)."""
 EXIT_FAILURE = 1
 """The output could not be written."""
 EXIT_INVALID = 2
@@ -47,7 +49,8 @@ EXIT_INVALID = 2
 EXIT_NO_LAYOUT = 3
 """No layout: infeasible, or no solution within the time limit. The JSON report says why."""
 EXIT_INTERRUPTED = 130
-"""Stopped by Ctrl-C (128 + SIGINT, the shell's convention)."""
+"""Stopped by Ctrl-C before there was a layout, or aborted by a second one
+(128 + SIGINT, the shell's convention)."""
 
 #: Least seconds between two printed INCUMBENT events (other events are always printed).
 INCUMBENT_INTERVAL = 0.25
@@ -86,7 +89,8 @@ def _add_solve(commands: Any) -> None:
         description="Solve PROBLEM (the JSON contract of DESIGN.md) and write the layout.",
         epilog=f"exit codes: {EXIT_OK} layout written, {EXIT_INVALID} invalid input, "
         f"{EXIT_NO_LAYOUT} no layout (the JSON report says why), "
-        f"{EXIT_INTERRUPTED} interrupted (the best layout so far is written), "
+        f"{EXIT_INTERRUPTED} interrupted before a layout was found (Ctrl-C once stops "
+        "the solve and writes the best layout so far; twice aborts), "
         f"{EXIT_FAILURE} output not writable",
     )
     p.add_argument("problem", metavar="PROBLEM.json", help=f"problem file, '{STDIO}' for stdin")
@@ -146,7 +150,7 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
     if stopped:
         what = "the best layout found so far" if layout.rooms else "the report"
         print(f"{PROG}: interrupted; wrote {what}", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return EXIT_OK if layout.rooms else EXIT_INTERRUPTED
     return EXIT_OK if layout.rooms else EXIT_NO_LAYOUT
 
 
