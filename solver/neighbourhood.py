@@ -17,8 +17,10 @@ from solver.formulation import LevelModel, LevelSpec, build_level, level_objecti
 from solver.geometry import Box, Domain
 from solver.scip_run import LevelResult, LevelStatus, complete_start
 
-#: Rooms freed per neighbourhood.
+#: Rooms freed per neighbourhood at first ...
 NEIGHBOURHOOD_SIZE = 5
+#: ... and at most, as failed steps widen it.
+MAX_NEIGHBOURHOOD_SIZE = 10
 #: Seconds one neighbourhood solve may take at most.
 STEP_LIMIT = 0.5
 #: Relative objective gain below which a step counts as no improvement.
@@ -46,16 +48,24 @@ def search_neighbourhoods(
     rng: random.Random,
     step: Step,
     should_stop: Callable[[], bool] | None = None,
+    keep_coverage: bool = False,
 ) -> Incumbent:
     """Improve the layout `rects` of the one-rectangle-per-room level `spec` until
-    `deadline`; each accepted step lowers Eq. 12."""
+    `deadline`; each accepted step lowers Eq. 12 (under `spec`'s weights) and, with
+    `keep_coverage`, covers no less of the domain."""
     best = Incumbent(dict(rects), level_objective(spec, rects))
-    failures = 0
+    coverage = covered_area(domain, best.rects)
+    size = NEIGHBOURHOOD_SIZE
+    tried: set[frozenset[str]] = set()  # neighbourhoods already optimal for this incumbent
     while time.monotonic() < deadline - 0.05 and not (should_stop and should_stop()):
-        if len(rects) <= NEIGHBOURHOOD_SIZE and failures > 0:
-            break  # the neighbourhood is the whole level: nothing more to gain
-        free = choose_neighbourhood(best.rects, domain, rng, around_gap=failures % 3 != 2)
-        sub = neighbourhood_spec(spec, best.rects, free)
+        free, gap = choose_neighbourhood(best.rects, domain, rng, size=size,
+                                         around_gap=best.steps % 3 != 2)
+        if frozenset(free) in tried:
+            if size >= len(rects):
+                break  # every neighbourhood of every size is exhausted
+            size += 1
+            continue
+        sub = neighbourhood_spec(spec, best.rects, free, extra=gap)
         lm = build_level(sub)
         limit = min(STEP_LIMIT, deadline - time.monotonic())
         start = complete_start(lm, {r.name: best.rects[r.name] for r in sub.rects
@@ -67,13 +77,38 @@ def search_neighbourhoods(
         objective = level_objective(spec, candidate)
         gain = best.objective - objective
         improved = result.rects is not None and gain > MIN_GAIN * max(1.0, abs(best.objective))
+        if improved and keep_coverage:
+            now = covered_area(domain, candidate)
+            improved = now >= coverage - GAP_AREA
+            coverage = max(coverage, now) if improved else coverage
         best = Incumbent(candidate if improved else best.rects,
                          objective if improved else best.objective,
                          best.steps + 1, best.improvements + int(improved))
-        failures = 0 if improved else failures + 1
+        if improved:
+            tried.clear()
+            size = NEIGHBOURHOOD_SIZE
+        else:
+            if result.status is LevelStatus.OPTIMAL:
+                tried.add(frozenset(free))
+            # A local optimum for this size: look wider.
+            size = min(size + 1, MAX_NEIGHBOURHOOD_SIZE, len(rects))
         if result.status is LevelStatus.INTERRUPTED:
             break
     return best
+
+
+def covered_area(domain: Domain, rects: dict[str, Box]) -> float:
+    """Area of the free domain the rectangles cover."""
+    union = shapely.union_all([b.to_polygon() for b in rects.values()])
+    return float(domain.free.intersection(union).area)
+
+
+def coverage_first(spec: LevelSpec) -> LevelSpec:
+    """`spec` with E_cover weighted as much as convexity allows (lambda_cover =
+    2 lambda_size, Eq. 12): growth into gaps then outweighs size error, and the search
+    leaves local optima in which a small gap was cheaper than a larger room."""
+    weight = max(spec.cover_weight, 2 * spec.size_weight)
+    return replace(spec, cover_weight=weight)
 
 
 def neighbourhood_spec(
@@ -118,21 +153,23 @@ def _names(a: tuple[str, ...], partners: tuple[tuple[str, ...], ...]) -> set[str
 
 
 def choose_neighbourhood(
-    rects: dict[str, Box], domain: Domain, rng: random.Random, *, around_gap: bool
-) -> set[str]:
-    """The rooms nearest to a gap (a random one, weighted by area), or to a random room."""
-    centre = None
+    rects: dict[str, Box], domain: Domain, rng: random.Random, *, size: int, around_gap: bool
+) -> tuple[set[str], tuple[Box, ...]]:
+    """The `size` rooms nearest to a gap (a random one, weighted by area) with the gap's
+    box, or the rooms nearest to a random room."""
+    centre, extra = None, ()
     if around_gap:
         rest = domain.free.difference(shapely.union_all([b.to_polygon() for b in rects.values()]))
         gaps = [g for g in getattr(rest, "geoms", [rest]) if g.area > GAP_AREA]
         if gaps:
             centre = rng.choices(gaps, weights=[g.area for g in gaps])[0]
+            extra = (Box(*centre.bounds),)
     if centre is None:
         centre = rects[rng.choice(sorted(rects))].to_polygon()
     by_distance = sorted(rects, key=lambda r: (rects[r].to_polygon().distance(centre), r))
     # The nearest rooms, and now and then a random further one to escape local optima.
-    chosen = set(by_distance[:NEIGHBOURHOOD_SIZE])
-    if len(by_distance) > NEIGHBOURHOOD_SIZE and rng.random() < 0.3:
-        chosen.discard(by_distance[NEIGHBOURHOOD_SIZE - 1])
-        chosen.add(rng.choice(by_distance[NEIGHBOURHOOD_SIZE:]))
-    return chosen
+    chosen = set(by_distance[:size])
+    if len(by_distance) > size and rng.random() < 0.3:
+        chosen.discard(by_distance[size - 1])
+        chosen.add(rng.choice(by_distance[size:]))
+    return chosen, extra

@@ -43,7 +43,7 @@ from solver.hierarchy import (
     select_subdomains,
 )
 from solver.level_one import level_one_spec, windows_to_try
-from solver.neighbourhood import search_neighbourhoods
+from solver.neighbourhood import coverage_first, search_neighbourhoods
 from solver.precheck import find_impossibilities
 from solver.scip_run import (
     Incumbent,
@@ -57,11 +57,13 @@ from solver.scip_run import (
 BASE_TIME = 5.0
 BASE_ROOMS = 20
 #: Share of the time limit level 1 may use.
-LEVEL_ONE_SHARE = 0.6
+LEVEL_ONE_SHARE = 0.75
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
 #: Share of level 1's improvement time for the full MIQP before neighbourhood search.
-DIRECT_SHARE = 0.4
+DIRECT_SHARE = 0.3
+#: Share of the neighbourhood search spent with coverage weighted first.
+COVERAGE_PHASE_SHARE = 0.6
 #: Output coordinates closer than this (metres) are made equal.
 OUTPUT_SNAP = 1e-5
 
@@ -248,13 +250,23 @@ def _improve_level_one(
     assert start.rects is not None
     if direct.status is LevelStatus.OPTIMAL or deadline - time.monotonic() <= 0.1:
         return start.rects
-    best = search_neighbourhoods(
-        lm.spec, start.rects, domain, deadline=deadline,
-        rng=random.Random(run.problem.options.seed),
+    # Coverage first (what users judge a plan by), then the user's own weights without
+    # giving coverage back.
+    rng = random.Random(run.problem.options.seed)
+    middle = time.monotonic() + (deadline - time.monotonic()) * COVERAGE_PHASE_SHARE
+    first_pass = search_neighbourhoods(
+        coverage_first(lm.spec), start.rects, domain, deadline=middle, rng=rng,
         step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
     )
+    best = search_neighbourhoods(
+        lm.spec, first_pass.rects, domain, deadline=deadline, rng=rng,
+        step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
+        keep_coverage=True,
+    )
+    steps = first_pass.steps + best.steps
+    improvements = first_pass.improvements + best.improvements
     run.emit(Phase.LEVEL, objective=best.objective,
-             detail=f"neighbourhood search: {best.improvements} of {best.steps} steps improved")
+             detail=f"neighbourhood search: {improvements} of {steps} steps improved")
     return best.rects
 
 
