@@ -49,6 +49,7 @@ def search_neighbourhoods(
     step: Step,
     should_stop: Callable[[], bool] | None = None,
     keep_coverage: bool = False,
+    on_improvement: Callable[[dict[str, Box]], None] | None = None,
 ) -> Incumbent:
     """Improve the layout `rects` of the one-rectangle-per-room level `spec` until
     `deadline`; each accepted step lowers Eq. 12 (under `spec`'s weights) and, with
@@ -87,6 +88,8 @@ def search_neighbourhoods(
         if improved:
             tried.clear()
             size = NEIGHBOURHOOD_SIZE
+            if on_improvement is not None:
+                on_improvement(best.rects)
         else:
             if result.status is LevelStatus.OPTIMAL:
                 tried.add(frozenset(free))

@@ -36,6 +36,7 @@ class Incumbent:
     objective: float
     dual_bound: float
     elapsed: float
+    rects: dict[str, Box]
 
 
 @dataclass(frozen=True)
@@ -136,16 +137,7 @@ def run_level(
     status = _status(m)
     rects = None
     if m.getNSols() > 0 and status is not LevelStatus.INFEASIBLE:
-        sol = m.getBestSol()
-        rects = {
-            name: Box(
-                m.getSolVal(sol, v.x),
-                m.getSolVal(sol, v.y),
-                m.getSolVal(sol, v.x) + m.getSolVal(sol, v.w),
-                m.getSolVal(sol, v.y) + m.getSolVal(sol, v.d),
-            )
-            for name, v in lm.rects.items()
-        }
+        rects = _read_rects(m, m.getBestSol(), lm)
     objective = m.getSolObjVal(m.getBestSol()) if rects is not None else None
     dual = m.getDualbound() if m.getStatus() != "infeasible" else None
     values = None
@@ -156,6 +148,14 @@ def run_level(
     return LevelResult(status, rects, objective, dual, seconds, values)
 
 
+def _read_rects(m: Model, sol: object, lm: LevelModel) -> dict[str, Box]:
+    rects = {}
+    for name, v in lm.rects.items():
+        x, y = m.getSolVal(sol, v.x), m.getSolVal(sol, v.y)
+        rects[name] = Box(x, y, x + m.getSolVal(sol, v.w), y + m.getSolVal(sol, v.d))
+    return rects
+
+
 def tune(m: Model) -> None:
     """Settings measured on our level models (bench/NOTES.md): the NLP heuristics find
     nothing the LP-based ones miss on these convex MIQPs and cost most of the time,
@@ -164,6 +164,9 @@ def tune(m: Model) -> None:
         m.setParam(f"heuristics/{heuristic}/freq", -1)
     m.setSeparating(SCIP_PARAMSETTING.FAST)
     m.setPresolve(SCIP_PARAMSETTING.FAST)
+    # Stopping is ours (`should_stop`); SCIP's Ctrl-C handling would end only the model
+    # being solved, and its counter is shared by every SCIP in the process.
+    m.setParam("misc/catchctrlc", False)
 
 
 _STATUS = {
@@ -193,10 +196,12 @@ def _install_hooks(lm: LevelModel) -> None:
         report = hooks.get("on_incumbent")
         if report is not None:
             # getPrimalbound() can be stale inside BESTSOLFOUND; read the solution itself.
+            sol = model.getBestSol()
             report(Incumbent(
-                objective=model.getSolObjVal(model.getBestSol()),
+                objective=model.getSolObjVal(sol),
                 dual_bound=model.getDualbound(),
                 elapsed=time.monotonic() - hooks["started"],
+                rects=_read_rects(model, sol, lm),
             ))
 
     def maybe_stop(model: Model, _event: object) -> None:

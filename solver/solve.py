@@ -13,6 +13,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import StrEnum
 
+import shapely
+
 from models import (
     Infeasibility,
     Layout,
@@ -22,7 +24,7 @@ from models import (
     Termination,
 )
 from solver.checker import check_layout
-from solver.formulation import active_families, build_level
+from solver.formulation import LevelModel, active_families, build_level
 from solver.geometry import (
     Box,
     Domain,
@@ -37,6 +39,7 @@ from solver.hierarchy import (
     Piece,
     absorb_gaps,
     apply_refinement,
+    bounding_box,
     on_edge,
     plan_refinement,
     room_boxes,
@@ -93,6 +96,8 @@ class SolveEvent:
     objective: float | None = None
     dual_bound: float | None = None
     detail: str = ""
+    #: With INCUMBENT: the whole current layout, room id -> rectangles.
+    rooms: dict[str, list[Box]] | None = None
 
 
 EventSink = Callable[[SolveEvent], None]
@@ -125,18 +130,33 @@ class _Run:
             self.on_event(SolveEvent(phase=phase, level=self.level, elapsed=self.elapsed(),
                                      **kw))  # type: ignore[arg-type]
 
-    def incumbent_sink(self, sub: int = 0, subs: int = 0) -> Callable[[Incumbent], None]:
-        def sink(inc: Incumbent) -> None:
-            self.emit(Phase.INCUMBENT, subdomain=sub, subdomains=subs,
-                      objective=inc.objective, dual_bound=inc.dual_bound)
-        return sink
+    def incumbent(self, domain: Domain, rooms: dict[str, list[Box]],
+                  dual_bound: float | None = None, sub: int = 0, subs: int = 0) -> None:
+        """Announce the whole current layout with its Eq. 12 value, as the report counts it."""
+        if self.on_event is not None:
+            self.emit(Phase.INCUMBENT, subdomain=sub, subdomains=subs, rooms=rooms,
+                      objective=layout_objective(self.problem, domain, rooms),
+                      dual_bound=dual_bound)
 
-    def run(self, lm, limit: float, sub: int = 0, subs: int = 0) -> LevelResult:
+    def run(self, lm: LevelModel, limit: float, *,
+            on_incumbent: Callable[[Incumbent], None] | None = None) -> LevelResult:
         result = run_level(lm, time_limit=limit, seed=self.problem.options.seed,
-                           on_incumbent=self.incumbent_sink(sub, subs),
-                           should_stop=self.should_stop)
+                           on_incumbent=on_incumbent, should_stop=self.should_stop)
         self.statuses.append(result.status)
         return result
+
+
+def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box]]) -> float:
+    """Eq. 12 on a layout: lambda_cover * uncovered area + lambda_size * E_size of the
+    rooms with a target, each room measured by its bounding box."""
+    union = shapely.union_all([b.to_polygon() for boxes in rooms.values() for b in boxes])
+    uncovered = domain.area - float(domain.free.intersection(union).area)
+    size = 0.0
+    for room in problem.rooms:
+        if room.target_size is not None and room.id in rooms:
+            b = bounding_box(rooms[room.id])
+            size += (b.width - room.target_size[0]) ** 2 + (b.depth - room.target_size[1]) ** 2
+    return problem.weights.cover * uncovered + problem.weights.size * size
 
 
 def solve(
@@ -182,9 +202,10 @@ def solve(
                 run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=len(subs),
                          detail=f"start not feasible: {start.status}")
                 continue
-            result = run.run(lm, budget - start.seconds, i + 1, len(subs))
+            result = run.run(lm, budget - start.seconds)
             if result.rects is not None:
                 pieces = apply_refinement(pieces, plan, result.rects)
+                run.incumbent(domain, room_boxes(pieces), sub=i + 1, subs=len(subs))
             run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=len(subs),
                      objective=result.objective,
                      detail=f"rooms {', '.join(sorted(sub.rooms))}: {result.status}")
@@ -221,11 +242,17 @@ def _level_one(
             return None, _no_layout(run, Termination.INFEASIBLE, Infeasibility(
                 reason="SCIP proved that no single-rectangle layout satisfies the constraints",
                 active_families=active_families(spec), relaxations_tried=run.relaxations))
-        termination = Termination.INTERRUPTED if run.stopped() else Termination.NO_SOLUTION
+        if run.stopped():
+            termination = Termination.INTERRUPTED
+            reason = "stopped on request before any layout was found"
+        else:
+            termination = Termination.NO_SOLUTION
+            reason = "no layout was found within the time limit; feasibility is unknown"
         return None, _no_layout(run, termination, Infeasibility(
-            reason="no layout was found within the time limit; feasibility is unknown",
-            active_families=active_families(spec), relaxations_tried=run.relaxations))
+            reason=reason, active_families=active_families(spec),
+            relaxations_tried=run.relaxations))
     assert first.rects is not None
+    run.incumbent(domain, {k: [b] for k, b in first.rects.items()})
     boxes = _improve_level_one(run, domain, first.rects, deadline)
     return [_piece(problem, domain, room_id, box) for room_id, box in boxes.items()], None
 
@@ -242,7 +269,10 @@ def _improve_level_one(
     if start.values is None:
         return first
     # Small models solve outright; the rest of the time goes to neighbourhood search.
-    direct = run.run(lm, (deadline - time.monotonic()) * DIRECT_SHARE)
+    def announce(inc: Incumbent) -> None:
+        run.incumbent(domain, {k: [b] for k, b in inc.rects.items()}, inc.dual_bound)
+
+    direct = run.run(lm, (deadline - time.monotonic()) * DIRECT_SHARE, on_incumbent=announce)
     if direct.values is not None and direct.objective is not None and (
         start.objective is None or direct.objective <= start.objective
     ):
@@ -250,6 +280,9 @@ def _improve_level_one(
     assert start.rects is not None
     if direct.status is LevelStatus.OPTIMAL or deadline - time.monotonic() <= 0.1:
         return start.rects
+    def improved(rects: dict[str, Box]) -> None:
+        run.incumbent(domain, {k: [b] for k, b in rects.items()})
+
     # Coverage first (what users judge a plan by), then the user's own weights without
     # giving coverage back.
     rng = random.Random(run.problem.options.seed)
@@ -257,11 +290,12 @@ def _improve_level_one(
     first_pass = search_neighbourhoods(
         coverage_first(lm.spec), start.rects, domain, deadline=middle, rng=rng,
         step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
+        on_improvement=improved,
     )
     best = search_neighbourhoods(
         lm.spec, first_pass.rects, domain, deadline=deadline, rng=rng,
         step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
-        keep_coverage=True,
+        keep_coverage=True, on_improvement=improved,
     )
     steps = first_pass.steps + best.steps
     improvements = first_pass.improvements + best.improvements

@@ -75,6 +75,10 @@ def test_progress_events_report_levels_and_a_final_done() -> None:
     phases = [e.phase for e in events]
     assert phases[0] is Phase.LEVEL and phases[-1] is Phase.DONE
     assert Phase.INCUMBENT in phases
+    ids = {r.id for r in L_SHAPE_WITH_OBSTACLE.rooms}
+    for event in (e for e in events if e.phase is Phase.INCUMBENT):
+        assert event.rooms is not None and set(event.rooms) == ids
+        assert event.objective is not None and event.objective >= 0
     assert all(b.elapsed >= a.elapsed for a, b in itertools.pairwise(events))
 
 
