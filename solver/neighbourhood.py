@@ -57,10 +57,11 @@ def search_neighbourhoods(
     best = Incumbent(dict(rects), level_objective(spec, rects))
     coverage = covered_area(domain, best.rects)
     size = NEIGHBOURHOOD_SIZE
+    min_sizes = {r.name: r.min_size for r in spec.rects}
     tried: set[frozenset[str]] = set()  # neighbourhoods already optimal for this incumbent
     while time.monotonic() < deadline - 0.05 and not (should_stop and should_stop()):
         free, gap = choose_neighbourhood(best.rects, domain, rng, size=size,
-                                         around_gap=best.steps % 3 != 2)
+                                         around_gap=best.steps % 3 != 2, min_sizes=min_sizes)
         if frozenset(free) in tried:
             if size >= len(rects):
                 break  # every neighbourhood of every size is exhausted
@@ -156,10 +157,18 @@ def _names(a: tuple[str, ...], partners: tuple[tuple[str, ...], ...]) -> set[str
 
 
 def choose_neighbourhood(
-    rects: dict[str, Box], domain: Domain, rng: random.Random, *, size: int, around_gap: bool
+    rects: dict[str, Box],
+    domain: Domain,
+    rng: random.Random,
+    *,
+    size: int,
+    around_gap: bool,
+    min_sizes: dict[str, tuple[float, float]] | None = None,
 ) -> tuple[set[str], tuple[Box, ...]]:
     """The `size` rooms nearest to a gap (a random one, weighted by area) with the gap's
-    box, or the rooms nearest to a random room."""
+    box, or the rooms nearest to a random room. Around a gap, half the time a room
+    from anywhere whose minimum size fits the gap joins in: a pocket beside a shaft
+    is often filled only by a small room moving in."""
     centre, extra = None, ()
     if around_gap:
         rest = domain.free.difference(shapely.union_all([b.to_polygon() for b in rects.values()]))
@@ -175,4 +184,10 @@ def choose_neighbourhood(
     if len(by_distance) > size and rng.random() < 0.3:
         chosen.discard(by_distance[size - 1])
         chosen.add(rng.choice(by_distance[size:]))
+    if extra and min_sizes and rng.random() < 0.5:
+        gap = extra[0]
+        fitting = [r for r in by_distance[size:] if r not in chosen
+                   and min_sizes[r][0] <= gap.width and min_sizes[r][1] <= gap.depth]
+        if fitting:
+            chosen.add(rng.choice(fitting))
     return chosen, extra

@@ -46,7 +46,7 @@ from solver.hierarchy import (
     select_subdomains,
 )
 from solver.level_one import level_one_spec, windows_to_try
-from solver.neighbourhood import coverage_first, search_neighbourhoods
+from solver.neighbourhood import NEIGHBOURHOOD_SIZE, coverage_first, search_neighbourhoods
 from solver.precheck import find_impossibilities
 from solver.scip_run import (
     Incumbent,
@@ -60,11 +60,9 @@ from solver.scip_run import (
 BASE_TIME = 5.0
 BASE_ROOMS = 20
 #: Share of the time limit level 1 may use.
-LEVEL_ONE_SHARE = 0.75
+LEVEL_ONE_SHARE = 0.8
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
-#: Share of level 1's improvement time for the full MIQP before neighbourhood search.
-DIRECT_SHARE = 0.3
 #: Share of the neighbourhood search spent with coverage weighted first.
 COVERAGE_PHASE_SHARE = 0.6
 #: Output coordinates closer than this (metres) are made equal.
@@ -268,18 +266,14 @@ def _improve_level_one(
     start = complete_start(lm, first, time_limit=deadline - time.monotonic())
     if start.values is None:
         return first
-    # Small models solve outright; the rest of the time goes to neighbourhood search.
-    def announce(inc: Incumbent) -> None:
-        run.incumbent(domain, {k: [b] for k, b in inc.rects.items()}, inc.dual_bound)
-
-    direct = run.run(lm, (deadline - time.monotonic()) * DIRECT_SHARE, on_incumbent=announce)
-    if direct.values is not None and direct.objective is not None and (
-        start.objective is None or direct.objective <= start.objective
-    ):
-        start = direct
     assert start.rects is not None
-    if direct.status is LevelStatus.OPTIMAL or deadline - time.monotonic() <= 0.1:
-        return start.rects
+    if len(run.problem.rooms) <= NEIGHBOURHOOD_SIZE:
+        # One neighbourhood would be the whole model: solve it outright.
+        def announce(inc: Incumbent) -> None:
+            run.incumbent(domain, {k: [b] for k, b in inc.rects.items()}, inc.dual_bound)
+
+        direct = run.run(lm, deadline - time.monotonic(), on_incumbent=announce)
+        return direct.rects if direct.rects is not None else start.rects
     def improved(rects: dict[str, Box]) -> None:
         run.incumbent(domain, {k: [b] for k, b in rects.items()})
 
