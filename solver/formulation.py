@@ -95,6 +95,10 @@ class LevelSpec:
     envelopes: tuple[EnvelopeSpec, ...] = ()
     cover_weight: float = 1.0
     size_weight: float = 1.0
+    #: Weight of a linear growth term -(d* w + w* d), the tangent of w*d at the aimed
+    #: size: it pushes rooms to cover more along their own shape without touching
+    #: convexity (0 = Eq. 12 exactly).
+    growth_weight: float = 0.0
 
 
 def free_rects(spec: LevelSpec) -> list[RectSpec]:
@@ -374,9 +378,12 @@ def e_objective(lm: LevelModel) -> None:
         w_hi = min(r.max_size[0], spec.region.width)
         d_hi = min(r.max_size[1], spec.region.depth)
         tw, td = _aim(spec, r)
-        z = m.addVar(f"energy[{r.name}]", lb=-lc * w_hi * d_hi)
+        bonus = spec.growth_weight * (td * w_hi + tw * d_hi)
+        z = m.addVar(f"energy[{r.name}]", lb=-lc * w_hi * d_hi - bonus)
+        growth = spec.growth_weight * (td * v.w + tw * v.d)
         m.addCons(
-            ls * ((v.w - tw) * (v.w - tw) + (v.d - td) * (v.d - td)) - lc * v.w * v.d <= z,
+            ls * ((v.w - tw) * (v.w - tw) + (v.d - td) * (v.d - td)) - lc * v.w * v.d - growth
+            <= z,
             name=f"energy_epigraph[{r.name}]",
         )
         terms.append(z)
@@ -455,6 +462,7 @@ def level_objective(spec: LevelSpec, boxes: dict[str, Box]) -> float:
         b, (tw, td) = boxes[r.name], _aim(spec, r)
         total += spec.size_weight * ((b.width - tw) ** 2 + (b.depth - td) ** 2)
         total -= spec.cover_weight * b.width * b.depth
+        total -= spec.growth_weight * (td * b.width + tw * b.depth)
     return total
 
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import shapely
 
 from solver.formulation import LevelModel, LevelSpec, build_level, level_objective
-from solver.geometry import Box, Domain
+from solver.geometry import Box, Domain, rectangles_of
 from solver.scip_run import LevelResult, LevelStatus, complete_start
 
 #: Rooms freed per neighbourhood at first ...
@@ -108,11 +108,12 @@ def covered_area(domain: Domain, rects: dict[str, Box]) -> float:
 
 
 def coverage_first(spec: LevelSpec) -> LevelSpec:
-    """`spec` with E_cover weighted as much as convexity allows (lambda_cover =
-    2 lambda_size, Eq. 12): growth into gaps then outweighs size error, and the search
-    leaves local optima in which a small gap was cheaper than a larger room."""
-    weight = max(spec.cover_weight, 2 * spec.size_weight)
-    return replace(spec, cover_weight=weight)
+    """`spec` with a linear growth term of weight lambda_cover added to Eq. 12
+    (`LevelSpec.growth_weight`): growth into gaps then outweighs size error, and the
+    search leaves local optima in which a small gap was cheaper than a larger room.
+    Linear, so the objective stays convex; it grows rooms along their own shape,
+    where raising lambda_cover to 2 lambda_size would also push every room square."""
+    return replace(spec, growth_weight=spec.cover_weight)
 
 
 def neighbourhood_spec(
@@ -133,9 +134,18 @@ def neighbourhood_spec(
     # smaller box means fewer disjunctions and smaller big-M values.
     region = _clip(_span([rects[n] for n in free] + list(extra)), spec.region)
     settled = [rects[r.name] for r in spec.rects if r.name not in free]
-    blocked = tuple(_clip(b, region) for b in (*spec.blocked, *settled) if _overlaps(b, region))
+    blocked = _merged([_clip(b, region) for b in (*spec.blocked, *settled) if _overlaps(b, region)])
     return replace(spec, name=f"{spec.name}/lns", region=region, rects=tuple(kept),
                    contacts=contacts, blocked=blocked)
+
+
+def _merged(boxes: list[Box]) -> tuple[Box, ...]:
+    """The same area in fewer rectangles where neighbouring boxes line up: each
+    rectangle costs every free room four disjunction binaries."""
+    if len(boxes) < 2:
+        return tuple(boxes)
+    pieces = rectangles_of(shapely.union_all([b.to_polygon() for b in boxes]))
+    return tuple(pieces) if len(pieces) < len(boxes) else tuple(boxes)
 
 
 def _span(boxes: list[Box]) -> Box:

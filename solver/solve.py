@@ -64,7 +64,7 @@ LEVEL_ONE_SHARE = 0.8
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
 #: Share of the neighbourhood search spent with coverage weighted first.
-COVERAGE_PHASE_SHARE = 0.6
+COVERAGE_PHASE_SHARE = 0.85
 #: Output coordinates closer than this (metres) are made equal.
 OUTPUT_SNAP = 1e-5
 
