@@ -86,8 +86,10 @@ class Report(BaseModel):
     termination: Termination = Termination.OPTIMAL
     valid: bool = Field(True, description="every hard constraint holds on the polygons")
     infeasibility: Infeasibility | None = None
-    relaxation: float = Field(
-        0.0, description="how far the size bounds were relaxed beyond the 90-110 % start (Sec. 5.4)"
+    relaxation: float | None = Field(
+        None,
+        description="the size window (fraction of each target, 0.1 = 90-110 %) in which the "
+        "first layout was found (Sec. 5.4); null when the user's own bounds were needed",
     )
 
 

@@ -188,6 +188,20 @@ def rectangles_of(region: BaseGeometry) -> list[Box]:
     return result
 
 
+def merge_boxes(boxes: Sequence[Box]) -> tuple[Box, ...]:
+    """The same area in fewer rectangles where neighbouring boxes line up, or the
+    boxes as given when merging does not reduce their number. Each blocked rectangle
+    costs every free room four disjunction binaries.
+
+    >>> merge_boxes([Box(0, 0, 1, 1), Box(1, 0, 2, 1)])
+    (Box(x0=0.0, y0=0.0, x1=2.0, y1=1.0),)
+    """
+    if len(boxes) < 2:
+        return tuple(boxes)
+    pieces = rectangles_of(shapely.union_all([b.to_polygon() for b in boxes]))
+    return tuple(pieces) if len(pieces) < len(boxes) else tuple(boxes)
+
+
 def make_domain(problem: Problem) -> Domain:
     """The paper's polygonal domain: bounding box minus obstacle rectangles, where the
     part of the box outside the outline is decomposed into rectangles too."""

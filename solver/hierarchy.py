@@ -26,6 +26,8 @@ from solver.geometry import EPS, Box, Domain, Edge, rectangles_of
 GAP_AREA = 1e-3
 #: A split never makes a half thinner than this (metres); a thinner room is split the other way.
 MIN_HALF = 0.25
+#: Rooms one sub-domain may hold: a larger MIQP would not solve in its time share.
+MAX_SUBDOMAIN_ROOMS = 12
 #: Pieces per room at most; beyond it a room's rectangles are no longer split.
 MAX_PIECES_PER_ROOM = 16
 
@@ -43,10 +45,9 @@ class Piece:
 
 @dataclass(frozen=True)
 class SubDomain:
-    """Rooms to refine together and the gaps they surround (paper Sec. 5.3)."""
+    """Rooms to refine together (paper Sec. 5.3), with the gaps beside them."""
 
     rooms: frozenset[str]
-    gaps: tuple[Polygon, ...]
 
 
 def covered(pieces: Iterable[Piece]) -> BaseGeometry:
@@ -94,14 +95,15 @@ def select_subdomains(
 ) -> list[SubDomain]:
     """Sec. 5.3: the rooms around each uncovered region; and a room whose size error
     exceeds the threshold with its neighbours. Only rooms below their target are
-    taken, as refinement can only grow rooms. Overlapping selections are merged."""
+    taken, as refinement can only grow rooms. Overlapping selections are merged up to
+    `MAX_SUBDOMAIN_ROOMS`; beyond, they are solved one after the other."""
     rooms = room_boxes(pieces)
     shapes = {r: shapely.union_all([b.to_polygon() for b in boxes]) for r, boxes in rooms.items()}
-    groups: list[tuple[set[str], list[Polygon]]] = []
+    groups: list[set[str]] = []
     for gap in uncovered_gaps(domain, pieces):
         around = {r for r, shape in shapes.items() if _touching(shape, gap)}
         if around:
-            groups.append((around, [gap]))
+            groups.append(around)
     threshold = problem.options.size_error_threshold
     for room_id, error in relative_size_error(problem, rooms).items():
         room = problem.room(room_id)
@@ -110,23 +112,22 @@ def select_subdomains(
         too_small = b.width < room.target_size[0] - EPS or b.depth < room.target_size[1] - EPS
         if error > threshold and too_small:
             near = {r for r, shape in shapes.items() if _touching(shape, shapes[room_id])}
-            groups.append(({room_id} | near, []))
+            groups.append({room_id} | near)
     return _merge_groups(groups)
 
 
-def _merge_groups(groups: list[tuple[set[str], list[Polygon]]]) -> list[SubDomain]:
-    merged: list[tuple[set[str], list[Polygon]]] = []
-    for rooms, gaps in groups:
-        rooms, gaps = set(rooms), list(gaps)
+def _merge_groups(groups: list[set[str]]) -> list[SubDomain]:
+    merged: list[set[str]] = []
+    for rooms in groups:
+        rooms = set(rooms)
         keep = []
-        for other_rooms, other_gaps in merged:
-            if other_rooms & rooms:
-                rooms |= other_rooms
-                gaps += other_gaps
+        for other in merged:
+            if other & rooms and len(other | rooms) <= MAX_SUBDOMAIN_ROOMS:
+                rooms |= other
             else:
-                keep.append((other_rooms, other_gaps))
-        merged = [*keep, (rooms, gaps)]
-    return [SubDomain(frozenset(r), tuple(g)) for r, g in merged]
+                keep.append(other)
+        merged = [*keep, rooms]
+    return [SubDomain(frozenset(r)) for r in merged]
 
 
 def split_piece(piece: Piece, direction: Split) -> tuple[Piece, Piece]:
@@ -196,10 +197,13 @@ def plan_refinement(
 ) -> RefinementPlan:
     """Initialise the sub-domain by room decomposition and update the constraints."""
     inside = [p for p in pieces if p.room in sub.rooms]
-    region_shape = shapely.union_all([p.box.to_polygon() for p in inside] + list(sub.gaps))
+    # Gaps are found afresh: an earlier sub-domain of this level may have filled some.
+    around = shapely.union_all([p.box.to_polygon() for p in inside])
+    gaps = [g for g in uncovered_gaps(domain, pieces) if _touching(around, g)]
+    region_shape = shapely.union_all([p.box.to_polygon() for p in inside] + gaps)
     region = Box(*region_shape.bounds)
     blocked = tuple(rectangles_of(region.to_polygon().difference(region_shape)))
-    delta = max([max(g.bounds[2] - g.bounds[0], g.bounds[3] - g.bounds[1]) for g in sub.gaps],
+    delta = max([max(g.bounds[2] - g.bounds[0], g.bounds[3] - g.bounds[1]) for g in gaps],
                 default=0.0)
     delta = max(delta, 0.5)
     per_room: dict[str, int] = {}

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import shapely
 
 from solver.formulation import LevelModel, LevelSpec, build_level, level_objective
-from solver.geometry import Box, Domain, rectangles_of
+from solver.geometry import Box, Domain, merge_boxes
 from solver.scip_run import LevelResult, LevelStatus, complete_start
 
 #: Rooms freed per neighbourhood at first ...
@@ -134,18 +134,10 @@ def neighbourhood_spec(
     # smaller box means fewer disjunctions and smaller big-M values.
     region = _clip(_span([rects[n] for n in free] + list(extra)), spec.region)
     settled = [rects[r.name] for r in spec.rects if r.name not in free]
-    blocked = _merged([_clip(b, region) for b in (*spec.blocked, *settled) if _overlaps(b, region)])
+    inside = [_clip(b, region) for b in (*spec.blocked, *settled) if _overlaps(b, region)]
+    blocked = merge_boxes(inside)
     return replace(spec, name=f"{spec.name}/lns", region=region, rects=tuple(kept),
                    contacts=contacts, blocked=blocked)
-
-
-def _merged(boxes: list[Box]) -> tuple[Box, ...]:
-    """The same area in fewer rectangles where neighbouring boxes line up: each
-    rectangle costs every free room four disjunction binaries."""
-    if len(boxes) < 2:
-        return tuple(boxes)
-    pieces = rectangles_of(shapely.union_all([b.to_polygon() for b in boxes]))
-    return tuple(pieces) if len(pieces) < len(boxes) else tuple(boxes)
 
 
 def _span(boxes: list[Box]) -> Box:

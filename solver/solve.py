@@ -6,7 +6,6 @@ gets `LEVEL_ONE_SHARE` of it; the refinement levels share the rest.
 
 from __future__ import annotations
 
-import math
 import random
 import time
 from collections.abc import Callable
@@ -24,6 +23,7 @@ from models import (
     Termination,
 )
 from solver.checker import check_layout
+from solver.construct import construct
 from solver.formulation import LevelModel, active_families, build_level
 from solver.geometry import (
     Box,
@@ -63,6 +63,9 @@ BASE_ROOMS = 20
 LEVEL_ONE_SHARE = 0.8
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
+#: Above this many rooms the first layout is built in batches (solver/construct.py):
+#: one feasibility MILP of all rooms rarely finds anything in time.
+CONSTRUCT_ABOVE = 20
 #: Share of the neighbourhood search spent with coverage weighted first.
 COVERAGE_PHASE_SHARE = 0.85
 #: Output coordinates closer than this (metres) are made equal.
@@ -112,6 +115,8 @@ class _Run:
     should_stop: Callable[[], bool] | None
     statuses: list[LevelStatus] = field(default_factory=list)
     relaxations: list[str] = field(default_factory=list)
+    #: The size window of the first layout (None: the user's own bounds).
+    window: float | None = None
     level: int = 1
 
     def remaining(self) -> float:
@@ -219,7 +224,10 @@ def _level_one(
     problem = run.problem
     first: LevelResult | None = None
     proven_infeasible = False
-    for window in windows_to_try(problem):
+    large = len(problem.rooms) > CONSTRUCT_ABOVE
+    if large:
+        first = _construct(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
+    for window in [] if first is not None else windows_to_try(problem):
         left = deadline - time.monotonic()
         if left <= 0.05 or run.stopped():
             break
@@ -231,9 +239,11 @@ def _level_one(
         run.relaxations.append(f"{label}: {result.status}")
         run.emit(Phase.RELAXATION, detail=f"size bounds {label}: {result.status}")
         if result.rects is not None:
-            first = result
+            first, run.window = result, window
             break
         proven_infeasible = window is None and result.status is LevelStatus.INFEASIBLE
+    if first is None and not proven_infeasible and not large:
+        first = _construct(run, domain, deadline)
     if first is None:
         spec = level_one_spec(problem, domain, window=None)
         if proven_infeasible:
@@ -253,6 +263,21 @@ def _level_one(
     run.incumbent(domain, {k: [b] for k, b in first.rects.items()})
     boxes = _improve_level_one(run, domain, first.rects, deadline)
     return [_piece(problem, domain, room_id, box) for room_id, box in boxes.items()], None
+
+
+def _construct(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
+    """A first layout built a batch of rooms at a time (solver/construct.py)."""
+    if deadline - time.monotonic() <= 0.1 or run.stopped():
+        return None
+    spec = level_one_spec(run.problem, domain, window=None)
+    rects = construct(spec, deadline=deadline, rng=random.Random(run.problem.options.seed),
+                      step=lambda model, limit: run.run(model, limit))
+    outcome = "found" if rects is not None else "nothing found"
+    run.relaxations.append(f"user bounds, built in batches: {outcome}")
+    run.emit(Phase.RELAXATION, detail=f"size bounds user bounds, built in batches: {outcome}")
+    if rects is None:
+        return None
+    return LevelResult(LevelStatus.FEASIBLE, rects, None, None, 0.0)
 
 
 def _improve_level_one(
@@ -335,18 +360,10 @@ def _layout(run: _Run, domain: Domain, pieces: list[Piece], levels: int) -> Layo
         constraints=check.constraints, size_error=check.size_error,
         objective=objective, levels=levels, solve_time=run.elapsed(),
         termination=_termination(run), valid=check.valid,
-        relaxation=_relaxation_used(run),
+        relaxation=run.window,
     )
     run.emit(Phase.DONE, objective=objective, detail=f"coverage {check.coverage:.1%}")
     return Layout(name=problem.name, rooms=out, report=report)
-
-
-def _relaxation_used(run: _Run) -> float:
-    """The size window (fraction of target) of the first layout, as in Sec. 5.4."""
-    last = run.relaxations[-1] if run.relaxations else ""
-    if last.startswith("target"):
-        return float(last.split("±")[1].split("%")[0]) / 100
-    return math.inf if last else 0.0
 
 
 def _no_layout(run: _Run, termination: Termination, why: Infeasibility) -> Layout:
