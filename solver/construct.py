@@ -15,11 +15,10 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import replace
 
-import shapely
 from pyscipopt import quicksum
 
 from solver.formulation import LevelModel, LevelSpec, build_level
-from solver.geometry import Box, rectangles_of
+from solver.geometry import Box, unusable_space
 from solver.scip_run import LevelResult, LevelStatus
 
 #: Rooms placed per batch.
@@ -117,22 +116,8 @@ def batch_spec(spec: LevelSpec, placed: dict[str, Box], batch: set[str]) -> Leve
     )
     smallest = min(min(r.min_size) for r in spec.rects if r.name in batch)
     return replace(spec, name=f"{spec.name}/batch", rects=rects, contacts=contacts,
-                   blocked=unusable_space(spec, list(placed.values()), smallest))
-
-
-def unusable_space(spec: LevelSpec, placed: list[Box], smallest: float) -> tuple[Box, ...]:
-    """The region's box minus what a room at least `smallest` wide can still use, as
-    few rectangles: slivers between placed rooms then cost no disjunctions. The
-    opening (erode, then dilate, by half the width) keeps exactly the places where a
-    `smallest`-wide square fits."""
-    region = spec.region.to_polygon()
-    walls = shapely.union_all([b.to_polygon() for b in (*spec.blocked, *placed)])
-    free = region.difference(walls)
-    half = smallest / 2 * (1 - 1e-6)
-    if half > 0:
-        free = free.buffer(-half, join_style="mitre").buffer(half, join_style="mitre")
-        free = free.intersection(region)
-    return tuple(rectangles_of(region.difference(free)))
+                   blocked=unusable_space(spec.region, (*spec.blocked, *placed.values()),
+                                          smallest))
 
 
 def _pack_tightly(lm: LevelModel, batch: set[str]) -> None:

@@ -188,18 +188,37 @@ def rectangles_of(region: BaseGeometry) -> list[Box]:
     return result
 
 
-def merge_boxes(boxes: Sequence[Box]) -> tuple[Box, ...]:
-    """The same area in fewer rectangles where neighbouring boxes line up, or the
-    boxes as given when merging does not reduce their number. Each blocked rectangle
-    costs every free room four disjunction binaries.
+def unusable_space(region: Box, walls: Sequence[Box], smallest: float) -> tuple[Box, ...]:
+    """`region` minus what a room at least `smallest` wide can use among `walls`, as few
+    rectangles: slivers between walls then cost no disjunctions. What such a room can
+    use is the opening of the free space by a `smallest` square (erode, then dilate,
+    by half the side); with rectangles both steps are exact: eroding shrinks the
+    region and grows each wall, dilating grows each rectangle of the eroded space.
 
-    >>> merge_boxes([Box(0, 0, 1, 1), Box(1, 0, 2, 1)])
-    (Box(x0=0.0, y0=0.0, x1=2.0, y1=1.0),)
+    >>> unusable_space(Box(0, 0, 4, 2), [Box(0, 0, 1, 2), Box(1.5, 0, 4, 2)], 1.0)
+    (Box(x0=0.0, y0=0.0, x1=4.0, y1=2.0),)
+    >>> unusable_space(Box(0, 0, 4, 2), [Box(0, 0, 1, 2)], 1.0)
+    (Box(x0=0.0, y0=0.0, x1=1.0, y1=2.0),)
     """
-    if len(boxes) < 2:
-        return tuple(boxes)
-    pieces = rectangles_of(shapely.union_all([b.to_polygon() for b in boxes]))
-    return tuple(pieces) if len(pieces) < len(boxes) else tuple(boxes)
+    area = region.to_polygon()
+    free = area.difference(shapely.union_all([b.to_polygon() for b in walls]))
+    half = smallest / 2 * (1 - 1e-6)
+    if half > 0:
+        core = Box(region.x0 + half, region.y0 + half, region.x1 - half, region.y1 - half)
+        if core.width <= 0 or core.depth <= 0:
+            return (region,)
+        eroded = core.to_polygon().difference(
+            shapely.union_all([_grown(b, half).to_polygon() for b in walls])
+        )
+        opened = shapely.union_all(
+            [_grown(b, half).to_polygon() for b in rectangles_of(eroded)]
+        )
+        free = free.intersection(opened)
+    return tuple(rectangles_of(area.difference(free)))
+
+
+def _grown(b: Box, by: float) -> Box:
+    return Box(b.x0 - by, b.y0 - by, b.x1 + by, b.y1 + by)
 
 
 def make_domain(problem: Problem) -> Domain:

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import shapely
 
 from solver.formulation import LevelModel, LevelSpec, build_level, level_objective
-from solver.geometry import Box, Domain, merge_boxes
+from solver.geometry import Box, Domain, unusable_space
 from solver.scip_run import LevelResult, LevelStatus, complete_start
 
 #: Rooms freed per neighbourhood at first ...
@@ -135,7 +135,8 @@ def neighbourhood_spec(
     region = _clip(_span([rects[n] for n in free] + list(extra)), spec.region)
     settled = [rects[r.name] for r in spec.rects if r.name not in free]
     inside = [_clip(b, region) for b in (*spec.blocked, *settled) if _overlaps(b, region)]
-    blocked = merge_boxes(inside)
+    smallest = min(min(r.min_size) for r in spec.rects if r.name in free)
+    blocked = unusable_space(region, inside, smallest)
     return replace(spec, name=f"{spec.name}/lns", region=region, rects=tuple(kept),
                    contacts=contacts, blocked=blocked)
 

@@ -211,3 +211,21 @@ def test_solved_layouts_of_feasible_problems_always_pass_the_checker(p: Problem)
     assert report.termination not in (Termination.INFEASIBLE, Termination.NO_SOLUTION)
     assert report.valid, [c for c in report.constraints if not c.satisfied]
     assert {r.id for r in layout.rooms} == {r.id for r in p.rooms}
+
+
+def test_problems_above_twenty_rooms_are_built_in_batches_and_come_back_valid() -> None:
+    rooms = [{"id": f"cell{k:02d}", "type": "office", "min_size": [1.8, 1.8],
+              "max_size": [4, 4], "target_size": [2.5, 2.5]} for k in range(24)]
+    rooms[0]["positions"] = [[0.5, 0.5]]
+    rooms[1]["boundary"] = ["north"]
+    p = problem(
+        name="cells", boundary=[[0, 0], [15, 0], [15, 10], [0, 10]],
+        obstacles=[{"x": 6, "y": 4, "width": 2, "depth": 2}], rooms=rooms,
+        adjacency=[{"a": f"cell{k:02d}", "b": f"cell{k + 1:02d}"} for k in range(2, 10, 2)],
+        options={"time_limit": 8, "seed": 3},
+    )
+    events: list[SolveEvent] = []
+    layout = solve(p, on_event=events.append)
+    assert any("built in batches: found" in e.detail for e in events)
+    assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
+    assert layout.report.coverage > 0.8

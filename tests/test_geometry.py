@@ -1,0 +1,53 @@
+"""Properties of the geometry helpers the MIQP relies on for soundness."""
+
+from __future__ import annotations
+
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from solver.geometry import Box, rectangles_of, unusable_space
+
+REGION = Box(0, 0, 10, 10)
+
+walls = st.lists(
+    st.builds(
+        lambda x, y, w, d: Box(x, y, x + w, y + d),
+        st.floats(0, 8), st.floats(0, 8), st.floats(0.2, 3), st.floats(0.2, 3),
+    ),
+    min_size=1, max_size=7,
+)
+
+
+def _union(boxes: tuple[Box, ...] | list[Box]) -> shapely.Geometry:
+    return shapely.union_all([b.to_polygon() for b in boxes])
+
+
+@settings(max_examples=150, deadline=None)
+@given(walls, st.floats(0.3, 2.0))
+def test_unusable_space_blocks_every_wall(boxes: list[Box], side: float) -> None:
+    wall = _union(boxes).intersection(REGION.to_polygon())
+    blocked = _union(unusable_space(REGION, boxes, side))
+    assert wall.difference(blocked).area < 1e-6
+
+
+@settings(max_examples=150, deadline=None)
+@given(walls, st.floats(0.3, 2.0), st.floats(0, 1), st.floats(0, 1))
+def test_unusable_space_never_blocks_a_square_a_room_could_use(
+    boxes: list[Box], side: float, fx: float, fy: float
+) -> None:
+    x, y = fx * (REGION.width - side), fy * (REGION.depth - side)
+    square = Box(x, y, x + side, y + side).to_polygon()
+    if square.intersection(_union(boxes)).area > 1e-12:
+        return  # not usable in the first place
+    blocked = _union(unusable_space(REGION, boxes, side))
+    assert square.intersection(blocked).area < 1e-6
+
+
+@settings(max_examples=150, deadline=None)
+@given(walls)
+def test_rectangles_of_a_union_cover_it_without_overlap(boxes: list[Box]) -> None:
+    union = _union(boxes)
+    pieces = rectangles_of(union)
+    assert abs(sum(p.area for p in pieces) - union.area) < 1e-6
+    assert _union(pieces).symmetric_difference(union).area < 1e-6
