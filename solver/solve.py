@@ -63,6 +63,8 @@ BASE_ROOMS = 20
 LEVEL_ONE_SHARE = 0.8
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
+#: Time kept per room for closing the last gaps and checking the layout.
+FINISH_SECONDS_PER_ROOM = 0.01
 #: Above this many rooms the first layout is built in batches (solver/construct.py):
 #: one feasibility MILP of all rooms rarely finds anything in time.
 CONSTRUCT_ABOVE = 20
@@ -171,14 +173,16 @@ def solve(
     """Lay out `problem`: a valid layout, or a report saying why there is none."""
     started = time.monotonic()
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
-    run = _Run(problem, started + limit, started, on_event, should_stop)
+    # The last gaps and the check run after the search: keep time for them.
+    reserve = min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
+    run = _Run(problem, started + limit - reserve, started, on_event, should_stop)
     domain = make_domain(problem)
     findings = find_impossibilities(problem, domain)
     if findings:
         return _no_layout(run, Termination.INFEASIBLE, Infeasibility(
             reason="the problem is infeasible before any solving", findings=findings))
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
-    pieces, failure = _level_one(run, domain, started + limit * LEVEL_ONE_SHARE)
+    pieces, failure = _level_one(run, domain, started + (run.deadline - started) * LEVEL_ONE_SHARE)
     if pieces is None:
         assert failure is not None
         return failure
