@@ -8,10 +8,10 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
+import numpy as np
 import shapely
 from shapely.geometry import MultiPolygon, Polygon, box
 from shapely.geometry.base import BaseGeometry
-from shapely.prepared import prep
 
 from models import Problem, Rect
 
@@ -156,15 +156,19 @@ def rectangles_of(region: BaseGeometry) -> list[Box]:
     coords = shapely.get_coordinates(shapely.boundary(region))
     xs = sorted({round(float(c), 9) for c in coords[:, 0]})
     ys = sorted({round(float(c), 9) for c in coords[:, 1]})
-    prepared = prep(region)
-    # Horizontal runs of inside cells per row of the grid the region's vertices span.
+    # Which cells of the grid the region's vertices span are inside, all at once.
+    cx = (np.array(xs[:-1]) + np.array(xs[1:])) / 2
+    cy = (np.array(ys[:-1]) + np.array(ys[1:])) / 2
+    shapely.prepare(region)
+    grid_x, grid_y = np.meshgrid(cx, cy)
+    cells = shapely.contains_xy(region, grid_x, grid_y)
+    # Horizontal runs of inside cells per row.
     rows: list[list[tuple[float, float]]] = []
     for j in range(len(ys) - 1):
         runs: list[tuple[float, float]] = []
-        cy = (ys[j] + ys[j + 1]) / 2
         start: float | None = None
         for i in range(len(xs) - 1):
-            inside = prepared.contains(shapely.Point((xs[i] + xs[i + 1]) / 2, cy))
+            inside = bool(cells[j, i])
             if inside and start is None:
                 start = xs[i]
             if not inside and start is not None:

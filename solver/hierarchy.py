@@ -10,6 +10,7 @@ halves of each split together.
 
 from __future__ import annotations
 
+import itertools
 import random
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
@@ -288,24 +289,25 @@ def _snap(b: Box, grid: float = 1e-6) -> Box:
 
 def merge_rectangular_pairs(pieces: list[Piece]) -> list[Piece]:
     """Merge two pieces of one room whose union is exactly a rectangle."""
+    by_room: dict[str, list[Piece]] = {}
+    for p in pieces:
+        by_room.setdefault(p.room, []).append(p)
+    return [merged for group in by_room.values() for merged in _merge_room(group)]
+
+
+def _merge_room(pieces: list[Piece]) -> list[Piece]:
     result = list(pieces)
-    changed = True
-    while changed:
-        changed = False
-        for i in range(len(result)):
-            for j in range(i + 1, len(result)):
-                a, b = result[i], result[j]
-                if a.room != b.room:
-                    continue
-                joined = _rect_union(a.box, b.box)
-                if joined is None:
-                    continue
+    merged = True
+    while merged:
+        merged = False
+        for i, j in itertools.combinations(range(len(result)), 2):
+            a, b = result[i], result[j]
+            joined = _rect_union(a.box, b.box)
+            if joined is not None:
                 result[i] = Piece(a.name, a.room, joined, a.positions + b.positions,
                                   a.edges + tuple(e for e in b.edges if e not in a.edges))
                 del result[j]
-                changed = True
-                break
-            if changed:
+                merged = True
                 break
     return result
 

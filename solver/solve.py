@@ -65,6 +65,8 @@ LEVEL_ONE_SHARE = 0.8
 ATTEMPT_SHARE = 0.5
 #: Time kept per room for closing the last gaps and checking the layout.
 FINISH_SECONDS_PER_ROOM = 0.01
+#: Python time per room to plan one refinement sub-domain (measured: 0.16 s at 154).
+PLAN_SECONDS_PER_ROOM = 0.002
 #: Above this many rooms the first layout is built in batches (solver/construct.py):
 #: one feasibility MILP of all rooms rarely finds anything in time.
 CONSTRUCT_ABOVE = 20
@@ -188,8 +190,11 @@ def solve(
         return failure
     levels = 1
     rng = random.Random(problem.options.seed)
+    # Planning a sub-domain costs Python time in proportion to the rooms: do not
+    # start one that cannot finish.
+    overhead = 0.05 + PLAN_SECONDS_PER_ROOM * len(problem.rooms)
     for level in range(2, problem.options.max_levels + 1):
-        if run.remaining() <= 0.05 or run.stopped():
+        if run.remaining() <= overhead or run.stopped():
             break
         subs = select_subdomains(problem, domain, pieces)
         if not subs:
@@ -199,7 +204,7 @@ def solve(
                  detail=f"level {level}: {len(subs)} sub-domain(s)")
         levels_left = problem.options.max_levels - level + 1
         for i, sub in enumerate(subs):
-            if run.remaining() <= 0.05 or run.stopped():
+            if run.remaining() <= overhead or run.stopped():
                 break
             budget = run.remaining() / levels_left / (len(subs) - i)
             plan = plan_refinement(problem, domain, pieces, sub, level=level, index=i, rng=rng)
