@@ -27,8 +27,8 @@ SVG_NS = "http://www.w3.org/2000/svg"
 
 #: Fills for the well-known room types (DESIGN.md §1); anything else gets a hashed pastel.
 PALETTE: dict[str, str] = {
-    "living": "#f6d8a8",
-    "kitchen": "#f4b6a6",
+    "living": "#f6e2b3",
+    "kitchen": "#f9c784",
     "bedroom": "#b9d7f0",
     "bathroom": "#a8e0df",
     "dining": "#f7e3a1",
@@ -160,6 +160,8 @@ def _add_gaps(svg: ET.Element, frame: _Frame, free: BaseGeometry,
         ET.SubElement(svg, "path", {
             "class": "uncovered", "d": " ".join(_polygon_path(frame, p) for p in parts),
             "fill": GAP_COLOUR, "fill-opacity": "0.6", "fill-rule": "evenodd",
+            # A dashed red edge tells a gap from a pinkish room fill.
+            "stroke": "#d62728", "stroke-width": "1", "stroke-dasharray": "4 3",
         })
 
 

@@ -104,15 +104,6 @@ def complete_start(lm: LevelModel, boxes: Mapping[str, Box], *, time_limit: floa
     return result
 
 
-def rect_values(boxes: Mapping[str, Box]) -> dict[str, float]:
-    """Variable values x, y, w, d of rectangles, by the names `add_rect_vars` gives."""
-    values = {}
-    for name, b in boxes.items():
-        values.update({f"x[{name}]": b.x0, f"y[{name}]": b.y0,
-                       f"w[{name}]": b.width, f"d[{name}]": b.depth})
-    return values
-
-
 def run_level(
     lm: LevelModel,
     *,

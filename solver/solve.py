@@ -188,6 +188,15 @@ def solve(
     if pieces is None:
         assert failure is not None
         return failure
+    pieces, levels = _refine(run, domain, pieces)
+    pieces = absorb_gaps(problem, domain, pieces)
+    return _layout(run, domain, pieces, levels)
+
+
+def _refine(run: _Run, domain: Domain, pieces: list[Piece]) -> tuple[list[Piece], int]:
+    """The hierarchy (Sec. 5.3): refine sub-domains level by level while time is left;
+    returns the pieces and the number of levels used."""
+    problem = run.problem
     levels = 1
     rng = random.Random(problem.options.seed)
     # Planning a sub-domain costs Python time in proportion to the rooms: do not
@@ -221,8 +230,7 @@ def solve(
             run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=len(subs),
                      objective=result.objective,
                      detail=f"rooms {', '.join(sorted(sub.rooms))}: {result.status}")
-    pieces = absorb_gaps(problem, domain, pieces)
-    return _layout(run, domain, pieces, levels)
+    return pieces, levels
 
 
 def _level_one(
