@@ -16,6 +16,7 @@ from pydantic import (
     BaseModel,
     ConfigDict,
     Field,
+    StrictInt,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -72,7 +73,7 @@ class Room(_Strict):
     positions: Annotated[list[Point], Field(max_length=2)] = Field(
         default_factory=list, description="points the room must cover, C_pos (Eq. 8)"
     )
-    boundary: list[Annotated[int, Field(ge=0)] | Compass] = Field(
+    boundary: list[Annotated[StrictInt, Field(ge=0)] | Compass] = Field(
         default_factory=list,
         description="exterior edges (indices or compass words); touch one, C_boundary (Eq. 9)",
     )
@@ -230,11 +231,11 @@ def _boundary_errors(boundary: list[tuple[float, float]]) -> Iterator[InitErrorD
                          f"edge {k} from {boundary[k]} to {boundary[(k + 1) % n]} is not "
                          "axis-aligned")
     polygon = Polygon(boundary)
-    if not polygon.is_valid:
+    if polygon.area <= TOLERANCE:
+        yield _error(("boundary",), boundary, "degenerate_boundary", "the boundary has no area")
+    elif not polygon.is_valid:
         yield _error(("boundary",), boundary, "self_intersecting",
                      "the boundary crosses or touches itself")
-    elif polygon.area <= TOLERANCE:
-        yield _error(("boundary",), boundary, "degenerate_boundary", "the boundary has no area")
 
 
 def _placement_errors(problem: Problem) -> list[InitErrorDetails]:

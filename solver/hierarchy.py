@@ -27,6 +27,10 @@ from solver.geometry import EPS, Box, Domain, Edge, rectangles_of
 GAP_AREA = 1e-3
 #: A split never makes a half thinner than this (metres); a thinner room is split the other way.
 MIN_HALF = 0.25
+#: Passes of the last step: what one side of a gap leaves, another may take.
+ABSORB_PASSES = 3
+#: Thinner strips (metres) are not worth a room's extra corner.
+MIN_STRIP = 0.05
 #: Rooms one sub-domain may hold: a larger MIQP would not solve in its time share.
 MAX_SUBDOMAIN_ROOMS = 12
 #: Pieces per room at most; beyond it a room's rectangles are no longer split.
@@ -324,13 +328,18 @@ def _rect_union(a: Box, b: Box, tol: float = 1e-6) -> Box | None:
 
 def absorb_gaps(problem: Problem, domain: Domain, pieces: Sequence[Piece]) -> list[Piece]:
     """The last refinement step: each leftover gap rectangle is cut along the walls of
-    the rooms bordering one of its sides, and each cut goes to the room it borders when
-    that room's bounding box stays within its size and ratio bounds. Rooms only grow,
-    so every other constraint keeps holding."""
+    the rooms bordering one of its sides, and each room takes the deepest strip of its
+    cut that keeps its bounding box within its size and ratio bounds. What one side
+    leaves, the next pass may take from another. Rooms only grow, so every other
+    constraint keeps holding."""
     result = list(pieces)
-    for gap in uncovered_gaps(domain, result):
-        for cell in rectangles_of(gap):
-            result = _absorb_cell(problem, result, cell)
+    for _ in range(ABSORB_PASSES):
+        before = len(result)
+        for gap in uncovered_gaps(domain, result):
+            for cell in rectangles_of(gap):
+                result = _absorb_cell(problem, result, cell)
+        if len(result) == before:
+            break
     return merge_rectangular_pairs(result)
 
 
@@ -341,12 +350,40 @@ def _absorb_cell(problem: Problem, pieces: list[Piece], cell: Box) -> list[Piece
             continue
         grown = list(pieces)
         for room_id, part in cuts:
-            candidate = [*grown, Piece(f"{room_id}+{len(grown)}", room_id, part)]
-            if _within_bounds(problem, room_id, [p.box for p in candidate if p.room == room_id]):
-                grown = candidate
+            own = [p.box for p in grown if p.room == room_id]
+            strip = _deepest_strip(problem, room_id, own, part, side)
+            if strip is not None:
+                grown.append(Piece(f"{room_id}+{len(grown)}", room_id, strip))
         if len(grown) > len(pieces):
             return grown
     return pieces
+
+
+def _deepest_strip(
+    problem: Problem, room_id: str, own: list[Box], part: Box, side: str
+) -> Box | None:
+    """The deepest strip of `part`, growing away from the room on `side` of it, that
+    keeps the room within bounds (the whole part when it can)."""
+
+    def strip(t: float) -> Box:
+        return {
+            "south": Box(part.x0, part.y0, part.x1, part.y0 + t),
+            "north": Box(part.x0, part.y1 - t, part.x1, part.y1),
+            "west": Box(part.x0, part.y0, part.x0 + t, part.y1),
+            "east": Box(part.x1 - t, part.y0, part.x1, part.y1),
+        }[side]
+
+    def fits(t: float) -> bool:
+        return _within_bounds(problem, room_id, [*own, strip(t)])
+
+    full = part.depth if side in ("south", "north") else part.width
+    if fits(full):
+        return strip(full)
+    lo, hi = 0.0, full
+    for _ in range(30):  # bisection to ~1e-9 of the depth
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if fits(mid) else (lo, mid)
+    return strip(lo) if lo >= MIN_STRIP and fits(lo) else None
 
 
 def _cuts_along(pieces: Sequence[Piece], cell: Box, side: str) -> list[tuple[str, Box]] | None:
