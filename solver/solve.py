@@ -60,7 +60,7 @@ from solver.scip_run import (
 BASE_TIME = 5.0
 BASE_ROOMS = 20
 #: Share of the time limit level 1 may use.
-LEVEL_ONE_SHARE = 0.8
+LEVEL_ONE_SHARE = 0.9
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
 #: Time kept per room for closing the last gaps and checking the layout.
