@@ -22,6 +22,8 @@ class Termination(StrEnum):
     """Stopped on request (`should_stop`); the best layout so far is returned."""
     NO_SOLUTION = "no_solution"
     """The time ran out before any layout was found; feasibility is unknown."""
+    IN_PROGRESS = "in_progress"
+    """An incumbent of a solve still running, shown as it is: not yet checked."""
 
 
 class Rect(BaseModel):

@@ -71,7 +71,12 @@ class UsageError(Exception):
 # -- the parser -------------------------------------------------------------------------
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: Adds a subcommand to the parser's subparsers; the service adds `serve` this way, so
+#: the solver's command line knows nothing of HTTP.
+CommandAdder = Callable[[Any], None]
+
+
+def build_parser(extra: Sequence[CommandAdder] = ()) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=PROG,
         description="Interior layouts from building outlines and room constraints "
@@ -79,6 +84,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _add_solve(commands)
+    for add in extra:
+        add(commands)
     return parser
 
 
@@ -107,10 +114,12 @@ def _add_solve(commands: Any) -> None:
     p.set_defaults(func=cmd_solve)
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, extra: Sequence[CommandAdder] = ()) -> int:
     """Entry point of the `floorplan` console script; returns the exit code."""
-    parser = build_parser()
+    parser = build_parser(extra)
     args = parser.parse_args(argv)  # exits with 2 on a usage error, as argparse does
+    if getattr(args, "own_signals", False):
+        return int(args.func(args))  # a server handles its own SIGINT and SIGTERM
     try:
         # Before the command imports the solver: see `sigint_flag`.
         with sigint_flag() as interrupted:

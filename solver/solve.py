@@ -383,6 +383,29 @@ def _layout(run: _Run, domain: Domain, pieces: list[Piece], levels: int) -> Layo
     return Layout(name=problem.name, rooms=out, report=report)
 
 
+def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float | None) -> Layout:
+    """An incumbent as a layout for progress displays: polygons and coverage, no check
+    (`termination: in_progress`, `valid: false` until the solve ends)."""
+    domain_free = problem.free_area()
+    out = []
+    for room in problem.rooms:
+        boxes = rooms.get(room.id, [])
+        if not boxes:
+            continue
+        union = shapely.union_all([b.to_polygon() for b in boxes])
+        polygon = union if isinstance(union, shapely.Polygon) else union.convex_hull
+        out.append(RoomLayout(
+            id=room.id, type=room.type, polygon=polygon_coords(shapely.orient_polygons(polygon)),
+            rectangles=[b.to_rect() for b in boxes], area=round(float(union.area), 6),
+        ))
+    covered = shapely.union_all([b.to_polygon() for boxes in rooms.values() for b in boxes])
+    cover = float(domain_free.intersection(covered).area)
+    report = Report(coverage=cover / domain_free.area if domain_free.area else 1.0,
+                    uncovered_area=float(domain_free.area) - cover, objective=objective,
+                    termination=Termination.IN_PROGRESS, valid=False)
+    return Layout(name=problem.name, rooms=out, report=report)
+
+
 def _no_layout(run: _Run, termination: Termination, why: Infeasibility) -> Layout:
     report = Report(coverage=0.0, uncovered_area=0.0, termination=termination, valid=False,
                     infeasibility=why, solve_time=run.elapsed())

@@ -1,0 +1,42 @@
+"""The `floorplan` command: the solver's subcommands plus `serve`."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from solver import cli as solver_cli
+
+
+def add_serve(commands: Any) -> None:
+    p = commands.add_parser(
+        "serve",
+        help="run the HTTP service (jobs kept in SQLite; no other server needed)",
+        description="Serve the layout API. Settings come from FLOORPLAN_* environment "
+        "variables or .env (see the README); these options override them.",
+    )
+    p.add_argument("--host", help="address to listen on (default 127.0.0.1)")
+    p.add_argument("--port", type=int, help="port (default 8000)")
+    p.add_argument("--workers", type=int, help="solves at once (default: the number of cores)")
+    p.add_argument("--data-dir", help="where the job store lives (default ./data)")
+    p.add_argument("--log-level", default="info", help="uvicorn log level")
+    p.set_defaults(func=cmd_serve, own_signals=True)
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    import uvicorn
+
+    from service.app import create_app
+    from service.settings import Settings
+
+    overrides = {k: v for k, v in {"host": args.host, "port": args.port,
+                                   "workers": args.workers, "data_dir": args.data_dir}.items()
+                 if v is not None}
+    settings = Settings(**overrides)
+    uvicorn.run(create_app(settings), host=settings.host, port=settings.port,
+                log_level=args.log_level, timeout_graceful_shutdown=int(settings.grace_seconds))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    return solver_cli.main(argv, extra=(add_serve,))

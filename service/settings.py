@@ -1,0 +1,60 @@
+"""Service settings, from FLOORPLAN_* environment variables or a .env file."""
+
+from __future__ import annotations
+
+import os
+from functools import lru_cache
+from pathlib import Path
+from typing import Annotated, Any
+
+from pydantic import Field, field_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+
+class Settings(BaseSettings):
+    """Every knob of `floorplan serve`; each is documented in the README."""
+
+    model_config = SettingsConfigDict(env_prefix="FLOORPLAN_", env_file=".env", extra="ignore")
+
+    host: str = Field("127.0.0.1", description="address to listen on")
+    port: int = Field(8000, ge=0, le=65535, description="port to listen on (0: any free one)")
+    workers: int = Field(
+        default_factory=lambda: os.cpu_count() or 1, ge=1,
+        description="solves running at once, each in its own process",
+    )
+    data_dir: Path = Field(Path("data"), description="where the SQLite job store lives")
+    max_body_bytes: int = Field(1 << 20, ge=1024, description="largest accepted request body")
+    max_rooms: int = Field(400, ge=1, description="most rooms in one problem")
+    max_time_limit: float = Field(600.0, gt=0, description="largest options.time_limit allowed")
+    queue_limit: int = Field(1000, ge=1, description="jobs waiting at most; beyond, 429")
+    grace_seconds: float = Field(
+        5.0, ge=0, description="after time_limit + grace a solve is interrupted, after another "
+        "grace it is killed",
+    )
+    retry_limit: int = Field(
+        2, ge=0, description="restarts of a job whose service stopped under it, then it fails"
+    )
+    retention_hours: float = Field(
+        168.0, gt=0, description="finished jobs older than this are deleted"
+    )
+    api_keys: Annotated[list[str], NoDecode] = Field(
+        default_factory=list,
+        description="comma-separated keys; when set, every request needs one and sees only "
+        "its own jobs",
+    )
+
+    @field_validator("api_keys", mode="before")
+    @classmethod
+    def _comma_separated(cls, value: Any) -> Any:
+        if isinstance(value, str):
+            return [key.strip() for key in value.split(",") if key.strip()]
+        return value
+
+    @property
+    def database_path(self) -> Path:
+        return self.data_dir / "jobs.sqlite3"
+
+
+@lru_cache
+def get_settings() -> Settings:
+    return Settings()

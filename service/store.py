@@ -1,0 +1,363 @@
+"""Durable job records: SQLAlchemy Core over SQLite in WAL mode (the embedded default).
+
+A job answered with 202 is a row before the answer leaves; everything the runner
+learns (status, progress, incumbents, the result) is written here, and the event
+stream reads it back, so a restart loses nothing but the work in flight.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from enum import StrEnum
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import (
+    Boolean,
+    Column,
+    Engine,
+    Float,
+    Integer,
+    MetaData,
+    String,
+    Table,
+    Text,
+    and_,
+    create_engine,
+    delete,
+    event,
+    func,
+    insert,
+    or_,
+    select,
+    update,
+)
+from sqlalchemy.engine import Connection
+from sqlalchemy.exc import IntegrityError
+
+#: Attempts at appending an event when another writer took its sequence number.
+EVENT_RETRIES = 5
+
+
+class JobStatus(StrEnum):
+    """Where a job is in its life."""
+
+    QUEUED = "queued"
+    RUNNING = "running"
+    SUCCEEDED = "succeeded"
+    FAILED = "failed"
+    CANCELED = "canceled"
+
+    @property
+    def terminal(self) -> bool:
+        return self in (JobStatus.SUCCEEDED, JobStatus.FAILED, JobStatus.CANCELED)
+
+
+metadata = MetaData()
+
+jobs = Table(
+    "jobs", metadata,
+    Column("id", String(36), primary_key=True),
+    Column("owner", String(64), nullable=False, default=""),
+    Column("status", String(16), nullable=False, index=True),
+    Column("termination", String(32)),
+    Column("problem", Text, nullable=False),
+    Column("time_limit", Float, nullable=False),
+    Column("result", Text),
+    Column("incumbent", Text),
+    Column("progress", Text),
+    Column("error", Text),
+    Column("idempotency_key", String(200)),
+    Column("body_hash", String(64)),
+    Column("attempts", Integer, nullable=False, default=0),
+    Column("cancel_requested", Boolean, nullable=False, default=False),
+    Column("created_at", Float, nullable=False, index=True),
+    Column("started_at", Float),
+    Column("finished_at", Float),
+    Column("updated_at", Float, nullable=False),
+)
+
+events = Table(
+    "events", metadata,
+    Column("job_id", String(36), primary_key=True),
+    Column("seq", Integer, primary_key=True),
+    Column("kind", String(16), nullable=False),
+    Column("data", Text, nullable=False),
+    Column("created_at", Float, nullable=False),
+)
+
+
+@dataclass(frozen=True)
+class Job:
+    id: str
+    owner: str
+    status: JobStatus
+    termination: str | None
+    problem: str
+    time_limit: float
+    result: str | None
+    incumbent: str | None
+    progress: dict[str, Any] | None
+    error: dict[str, Any] | None
+    idempotency_key: str | None
+    body_hash: str | None
+    attempts: int
+    cancel_requested: bool
+    created_at: float
+    started_at: float | None
+    finished_at: float | None
+    updated_at: float
+
+
+@dataclass(frozen=True)
+class Event:
+    job_id: str
+    seq: int
+    kind: str
+    data: str
+
+
+class IdempotencyConflict(Exception):
+    """The same Idempotency-Key came with another body."""
+
+
+class JobStore:
+    """Job records and their events."""
+
+    def __init__(self, url: str) -> None:
+        self.engine: Engine = create_engine(url)
+        if url.startswith("sqlite"):
+            event.listen(self.engine, "connect", _sqlite_pragmas)
+        metadata.create_all(self.engine)
+
+    @classmethod
+    def sqlite(cls, path: Path) -> JobStore:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return cls(f"sqlite:///{path}")
+
+    @contextmanager
+    def _tx(self) -> Iterator[Connection]:
+        with self.engine.begin() as conn:
+            yield conn
+
+    # Creating and reading.
+
+    def create(
+        self, *, problem: str, time_limit: float, owner: str = "",
+        idempotency_key: str | None = None, body_hash: str | None = None,
+    ) -> tuple[Job, bool]:
+        """A new queued job, or with a known Idempotency-Key the job it made before
+        (the flag says whether it is new). Another body under that key is refused."""
+        now = time.time()
+        with self._tx() as conn:
+            if idempotency_key is not None:
+                row = conn.execute(select(jobs).where(
+                    jobs.c.owner == owner, jobs.c.idempotency_key == idempotency_key
+                )).first()
+                if row is not None:
+                    if row.body_hash != body_hash:
+                        raise IdempotencyConflict(idempotency_key)
+                    return _job(row), False
+            job_id = str(uuid.uuid4())
+            conn.execute(insert(jobs).values(
+                id=job_id, owner=owner, status=JobStatus.QUEUED, problem=problem,
+                time_limit=time_limit, idempotency_key=idempotency_key, body_hash=body_hash,
+                attempts=0, cancel_requested=False, created_at=now, updated_at=now,
+            ))
+            row = conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
+        return _job(row), True
+
+    def get(self, job_id: str, owner: str | None = None) -> Job | None:
+        query = select(jobs).where(jobs.c.id == job_id)
+        if owner is not None:
+            query = query.where(jobs.c.owner == owner)
+        with self._tx() as conn:
+            row = conn.execute(query).first()
+        return _job(row) if row is not None else None
+
+    def list(
+        self, *, owner: str | None, status: JobStatus | None, limit: int,
+        after: tuple[float, str] | None,
+    ) -> list[Job]:
+        """Newest first; `after` is the (created_at, id) of the last job already seen."""
+        query = select(jobs).order_by(jobs.c.created_at.desc(), jobs.c.id.desc()).limit(limit)
+        if owner is not None:
+            query = query.where(jobs.c.owner == owner)
+        if status is not None:
+            query = query.where(jobs.c.status == status)
+        if after is not None:
+            created, job_id = after
+            query = query.where(or_(jobs.c.created_at < created,
+                                    and_(jobs.c.created_at == created, jobs.c.id < job_id)))
+        with self._tx() as conn:
+            return [_job(row) for row in conn.execute(query)]
+
+    def count(self, status: JobStatus) -> int:
+        with self._tx() as conn:
+            return int(conn.execute(
+                select(func.count()).select_from(jobs).where(jobs.c.status == status)
+            ).scalar_one())
+
+    # The runner's side.
+
+    def claim_next(self) -> Job | None:
+        """The oldest queued job, now running (first in, first out)."""
+        with self._tx() as conn:
+            row = conn.execute(select(jobs.c.id).where(jobs.c.status == JobStatus.QUEUED)
+                               .order_by(jobs.c.created_at, jobs.c.id).limit(1)).first()
+            if row is None:
+                return None
+            now = time.time()
+            claimed = conn.execute(update(jobs).where(
+                jobs.c.id == row.id, jobs.c.status == JobStatus.QUEUED
+            ).values(status=JobStatus.RUNNING, started_at=now, updated_at=now,
+                     attempts=jobs.c.attempts + 1))
+            if claimed.rowcount != 1:
+                return None
+            job = _job(conn.execute(select(jobs).where(jobs.c.id == row.id)).one())
+        self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
+        return job
+
+    def set_progress(self, job_id: str, progress: dict[str, Any]) -> None:
+        with self._tx() as conn:
+            conn.execute(update(jobs).where(jobs.c.id == job_id).values(
+                progress=json.dumps(progress), updated_at=time.time()))
+
+    def set_incumbent(self, job_id: str, layout_json: str) -> None:
+        with self._tx() as conn:
+            conn.execute(update(jobs).where(jobs.c.id == job_id).values(
+                incumbent=layout_json, updated_at=time.time()))
+
+    def finish(
+        self, job_id: str, status: JobStatus, *, termination: str | None = None,
+        result: str | None = None, error: dict[str, Any] | None = None,
+    ) -> None:
+        """Record the end of a job (idempotent: a finished job stays as it ended)."""
+        now = time.time()
+        with self._tx() as conn:
+            done = conn.execute(update(jobs).where(
+                jobs.c.id == job_id, jobs.c.status.in_([JobStatus.QUEUED, JobStatus.RUNNING])
+            ).values(status=status, termination=termination, result=result,
+                     error=json.dumps(error) if error else None, finished_at=now,
+                     updated_at=now))
+        if done.rowcount:
+            self.add_event(job_id, "status", {"status": status, "termination": termination,
+                                              "error": error})
+
+    def request_cancel(self, job_id: str) -> Job | None:
+        """Mark a job for cancelling; a queued one is canceled at once."""
+        with self._tx() as conn:
+            conn.execute(update(jobs).where(
+                jobs.c.id == job_id, jobs.c.status.in_([JobStatus.QUEUED, JobStatus.RUNNING])
+            ).values(cancel_requested=True, updated_at=time.time()))
+        job = self.get(job_id)
+        if job is not None and job.status is JobStatus.QUEUED:
+            self.finish(job_id, JobStatus.CANCELED, termination="interrupted")
+            job = self.get(job_id)
+        return job
+
+    def delete(self, job_id: str) -> None:
+        with self._tx() as conn:
+            conn.execute(delete(events).where(events.c.job_id == job_id))
+            conn.execute(delete(jobs).where(jobs.c.id == job_id))
+
+    def recover(self, retry_limit: int) -> tuple[int, int]:
+        """After a restart: jobs left running go back to the queue, or fail once they
+        have been tried `retry_limit` + 1 times. Returns (requeued, failed)."""
+        with self._tx() as conn:
+            stale = conn.execute(select(jobs.c.id, jobs.c.attempts, jobs.c.cancel_requested)
+                                 .where(jobs.c.status == JobStatus.RUNNING)).all()
+        requeued = failed = 0
+        for row in stale:
+            if row.cancel_requested:
+                self.finish(row.id, JobStatus.CANCELED, termination="interrupted")
+            elif row.attempts > retry_limit:
+                failed += 1
+                self.finish(row.id, JobStatus.FAILED, error={
+                    "code": "retries_exhausted",
+                    "message": f"the service stopped during this job {row.attempts} times",
+                })
+            else:
+                requeued += 1
+                with self._tx() as conn:
+                    conn.execute(update(jobs).where(jobs.c.id == row.id).values(
+                        status=JobStatus.QUEUED, updated_at=time.time()))
+                self.add_event(row.id, "status", {"status": JobStatus.QUEUED,
+                                                  "detail": "requeued after a restart"})
+        return requeued, failed
+
+    def hand_back(self, job_id: str) -> None:
+        """A running job the service stops gracefully goes back to the queue, and the
+        interrupted run does not count as an attempt."""
+        with self._tx() as conn:
+            conn.execute(update(jobs).where(
+                jobs.c.id == job_id, jobs.c.status == JobStatus.RUNNING
+            ).values(status=JobStatus.QUEUED, attempts=jobs.c.attempts - 1,
+                     updated_at=time.time()))
+
+    def purge(self, older_than: float) -> int:
+        """Delete finished jobs that ended before `older_than` (epoch seconds)."""
+        with self._tx() as conn:
+            ids = [r.id for r in conn.execute(select(jobs.c.id).where(
+                jobs.c.finished_at.is_not(None), jobs.c.finished_at < older_than))]
+            if ids:
+                conn.execute(delete(events).where(events.c.job_id.in_(ids)))
+                conn.execute(delete(jobs).where(jobs.c.id.in_(ids)))
+        return len(ids)
+
+    # Events.
+
+    def add_event(self, job_id: str, kind: str, data: dict[str, Any] | str) -> int:
+        """Append an event; its sequence number is the SSE event id."""
+        payload = data if isinstance(data, str) else json.dumps(data)
+        for attempt in range(EVENT_RETRIES):
+            try:
+                with self._tx() as conn:
+                    last = conn.execute(select(func.max(events.c.seq))
+                                        .where(events.c.job_id == job_id)).scalar()
+                    seq = (last or 0) + 1
+                    conn.execute(insert(events).values(job_id=job_id, seq=seq, kind=kind,
+                                                       data=payload, created_at=time.time()))
+                return seq
+            except IntegrityError:
+                # Two writers took the same number (the runner and a cancel): take the next.
+                if attempt == EVENT_RETRIES - 1:
+                    raise
+        raise AssertionError("unreachable")
+
+    def events_after(self, job_id: str, seq: int) -> list[Event]:
+        with self._tx() as conn:
+            rows = conn.execute(select(events).where(events.c.job_id == job_id,
+                                                     events.c.seq > seq)
+                                .order_by(events.c.seq)).all()
+        return [Event(r.job_id, r.seq, r.kind, r.data) for r in rows]
+
+    def ping(self) -> bool:
+        with self._tx() as conn:
+            return conn.execute(select(1)).scalar() == 1
+
+
+def _sqlite_pragmas(dbapi_connection: Any, _record: Any) -> None:
+    cursor = dbapi_connection.cursor()
+    cursor.execute("PRAGMA journal_mode=WAL")
+    cursor.execute("PRAGMA synchronous=NORMAL")  # WAL keeps it durable across crashes
+    cursor.execute("PRAGMA busy_timeout=5000")
+    cursor.close()
+
+
+def _job(row: Any) -> Job:
+    return Job(
+        id=row.id, owner=row.owner, status=JobStatus(row.status), termination=row.termination,
+        problem=row.problem, time_limit=row.time_limit, result=row.result,
+        incumbent=row.incumbent,
+        progress=json.loads(row.progress) if row.progress else None,
+        error=json.loads(row.error) if row.error else None,
+        idempotency_key=row.idempotency_key, body_hash=row.body_hash, attempts=row.attempts,
+        cancel_requested=bool(row.cancel_requested), created_at=row.created_at,
+        started_at=row.started_at, finished_at=row.finished_at, updated_at=row.updated_at,
+    )

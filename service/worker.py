@@ -1,0 +1,49 @@
+"""What runs inside a solve's own process: the solver, reporting back over a queue.
+
+Started with `spawn`, never `fork` (SCIP and threads do not survive a fork), so this
+module is imported afresh in the child and must stay light at import time.
+"""
+
+from __future__ import annotations
+
+import time
+from multiprocessing.queues import Queue
+from multiprocessing.synchronize import Event
+from typing import Any
+
+#: Seconds between two incumbent layouts sent to the parent: building one costs
+#: geometry, and the event stream shows at most two a second anyway.
+INCUMBENT_INTERVAL = 0.5
+
+
+def run_job(problem_json: str, messages: Queue[tuple[str, Any]], stop: Event) -> None:
+    """Solve and send ("progress", dict), ("incumbent", (dict, layout_json)) and
+    finally ("done", layout_json); an exception is sent as ("error", message)."""
+    try:
+        from models import Problem
+        from solver.solve import Phase, SolveEvent, draft_layout, solve
+
+        problem = Problem.model_validate_json(problem_json)
+        last_incumbent = 0.0
+
+        def on_event(e: SolveEvent) -> None:
+            nonlocal last_incumbent
+            progress = {
+                "phase": e.phase.value, "level": e.level, "subdomain": e.subdomain,
+                "subdomains": e.subdomains, "objective": e.objective,
+                "dual_bound": e.dual_bound, "elapsed": round(e.elapsed, 3), "detail": e.detail,
+            }
+            if e.phase is Phase.INCUMBENT:
+                now = time.monotonic()
+                if e.rooms is None or now - last_incumbent < INCUMBENT_INTERVAL:
+                    return
+                last_incumbent = now
+                layout = draft_layout(problem, e.rooms, e.objective)
+                messages.put(("incumbent", (progress, layout.model_dump_json())))
+            else:
+                messages.put(("progress", progress))
+
+        layout = solve(problem, on_event=on_event, should_stop=stop.is_set)
+        messages.put(("done", layout.model_dump_json()))
+    except Exception as err:
+        messages.put(("error", f"{type(err).__name__}: {err}"))
