@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import logging
 import multiprocessing
+import os
 import queue
 import threading
 import time
@@ -122,7 +123,8 @@ class Runner:
     def _launch(self, job: Job) -> None:
         messages = self._ctx.Queue()
         stop = self._ctx.Event()
-        process = self._ctx.Process(target=run_job, args=(job.problem, messages, stop),
+        process = self._ctx.Process(target=run_job,
+                                    args=(job.problem, messages, stop, os.getpid()),
                                     name=f"solve-{job.id}", daemon=True)
         process.start()
         active = _Active(job, process, stop)

@@ -6,6 +6,7 @@ module is imported afresh in the child and must stay light at import time.
 
 from __future__ import annotations
 
+import os
 import time
 from multiprocessing.queues import Queue
 from multiprocessing.synchronize import Event
@@ -16,9 +17,17 @@ from typing import Any
 INCUMBENT_INTERVAL = 0.5
 
 
-def run_job(problem_json: str, messages: Queue[tuple[str, Any]], stop: Event) -> None:
+def run_job(
+    problem_json: str, messages: Queue[tuple[str, Any]], stop: Event, parent: int
+) -> None:
     """Solve and send ("progress", dict), ("incumbent", (dict, layout_json)) and
-    finally ("done", layout_json); an exception is sent as ("error", message)."""
+    finally ("done", layout_json); an exception is sent as ("error", message).
+    The solve stops when `stop` is set or the parent process `parent` is gone (a
+    killed service must not leave orphans running)."""
+
+    def should_stop() -> bool:
+        return stop.is_set() or os.getppid() != parent
+
     try:
         from models import Problem
         from solver.solve import Phase, SolveEvent, draft_layout, solve
@@ -43,7 +52,7 @@ def run_job(problem_json: str, messages: Queue[tuple[str, Any]], stop: Event) ->
             else:
                 messages.put(("progress", progress))
 
-        layout = solve(problem, on_event=on_event, should_stop=stop.is_set)
+        layout = solve(problem, on_event=on_event, should_stop=should_stop)
         messages.put(("done", layout.model_dump_json()))
     except Exception as err:
         messages.put(("error", f"{type(err).__name__}: {err}"))

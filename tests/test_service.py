@@ -1,0 +1,385 @@
+"""The HTTP service, tested against real `floorplan serve` processes on loopback."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx2 as httpx
+import pytest
+
+TERMINAL = {"succeeded", "failed", "canceled"}
+
+SMALL: dict[str, Any] = {
+    "name": "two-rooms",
+    "boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],
+    "rooms": [
+        {"id": "living", "type": "living", "min_size": [2, 2], "max_size": [5, 4],
+         "target_size": [3.5, 4]},
+        {"id": "bed", "type": "bedroom", "min_size": [2, 2], "max_size": [4, 4],
+         "target_size": [2.5, 4]},
+    ],
+    "adjacency": [{"a": "living", "b": "bed"}],
+    "options": {"time_limit": 2},
+}
+
+# Twelve offices keep the neighbourhood search busy until its time limit.
+LONG: dict[str, Any] = {
+    "name": "offices",
+    "boundary": [[0, 0], [16, 0], [16, 9], [0, 9]],
+    "rooms": [{"id": f"office{k}", "type": "office", "min_size": [2, 2], "max_size": [6, 6],
+               "target_size": [4.1 - 0.1 * (k % 3), 3.0]} for k in range(12)],
+    "options": {"time_limit": 20},
+}
+
+
+class Server:
+    """A `floorplan serve` process on a free loopback port, in its own session so that
+    it and its solve processes can be killed together."""
+
+    def __init__(self, data_dir: Path, **env: str) -> None:
+        self.data_dir = data_dir
+        self.env = env
+        self.port = _free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.process: subprocess.Popen[bytes] | None = None
+
+    def start(self) -> Server:
+        env = {**os.environ, **self.env}
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "service", "serve", "--port", str(self.port),
+             "--data-dir", str(self.data_dir), "--workers", self.env.get("WORKERS", "2"),
+             "--log-level", "warning"],
+            env=env, start_new_session=True,
+        )
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            try:
+                if httpx.get(f"{self.url}/readyz", timeout=1).status_code == 200:
+                    return self
+            except httpx.TransportError:
+                pass
+            time.sleep(0.1)
+        raise RuntimeError("the server did not become ready")
+
+    def kill(self) -> None:
+        """SIGKILL to the whole session: a crash, nothing gets to clean up."""
+        assert self.process is not None
+        os.killpg(self.process.pid, signal.SIGKILL)
+        self.process.wait()
+
+    def stop(self) -> None:
+        assert self.process is not None
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGTERM)
+            try:
+                self.process.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.process.pid, signal.SIGKILL)
+                self.process.wait()
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    s = Server(tmp_path_factory.mktemp("data")).start()
+    yield s
+    s.stop()
+
+
+@pytest.fixture
+def client(server: Server) -> Iterator[httpx.Client]:
+    with httpx.Client(base_url=server.url, timeout=30) as c:
+        yield c
+
+
+def submit(client: httpx.Client, problem: dict[str, Any], **headers: str) -> dict[str, Any]:
+    response = client.post("/v1/layouts", json=problem, headers=headers)
+    assert response.status_code == 202, response.text
+    assert response.headers["location"] == f"/v1/layouts/{response.json()['id']}"
+    return response.json()
+
+
+def wait(client: httpx.Client, job_id: str, timeout: float = 60,
+         until: set[str] = TERMINAL) -> dict[str, Any]:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        job = client.get(f"/v1/layouts/{job_id}").json()
+        if job["status"] in until:
+            return job
+        time.sleep(0.2)
+    raise AssertionError(f"job {job_id} still {job['status']} after {timeout} s")
+
+
+def test_submit_follow_the_events_and_fetch_the_result(client: httpx.Client) -> None:
+    job = submit(client, SMALL)
+    assert job["status"] == "queued"
+    events: list[tuple[str, str, dict[str, Any]]] = []
+    with client.stream("GET", f"/v1/layouts/{job['id']}/events") as stream:
+        assert stream.headers["content-type"].startswith("text/event-stream")
+        event_id = kind = ""
+        for line in stream.iter_lines():
+            if line.startswith("id: "):
+                event_id = line[4:]
+            elif line.startswith("event: "):
+                kind = line[7:]
+            elif line.startswith("data: "):
+                events.append((event_id, kind, json.loads(line[6:])))
+    kinds = [k for _, k, _ in events]
+    assert kinds[0] == "status" and kinds[-1] == "status"
+    assert events[-1][2]["status"] == "succeeded"
+    assert "progress" in kinds and "incumbent" in kinds
+    incumbent = next(data for _, k, data in events if k == "incumbent")
+    assert {r["id"] for r in incumbent["layout"]["rooms"]} == {"living", "bed"}
+    assert [int(i) for i, _, _ in events] == sorted(int(i) for i, _, _ in events)
+
+    final = client.get(f"/v1/layouts/{job['id']}").json()
+    assert final["status"] == "succeeded" and final["termination"] is not None
+    assert final["started_at"] and final["finished_at"]
+    layout = client.get(f"/v1/layouts/{job['id']}/result").json()
+    assert layout["report"]["valid"] and {r["id"] for r in layout["rooms"]} == {"living", "bed"}
+    svg = client.get(f"/v1/layouts/{job['id']}/result", params={"format": "svg"})
+    assert svg.headers["content-type"].startswith("image/svg+xml") and "<svg" in svg.text
+
+    # Resuming after the third event replays only what came later.
+    third = events[2][0]
+    with client.stream("GET", f"/v1/layouts/{job['id']}/events",
+                       headers={"Last-Event-ID": third}) as stream:
+        ids = [line[4:] for line in stream.iter_lines() if line.startswith("id: ")]
+    assert ids == [i for i, _, _ in events[3:]]
+
+
+def test_cancel_stops_the_solve_and_keeps_the_incumbent(client: httpx.Client) -> None:
+    job = submit(client, LONG)
+    deadline = time.monotonic() + 30
+    while client.get(f"/v1/layouts/{job['id']}/result").status_code != 200:
+        assert time.monotonic() < deadline, "no incumbent in 30 s"
+        time.sleep(0.2)
+    running = client.get(f"/v1/layouts/{job['id']}/result").json()
+    assert running["report"]["termination"] == "in_progress"
+    started = time.monotonic()
+    assert client.post(f"/v1/layouts/{job['id']}/cancel").status_code == 200
+    done = wait(client, job["id"], timeout=15)
+    assert time.monotonic() - started < 10
+    assert done["status"] == "canceled" and done["termination"] == "interrupted"
+    result = client.get(f"/v1/layouts/{job['id']}/result").json()
+    assert result["report"]["valid"] and len(result["rooms"]) == 12
+    # Cancelling again changes nothing.
+    again = client.post(f"/v1/layouts/{job['id']}/cancel")
+    assert again.status_code == 200 and again.json()["status"] == "canceled"
+
+
+def test_a_result_before_any_layout_is_a_clear_problem(client: httpx.Client) -> None:
+    job = submit(client, {**LONG, "name": "not-yet"})
+    response = client.get(f"/v1/layouts/{job['id']}/result")
+    if response.status_code == 404:  # the usual case: not even an incumbent yet
+        assert response.headers["content-type"] == "application/problem+json"
+        assert response.json()["title"] == "No layout yet"
+    client.post(f"/v1/layouts/{job['id']}/cancel")
+    wait(client, job["id"])
+
+
+def test_delete_removes_a_finished_job_and_refuses_a_running_one(client: httpx.Client) -> None:
+    running = submit(client, {**LONG, "name": "still-running"})
+    wait(client, running["id"], until={"running"} | TERMINAL)
+    refused = client.delete(f"/v1/layouts/{running['id']}")
+    assert refused.status_code == 409
+    client.post(f"/v1/layouts/{running['id']}/cancel")
+    wait(client, running["id"])
+    assert client.delete(f"/v1/layouts/{running['id']}").status_code == 204
+    assert client.get(f"/v1/layouts/{running['id']}").status_code == 404
+
+
+def test_idempotency_key_gives_the_same_job_and_refuses_another_body(
+    client: httpx.Client,
+) -> None:
+    first = submit(client, SMALL, **{"Idempotency-Key": "order-17"})
+    second = submit(client, SMALL, **{"Idempotency-Key": "order-17"})
+    assert first["id"] == second["id"]
+    other = client.post("/v1/layouts", json={**SMALL, "name": "else"},
+                        headers={"Idempotency-Key": "order-17"})
+    assert other.status_code == 409
+    assert other.headers["content-type"] == "application/problem+json"
+    wait(client, first["id"])
+
+
+def test_listing_pages_through_jobs_newest_first(client: httpx.Client) -> None:
+    ids = [submit(client, {**SMALL, "name": f"page-{k}"})["id"] for k in range(3)]
+    seen: list[str] = []
+    cursor = None
+    while True:
+        params: dict[str, Any] = {"limit": 2}
+        if cursor:
+            params["cursor"] = cursor
+        page = client.get("/v1/layouts", params=params).json()
+        seen += [j["id"] for j in page["data"]]
+        cursor = page["next_cursor"]
+        if not cursor:
+            break
+    assert seen.index(ids[2]) < seen.index(ids[1]) < seen.index(ids[0])
+    assert len(seen) == len(set(seen))
+    queued = client.get("/v1/layouts", params={"status": "succeeded"}).json()["data"]
+    assert all(j["status"] == "succeeded" for j in queued)
+    for job_id in ids:
+        wait(client, job_id)
+
+
+@pytest.mark.parametrize(
+    ("body", "status"),
+    [
+        (b"{not json", 400),
+        (b"[]", 422),
+        (b'{"boundary": "square", "rooms": []}', 422),
+        (json.dumps({**SMALL, "rooms": [{"id": "a", "min_size": ["wide", 2]}]}).encode(), 422),
+        (json.dumps({**SMALL, "boundary": [[0, 0], [1e300, 0], [1e300, 4], [0, 4]]}).encode(),
+         422),
+        (json.dumps({**SMALL, "adjacency": [{"a": "living", "b": "ghost"}]}).encode(), 422),
+        (json.dumps({**SMALL, "options": {"time_limit": 10_000}}).encode(), 422),
+        (b"\xff\xfe\x00", 400),
+    ],
+    ids=["broken", "array", "wrong-type", "string-size", "huge", "unknown-room",
+         "time-limit", "not-utf8"],
+)
+def test_bad_bodies_get_a_problem_document_never_a_5xx(
+    client: httpx.Client, body: bytes, status: int
+) -> None:
+    response = client.post("/v1/layouts", content=body,
+                           headers={"content-type": "application/json"})
+    assert response.status_code == status
+    assert response.headers["content-type"] == "application/problem+json"
+    problem = response.json()
+    assert problem["status"] == status and problem["title"] and problem["detail"]
+    if status == 422 and problem.get("errors"):
+        assert all(e["field"] for e in problem["errors"])
+
+
+def test_unknown_room_ids_are_named_in_the_problem_document(client: httpx.Client) -> None:
+    body = {**SMALL, "adjacency": [{"a": "living", "b": "ghost"}]}
+    problem = client.post("/v1/layouts", json=body).json()
+    assert [e["field"] for e in problem["errors"]] == ["adjacency.0.b"]
+
+
+def test_a_ten_megabyte_body_is_refused_with_413(client: httpx.Client) -> None:
+    body = b'{"name": "' + b"x" * (10 << 20) + b'"}'
+    response = client.post("/v1/layouts", content=body,
+                           headers={"content-type": "application/json"})
+    assert response.status_code == 413
+    assert response.headers["content-type"] == "application/problem+json"
+
+
+def test_unknown_routes_and_jobs_are_problem_documents(client: httpx.Client) -> None:
+    for path in ("/nowhere", "/v1/layouts/00000000-0000-0000-0000-000000000000",
+                 "/v1/layouts/not-a-uuid"):
+        response = client.get(path)
+        assert 400 <= response.status_code < 500
+        assert response.headers["content-type"] == "application/problem+json"
+
+
+def test_validate_reports_schema_errors_and_cheap_impossibilities(client: httpx.Client) -> None:
+    assert client.post("/v1/validate", json=SMALL).json() == {
+        "valid": True, "errors": [], "findings": []}
+    bad = client.post("/v1/validate", json={**SMALL, "rooms": [{"id": "a", "min_size": [3, 2],
+                                                                "max_size": [2, 2]}]}).json()
+    assert not bad["valid"] and bad["errors"][0]["field"] == "rooms.0.min_size.0"
+    crowded = {**SMALL, "adjacency": [],
+               "rooms": [{"id": k, "min_size": [4, 4]} for k in "ab"]}
+    verdict = client.post("/v1/validate", json=crowded).json()
+    assert not verdict["valid"] and "minimum sizes need" in verdict["findings"][0]
+
+
+def test_openapi_and_docs_are_served_with_examples(client: httpx.Client) -> None:
+    schema = client.get("/openapi.json").json()
+    body = schema["paths"]["/v1/layouts"]["post"]["requestBody"]["content"]["application/json"]
+    assert body["schema"] == {"$ref": "#/components/schemas/Problem"} and body["example"]
+    assert "Room" in schema["components"]["schemas"]
+    assert client.get("/docs").status_code == 200
+
+
+def test_thirty_concurrent_submissions_all_finish(client: httpx.Client) -> None:
+    ids: list[str] = []
+    lock = threading.Lock()
+
+    def post(k: int) -> None:
+        with httpx.Client(base_url=str(client.base_url), timeout=30) as own:
+            job = submit(own, {**SMALL, "name": f"burst-{k}", "options": {"time_limit": 1}})
+        with lock:
+            ids.append(job["id"])
+
+    threads = [threading.Thread(target=post, args=(k,)) for k in range(30)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert len(set(ids)) == 30
+    finished = [wait(client, job_id, timeout=120) for job_id in ids]
+    assert all(job["status"] == "succeeded" for job in finished)
+
+
+def test_a_killed_service_resumes_its_jobs_after_a_restart(tmp_path: Path) -> None:
+    first = Server(tmp_path).start()
+    with httpx.Client(base_url=first.url, timeout=30) as c:
+        job = submit(c, {**LONG, "options": {"time_limit": 4}})
+        wait(c, job["id"], until={"running"})
+    first.kill()
+    second = Server(tmp_path).start()
+    try:
+        with httpx.Client(base_url=second.url, timeout=30) as c:
+            done = wait(c, job["id"], timeout=60)
+            assert done["status"] == "succeeded"
+            assert done["attempts"] == 2
+            assert c.get(f"/v1/layouts/{job['id']}/result").json()["report"]["valid"]
+    finally:
+        second.stop()
+
+
+def test_api_keys_guard_every_request_and_hide_other_keys_jobs(tmp_path: Path) -> None:
+    s = Server(tmp_path, FLOORPLAN_API_KEYS="alpha, beta").start()
+    try:
+        with httpx.Client(base_url=s.url, timeout=30) as c:
+            refused = c.post("/v1/layouts", json=SMALL)
+            assert refused.status_code == 401
+            assert refused.headers["content-type"] == "application/problem+json"
+            alpha = {"Authorization": "Bearer alpha"}
+            job = c.post("/v1/layouts", json=SMALL, headers=alpha).json()
+            assert c.get(f"/v1/layouts/{job['id']}", headers=alpha).status_code == 200
+            assert c.get(f"/v1/layouts/{job['id']}", headers={"X-API-Key": "beta"}) \
+                .status_code == 404
+            assert c.get("/v1/layouts", headers={"X-API-Key": "beta"}).json()["data"] == []
+            assert c.get(f"/v1/layouts/{job['id']}",
+                         headers={"Authorization": "Bearer gamma"}).status_code == 401
+            wait_with = httpx.Client(base_url=s.url, timeout=30, headers=alpha)
+            with wait_with:
+                wait(wait_with, job["id"])
+    finally:
+        s.stop()
+
+
+def test_a_full_queue_answers_429_with_retry_after(tmp_path: Path) -> None:
+    s = Server(tmp_path, FLOORPLAN_QUEUE_LIMIT="1", WORKERS="1").start()
+    try:
+        with httpx.Client(base_url=s.url, timeout=30) as c:
+            busy = submit(c, {**LONG, "options": {"time_limit": 30}})
+            wait(c, busy["id"], until={"running"})
+            waiting = submit(c, SMALL)
+            full = c.post("/v1/layouts", json=SMALL)
+            assert full.status_code == 429
+            assert int(full.headers["retry-after"]) > 0
+            assert full.headers["content-type"] == "application/problem+json"
+            c.post(f"/v1/layouts/{busy['id']}/cancel")
+            wait(c, waiting["id"])
+    finally:
+        s.stop()
