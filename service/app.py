@@ -22,7 +22,7 @@ from pydantic import BaseModel, Field, ValidationError
 
 from models import Layout
 from models import Problem as LayoutProblem
-from service.errors import ApiError, FieldError, field_errors, install
+from service.errors import ApiError, FieldError, ProblemDetails, field_errors, install
 from service.runner import Runner
 from service.settings import Settings, get_settings
 from service.store import IdempotencyConflict, Job, JobStatus, JobStore
@@ -425,9 +425,21 @@ def _openapi(app: FastAPI) -> dict[str, Any]:
         return app.openapi_schema
     schema = get_openapi(title=app.title, version=app.version, description=app.description,
                          routes=app.routes)
-    problem_schema = LayoutProblem.model_json_schema(ref_template="#/components/schemas/{model}")
     components = schema.setdefault("components", {}).setdefault("schemas", {})
-    components.update(problem_schema.pop("$defs", {}))
-    components["Problem"] = problem_schema
+    for model, name in ((LayoutProblem, "Problem"), (ProblemDetails, "ProblemDetails")):
+        model_schema = model.model_json_schema(ref_template="#/components/schemas/{model}")
+        components.update(model_schema.pop("$defs", {}))
+        components[name] = model_schema
+    # Errors are problem documents (RFC 9457), FastAPI's own 422 included.
+    problem_doc = {"application/problem+json": {
+        "schema": {"$ref": "#/components/schemas/ProblemDetails"}}}
+    for operation in (op for path in schema["paths"].values() for op in path.values()):
+        responses = operation.setdefault("responses", {})
+        for code, response in responses.items():
+            if code[0] in "45":
+                response["content"] = problem_doc
+        responses.setdefault("default", {"description": "an error", "content": problem_doc})
+    for unused in ("HTTPValidationError", "ValidationError"):
+        components.pop(unused, None)
     app.openapi_schema = schema
     return schema
