@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
 import threading
 import time
 from collections.abc import Iterator
@@ -345,3 +348,33 @@ def test_a_stopped_service_hands_running_jobs_back_without_counting_an_attempt(
             assert done["status"] == "succeeded" and done["attempts"] == 1
     finally:
         second.stop()
+
+
+def _solve_processes(server_pid: int) -> list[int]:
+    """The server's solve children (spawned: their command line runs spawn_main)."""
+    out = subprocess.run(["ps", "-o", "pid=,args=", "--ppid", str(server_pid)],
+                         capture_output=True, text=True, check=True).stdout
+    return [int(line.split()[0]) for line in out.splitlines() if "spawn_main" in line]
+
+
+def test_a_crashed_solve_fails_its_own_job_and_the_service_carries_on(tmp_path: Path) -> None:
+    s = Server(tmp_path).start()
+    try:
+        with httpx.Client(base_url=s.url, timeout=30) as c:
+            doomed = submit(c, {**LONG, "options": {"time_limit": 30}})
+            wait(c, doomed["id"], until={"running"})
+            assert s.process is not None
+            deadline = time.monotonic() + 10
+            while not (children := _solve_processes(s.process.pid)):
+                assert time.monotonic() < deadline, "no solve process found"
+                time.sleep(0.1)
+            for pid in children:
+                os.kill(pid, signal.SIGKILL)  # as a segfault or the OOM killer would
+            failed = wait(c, doomed["id"], timeout=30)
+            assert failed["status"] == "failed"
+            assert failed["error"]["code"] == "worker_died"
+            assert "died" in failed["error"]["message"]
+            assert c.get("/readyz").status_code == 200
+            assert wait(c, submit(c, SMALL)["id"])["status"] == "succeeded"
+    finally:
+        s.stop()
