@@ -26,6 +26,10 @@ from service.errors import ApiError, FieldError, ProblemDetails, field_errors, i
 from service.runner import Runner
 from service.settings import Settings, get_settings
 from service.store import IdempotencyConflict, Job, JobStatus, JobStore
+from solver.geometry import make_domain
+from solver.precheck import find_impossibilities
+from solver.render import render_svg
+from solver.solve import default_time_limit
 
 #: Seconds between two looks at the store while streaming events.
 STREAM_POLL = 0.25
@@ -229,8 +233,6 @@ def submit_layout(
 ) -> JobPublic:
     """Queue a layout job. The answer names it in `Location`; follow it with
     GET /v1/layouts/{id}, its event stream, or its result."""
-    from solver.solve import default_time_limit
-
     problem, raw = body
     if store.count(JobStatus.QUEUED) >= settings.queue_limit:
         raise ApiError(429, "the queue is full; try again later", kind="queue-full",
@@ -281,8 +283,6 @@ def get_result(job: JobDep, format: Literal["json", "svg"] = "json") -> Response
         raise ApiError(404, f"job {job.id} has no layout yet (status {job.status})",
                        kind="no-result-yet", title="No layout yet")
     if format == "svg":
-        from solver.render import render_svg
-
         problem = LayoutProblem.model_validate_json(job.problem)
         svg = render_svg(problem, Layout.model_validate_json(text))
         return Response(svg, media_type="image/svg+xml")
@@ -354,9 +354,6 @@ async def validate_problem(request: Request, settings: SettingsDep) -> Validatio
         if err.status != 422:
             raise
         return Validation(valid=False, errors=err.errors or [])
-    from solver.geometry import make_domain
-    from solver.precheck import find_impossibilities
-
     findings = await asyncio.to_thread(find_impossibilities, problem, make_domain(problem))
     return Validation(valid=not findings, findings=findings)
 
