@@ -352,7 +352,8 @@ def test_a_stopped_service_hands_running_jobs_back_without_counting_an_attempt(
 
 def _solve_processes(server_pid: int) -> list[int]:
     """The server's solve children (spawned: their command line runs spawn_main)."""
-    out = subprocess.run(["ps", "-o", "pid=,args=", "--ppid", str(server_pid)],
+    # -ww: without a terminal ps cuts args at 80 columns, and venv paths are long.
+    out = subprocess.run(["ps", "-ww", "-o", "pid=,args=", "--ppid", str(server_pid)],
                          capture_output=True, text=True, check=True).stdout
     return [int(line.split()[0]) for line in out.splitlines() if "spawn_main" in line]
 
