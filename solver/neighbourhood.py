@@ -58,10 +58,16 @@ def search_neighbourhoods(
     coverage = covered_area(domain, best.rects)
     size = NEIGHBOURHOOD_SIZE
     min_sizes = {r.name: r.min_size for r in spec.rects}
+    partners: dict[str, set[str]] = {}
+    for c in spec.contacts:
+        members = set(c.a) | {n for group in c.partners for n in group}
+        for name in members:
+            partners.setdefault(name, set()).update(members - {name})
     tried: set[frozenset[str]] = set()  # neighbourhoods already optimal for this incumbent
     while time.monotonic() < deadline - 0.05 and not (should_stop and should_stop()):
         free, gap = choose_neighbourhood(best.rects, domain, rng, size=size,
-                                         around_gap=best.steps % 3 != 2, min_sizes=min_sizes)
+                                         around_gap=best.steps % 3 != 2, min_sizes=min_sizes,
+                                         partners=partners)
         if frozenset(free) in tried:
             if size >= len(rects):
                 break  # every neighbourhood of every size is exhausted
@@ -167,6 +173,7 @@ def choose_neighbourhood(
     size: int,
     around_gap: bool,
     min_sizes: dict[str, tuple[float, float]] | None = None,
+    partners: dict[str, set[str]] | None = None,
 ) -> tuple[set[str], tuple[Box, ...]]:
     """The `size` rooms nearest to a gap (a random one, weighted by area) with the gap's
     box, or the rooms nearest to a random room. Around a gap, half the time a room
@@ -192,5 +199,7 @@ def choose_neighbourhood(
         fitting = [r for r in by_distance[size:] if r not in chosen
                    and min_sizes[r][0] <= gap.width and min_sizes[r][1] <= gap.depth]
         if fitting:
-            chosen.add(rng.choice(fitting))
+            mover = rng.choice(fitting)
+            # The rooms it must touch come along, or it could not move at all.
+            chosen |= {mover} | (partners or {}).get(mover, set())
     return chosen, extra
