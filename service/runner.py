@@ -22,7 +22,7 @@ from typing import Any
 
 from service.settings import Settings
 from service.store import Job, JobStatus, JobStore
-from service.worker import run_job
+from service.worker import standby
 
 log = logging.getLogger("floorplan.runner")
 
@@ -32,6 +32,16 @@ STARTUP_SECONDS = 10.0
 EVENT_INTERVAL = 0.5
 #: How often the runner looks for new work when nobody wakes it (seconds).
 POLL_SECONDS = 0.5
+
+
+@dataclass
+class _Standby:
+    """A solve process already started and warmed up, waiting for its job."""
+
+    process: Any
+    jobs: Any  # the sending end of the pipe its job goes down
+    messages: Any
+    stop: Event
 
 
 @dataclass
@@ -50,6 +60,7 @@ class Runner:
         self.settings = settings
         self._ctx = multiprocessing.get_context("spawn")
         self._active: dict[str, _Active] = {}
+        self._standby: list[_Standby] = []
         self._lock = threading.Lock()
         self._wake = threading.Event()
         self._stopping = threading.Event()
@@ -81,6 +92,8 @@ class Runner:
             self.store.hand_back(a.job.id)
         for a in active:
             a.process.join(timeout=5)
+        for s in self._standby:
+            s.process.kill()
         if self._thread is not None:
             self._thread.join(timeout=5)
 
@@ -112,6 +125,7 @@ class Runner:
                     if job is None:
                         break
                     self._launch(job)
+                self._refill()
                 if time.monotonic() - last_purge > 60:
                     last_purge = time.monotonic()
                     self.store.purge(time.time() - self.settings.retention_hours * 3600)
@@ -121,19 +135,40 @@ class Runner:
             self._wake.clear()
 
     def _launch(self, job: Job) -> None:
-        messages = self._ctx.Queue()
-        stop = self._ctx.Event()
-        process = self._ctx.Process(target=run_job,
-                                    args=(job.problem, messages, stop, os.getpid()),
-                                    name=f"solve-{job.id}", daemon=True)
-        process.start()
-        active = _Active(job, process, stop)
+        ready = self._take_standby()
+        ready.jobs.send(job.problem)
+        ready.jobs.close()
+        active = _Active(job, ready.process, ready.stop)
         with self._lock:
             self._active[job.id] = active
         if job.cancel_requested:
-            stop.set()
-        threading.Thread(target=self._monitor, args=(active, messages), name=f"monitor-{job.id}",
-                         daemon=True).start()
+            ready.stop.set()
+        threading.Thread(target=self._monitor, args=(active, ready.messages),
+                         name=f"monitor-{job.id}", daemon=True).start()
+
+    def _take_standby(self) -> _Standby:
+        while self._standby:
+            ready = self._standby.pop(0)
+            if ready.process.is_alive():
+                return ready
+        return self._start_standby()
+
+    def _refill(self) -> None:
+        """Keep one warmed-up process ready per idle worker slot: a job then starts
+        without waiting about a second for imports."""
+        while len(self._standby) + self.running < self.settings.workers:
+            self._standby.append(self._start_standby())
+
+    def _start_standby(self) -> _Standby:
+        receive, send = self._ctx.Pipe(duplex=False)
+        messages = self._ctx.Queue()
+        stop = self._ctx.Event()
+        process = self._ctx.Process(target=standby,
+                                    args=(receive, messages, stop, os.getpid()),
+                                    name="solve", daemon=True)
+        process.start()
+        receive.close()
+        return _Standby(process, send, messages, stop)
 
     # Watching one job.
 

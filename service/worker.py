@@ -8,10 +8,13 @@ from __future__ import annotations
 
 import os
 import time
+from multiprocessing.connection import Connection
 from multiprocessing.queues import Queue
 from multiprocessing.synchronize import Event
 from typing import Any
 
+#: Seconds a standby process waits between looks at whether its parent still lives.
+STANDBY_POLL = 1.0
 #: Seconds between two incumbent layouts sent to the parent: building one costs
 #: geometry, and the event stream shows at most two a second anyway.
 INCUMBENT_INTERVAL = 0.5
@@ -56,3 +59,17 @@ def run_job(
         messages.put(("done", layout.model_dump_json()))
     except Exception as err:
         messages.put(("error", f"{type(err).__name__}: {err}"))
+
+
+def standby(
+    jobs: Connection, messages: Queue[tuple[str, Any]], stop: Event, parent: int
+) -> None:
+    """A solve process started ahead of its job: pay for the imports (SCIP, shapely)
+    now, then wait for one problem, solve it and exit, as every solve has its own
+    process. Gives up if the parent goes away first."""
+    import solver.solve  # noqa: F401 - warming up is the point
+
+    while not jobs.poll(STANDBY_POLL):
+        if os.getppid() != parent:
+            return
+    run_job(jobs.recv(), messages, stop, parent)
