@@ -1,6 +1,8 @@
 """The public contract: the problem a user sends and the layout we return. No solver, no HTTP."""
 
 from models.layout import (
+    OUTSIDE,
+    Circulation,
     ConstraintCheck,
     Door,
     Infeasibility,
@@ -15,6 +17,7 @@ from models.problem import (
     DEFAULT_MAX_ROOMS,
     Adjacency,
     Obstacle,
+    Openings,
     Options,
     Problem,
     Room,
@@ -23,12 +26,15 @@ from models.problem import (
 
 __all__ = [
     "DEFAULT_MAX_ROOMS",
+    "OUTSIDE",
     "Adjacency",
+    "Circulation",
     "ConstraintCheck",
     "Door",
     "Infeasibility",
     "Layout",
     "Obstacle",
+    "Openings",
     "Options",
     "Problem",
     "Rect",

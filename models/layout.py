@@ -45,14 +45,36 @@ class RoomLayout(BaseModel):
     area: float
 
 
+#: The `between` name of the world outside, for the front door.
+OUTSIDE = "outside"
+
+
 class Door(BaseModel):
+    """A door in a wall; `between` names two rooms, or a room and "outside"."""
+
     between: tuple[str, str]
     segment: tuple[Point, Point]
+    opens_into: str | None = Field(None, description="the room the leaf swings into")
+    requested: bool = Field(
+        True, description="false for a door added only to make a room reachable")
 
 
 class Window(BaseModel):
     room: str
     segment: tuple[Point, Point]
+
+
+class Circulation(BaseModel):
+    """How rooms connect through doors (after Peng et al.): a graph walked from the
+    entrance."""
+
+    reachable: bool = Field(description="every room can be reached from the entrance")
+    unreachable: list[str] = Field(default_factory=list)
+    steps: dict[str, int] = Field(
+        default_factory=dict, description="doors passed from outside to each room")
+    furthest: int = Field(0, description="the most doors passed to reach a room")
+    dead_ends: list[str] = Field(default_factory=list,
+                                 description="rooms with a single door")
 
 
 class ConstraintCheck(BaseModel):
@@ -88,6 +110,8 @@ class Report(BaseModel):
     termination: Termination = Termination.OPTIMAL
     valid: bool = Field(True, description="every hard constraint holds on the polygons")
     infeasibility: Infeasibility | None = None
+    circulation: Circulation | None = Field(
+        None, description="set when the problem has an entrance")
     relaxation: float | None = Field(
         None,
         description="the size window (fraction of each target, 0.1 = 90-110 %) in which the "

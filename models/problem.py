@@ -150,6 +150,49 @@ class Options(_Strict):
         description="a room whose relative size error exceeds this is refined (Sec. 5.3); "
         "relative size error = E_size of the room / |target|^2",
     )
+    require_connected: bool = Field(
+        False, description="every room must be reachable through doors from the entrance; "
+        "missing doors are added where walls allow, and the report says if any room stays "
+        "unreachable",
+    )
+
+
+#: Room types that open only onto these types by default (paper Sec. 5.4: a door
+#: policy defined in advance); every other type may open onto any room.
+DEFAULT_DOOR_POLICY: dict[str, list[str]] = {
+    "bathroom": ["corridor", "hall", "bedroom", "foyer"],
+    "wc": ["corridor", "hall", "foyer", "living"],
+    "closet": ["bedroom", "corridor", "hall"],
+    "storage": ["corridor", "hall", "kitchen", "foyer", "garage"],
+}
+#: Room types that are ends, not passages: no one reaches the hall through a bathroom.
+DEFAULT_NO_PASSAGE = ["bathroom", "wc", "closet", "storage"]
+#: Room types without windows by default.
+DEFAULT_WINDOWLESS = ["storage", "closet", "wc", "stairs", "shaft", "laundry"]
+
+
+class Openings(_Strict):
+    """Doors and windows added to the layout (paper Sec. 5.4)."""
+
+    door_width: Annotated[float, Field(gt=0, le=10, allow_inf_nan=False)] = Field(
+        0.9, description="clear width of every door, metres")
+    window_width: Annotated[float, Field(gt=0, le=20, allow_inf_nan=False)] = Field(
+        1.2, description="width of every window, metres")
+    window_spacing: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = Field(
+        3.0, description="one window per this many metres of exterior wall, evenly spaced")
+    door_policy: dict[str, list[str]] = Field(
+        default_factory=lambda: dict(DEFAULT_DOOR_POLICY),
+        description="room type -> the room types it may have a door to ('*' for any); "
+        "types not listed may open onto any room",
+    )
+    windowless: list[str] = Field(
+        default_factory=lambda: list(DEFAULT_WINDOWLESS),
+        description="room types that get no windows",
+    )
+    no_passage: list[str] = Field(
+        default_factory=lambda: list(DEFAULT_NO_PASSAGE),
+        description="room types one may enter but not walk through to another room",
+    )
 
 
 class Problem(_Strict):
@@ -163,6 +206,7 @@ class Problem(_Strict):
     adjacency: list[Adjacency] = Field(default_factory=list)
     weights: Weights = Field(default_factory=Weights)
     options: Options = Field(default_factory=Options)
+    openings: Openings = Field(default_factory=Openings)
 
     @field_validator("boundary", mode="before")
     @classmethod

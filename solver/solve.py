@@ -15,6 +15,7 @@ from enum import StrEnum
 import shapely
 
 from models import (
+    ConstraintCheck,
     Infeasibility,
     Layout,
     Problem,
@@ -47,6 +48,7 @@ from solver.hierarchy import (
 )
 from solver.level_one import level_one_spec, windows_to_try
 from solver.neighbourhood import NEIGHBOURHOOD_SIZE, coverage_first, search_neighbourhoods
+from solver.openings import add_openings
 from solver.precheck import find_impossibilities
 from solver.scip_run import (
     Incumbent,
@@ -362,25 +364,37 @@ def _layout(run: _Run, domain: Domain, pieces: list[Piece], levels: int) -> Layo
     # Walls SCIP placed 1e-7 apart become exactly shared, as a CAD user expects.
     rooms = snap_rooms(room_boxes(pieces), *domain_lines(problem), OUTPUT_SNAP)
     check = check_layout(problem, rooms)
-    out = []
-    for room in problem.rooms:
-        boxes = rooms[room.id]
-        polygon = room_polygon(boxes)
-        out.append(RoomLayout(
-            id=room.id, type=room.type, polygon=polygon_coords(polygon),
-            rectangles=[b.to_rect() for b in boxes], area=round(float(polygon.area), 6),
-        ))
+    polygons = {room.id: room_polygon(rooms[room.id]) for room in problem.rooms}
+    out = [
+        RoomLayout(id=room.id, type=room.type, polygon=polygon_coords(polygons[room.id]),
+                   rectangles=[b.to_rect() for b in rooms[room.id]],
+                   area=round(float(polygons[room.id].area), 6))
+        for room in problem.rooms
+    ]
+    openings = add_openings(problem, polygons)
+    constraints, valid = check.constraints, check.valid
+    if problem.options.require_connected:
+        connected = openings.circulation is not None and openings.circulation.reachable
+        unreachable = openings.circulation.unreachable if openings.circulation else []
+        constraints = [*constraints, ConstraintCheck(
+            kind="circulation", rooms=unreachable, satisfied=connected,
+            detail="every room reachable from the entrance" if connected else
+            ("no entrance to start from" if openings.circulation is None else
+             f"unreachable: {', '.join(unreachable)}"),
+        )]
+        valid = valid and connected
     w = problem.weights
     objective = w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
     report = Report(
         coverage=check.coverage, uncovered_area=check.uncovered_area,
-        constraints=check.constraints, size_error=check.size_error,
+        constraints=constraints, size_error=check.size_error,
         objective=objective, levels=levels, solve_time=run.elapsed(),
-        termination=_termination(run), valid=check.valid,
+        termination=_termination(run), valid=valid, circulation=openings.circulation,
         relaxation=run.window,
     )
     run.emit(Phase.DONE, objective=objective, detail=f"coverage {check.coverage:.1%}")
-    return Layout(name=problem.name, rooms=out, report=report)
+    return Layout(name=problem.name, rooms=out, doors=openings.doors, windows=openings.windows,
+                  report=report)
 
 
 def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float | None) -> Layout:

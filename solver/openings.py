@@ -1,0 +1,253 @@
+"""Doors, windows and circulation on a finished layout (paper Sec. 5.4; circulation
+after Peng et al.).
+
+A door goes on the longest wall each adjacency-constrained pair shares, centred and
+clear of the corners, when the door policy allows the two room types; the front door
+goes where the entrance is. Windows are spread evenly over each room's exterior walls.
+The doors make a graph, walked from outside, that says which rooms can be reached and
+how many doors away they are.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import shapely
+from shapely.geometry import LineString, Point, Polygon
+from shapely.geometry.base import BaseGeometry
+
+from models import OUTSIDE, Circulation, Door, Problem, Window
+
+#: A door keeps this far (metres) from the corners of the wall it is in.
+CORNER_CLEARANCE = 0.1
+#: Room types meant for walking through, preferred for doors added for reachability.
+CIRCULATION_TYPES = frozenset({"corridor", "hall", "foyer", "living", "dining", "lobby"})
+#: Lengths below this count as zero.
+EPS = 1e-6
+
+
+@dataclass(frozen=True)
+class Openings:
+    doors: list[Door]
+    windows: list[Window]
+    circulation: Circulation | None
+
+
+def add_openings(problem: Problem, rooms: Mapping[str, Polygon]) -> Openings:
+    """Doors, windows and the circulation report of a layout."""
+    doors = requested_doors(problem, rooms)
+    front = front_door(problem, rooms)
+    if front is not None:
+        doors.append(front)
+    if problem.options.require_connected and front is not None:
+        doors += connecting_doors(problem, rooms, doors)
+    windows = place_windows(problem, rooms, doors)
+    circulation = walk(problem, doors) if front is not None else None
+    return Openings(doors, windows, circulation)
+
+
+def may_connect(problem: Problem, a: str, b: str) -> bool:
+    """Whether the door policy lets rooms `a` and `b` share a door (both ways)."""
+    policy = problem.openings.door_policy
+    type_a, type_b = problem.room(a).type, problem.room(b).type
+
+    def allows(own: str, other: str) -> bool:
+        allowed = policy.get(own)
+        return allowed is None or "*" in allowed or other in allowed
+
+    return allows(type_a, type_b) and allows(type_b, type_a)
+
+
+def requested_doors(problem: Problem, rooms: Mapping[str, Polygon]) -> list[Door]:
+    """One door per adjacency constraint: with `any_of`, to the partner sharing the
+    longest wall among those the policy allows."""
+    doors = []
+    width = problem.openings.door_width
+    for adj in problem.adjacency:
+        if adj.a not in rooms:
+            continue
+        options = [(longest_shared_wall(rooms[adj.a], rooms[b]), b) for b in adj.partners
+                   if b in rooms and b != adj.a and may_connect(problem, adj.a, b)]
+        options = [(wall, b) for wall, b in options if wall is not None]
+        if not options:
+            continue
+        wall, partner = max(options, key=lambda option: option[0].length)
+        segment = door_segment(wall, width)
+        if segment is not None:
+            doors.append(Door(between=(adj.a, partner), segment=segment,
+                              opens_into=_larger(rooms, adj.a, partner)))
+    return doors
+
+
+def front_door(problem: Problem, rooms: Mapping[str, Polygon]) -> Door | None:
+    """The front door: in the outline where the entrance point is, into the room whose
+    wall it lies on."""
+    if problem.entrance is None:
+        return None
+    entrance = Point(problem.entrance)
+    outline = problem.outline().exterior
+    for room_id, polygon in rooms.items():
+        walls = polygon.exterior.intersection(outline)
+        if walls.is_empty or walls.distance(entrance) > 1e-3:
+            continue
+        wall = min(_segments(walls), key=lambda s: s.distance(entrance))
+        segment = door_segment(wall, problem.openings.door_width, centre=entrance)
+        if segment is not None:
+            return Door(between=(OUTSIDE, room_id), segment=segment, opens_into=room_id)
+    return None
+
+
+def connecting_doors(
+    problem: Problem, rooms: Mapping[str, Polygon], doors: list[Door]
+) -> list[Door]:
+    """Extra doors for `require_connected`: while some room is unreachable, open it
+    onto the reachable neighbour with the longest shared wall the policy allows."""
+    added: list[Door] = []
+    width = problem.openings.door_width
+    while True:
+        reached = set(walk(problem, doors + added).steps)
+        ends = {r.id for r in problem.rooms if r.type in problem.openings.no_passage}
+        best: tuple[tuple[bool, float], str, str, LineString] | None = None
+        for room_id in rooms:
+            if room_id in reached:
+                continue
+            for other in (reached - ends) & set(rooms):
+                if not may_connect(problem, room_id, other):
+                    continue
+                wall = longest_shared_wall(rooms[room_id], rooms[other])
+                if wall is None or wall.length < width:
+                    continue
+                # A door onto a corridor or living space beats a longer wall onto a
+                # bedroom: nobody wants to cross a bedroom to get anywhere.
+                score = (problem.room(other).type in CIRCULATION_TYPES, wall.length)
+                if best is None or score > best[0]:
+                    best = (score, room_id, other, wall)
+        if best is None:
+            return added
+        _, room_id, other, wall = best
+        segment = door_segment(wall, width)
+        assert segment is not None
+        added.append(Door(between=(other, room_id), segment=segment, opens_into=room_id,
+                          requested=False))
+
+
+def place_windows(
+    problem: Problem, rooms: Mapping[str, Polygon], doors: list[Door]
+) -> list[Window]:
+    """Windows evenly spaced on each room's exterior walls, one per `window_spacing`
+    metres, none where a door is."""
+    openings = problem.openings
+    outline = problem.outline().exterior
+    door_lines = [LineString(d.segment) for d in doors]
+    windows = []
+    for room_id, polygon in rooms.items():
+        if problem.room(room_id).type in openings.windowless:
+            continue
+        walls = polygon.exterior.intersection(outline)
+        for wall in _segments(walls):
+            count = int(wall.length // openings.window_spacing)
+            if count == 0 and wall.length >= openings.window_width + 2 * CORNER_CLEARANCE:
+                count = 1
+            for k in range(count):
+                centre = wall.interpolate((k + 0.5) * wall.length / count)
+                segment = door_segment(wall, openings.window_width, centre=centre)
+                if segment is None or any(
+                    LineString(segment).distance(d) < CORNER_CLEARANCE for d in door_lines
+                ):
+                    continue
+                windows.append(Window(room=room_id, segment=segment))
+    return windows
+
+
+def walk(problem: Problem, doors: list[Door]) -> Circulation:
+    """Breadth-first from outside through the doors, never through a room whose type
+    is an end (`Openings.no_passage`)."""
+    links: dict[str, set[str]] = {r.id: set() for r in problem.rooms} | {OUTSIDE: set()}
+    for door in doors:
+        a, b = door.between
+        links[a].add(b)
+        links[b].add(a)
+    ends = {r.id for r in problem.rooms if r.type in problem.openings.no_passage}
+    steps = {OUTSIDE: 0}
+    queue = deque([OUTSIDE])
+    while queue:
+        here = queue.popleft()
+        if here in ends:
+            continue
+        for there in sorted(links[here]):
+            if there not in steps:
+                steps[there] = steps[here] + 1
+                queue.append(there)
+    del steps[OUTSIDE]
+    unreachable = [r.id for r in problem.rooms if r.id not in steps]
+    dead_ends = [r.id for r in problem.rooms if len(links[r.id]) == 1]
+    return Circulation(reachable=not unreachable, unreachable=unreachable, steps=steps,
+                       furthest=max(steps.values(), default=0), dead_ends=dead_ends)
+
+
+def longest_shared_wall(a: Polygon, b: Polygon) -> LineString | None:
+    """The longest straight stretch of wall two rooms share.
+
+    >>> from shapely.geometry import box
+    >>> longest_shared_wall(box(0, 0, 3, 3), box(3, 1, 5, 4)).length
+    2.0
+    """
+    shared = a.exterior.intersection(b.exterior)
+    segments = [s for s in _segments(shared) if s.length > EPS]
+    return max(segments, key=lambda s: s.length, default=None)
+
+
+def door_segment(
+    wall: LineString, width: float, *, centre: Point | None = None
+) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """A `width` opening on a straight `wall`, at `centre` (default: the middle) moved
+    as little as needed to stay `CORNER_CLEARANCE` from the wall's ends; None when
+    the wall is too short.
+
+    >>> door_segment(LineString([(0, 0), (4, 0)]), 0.9)
+    ((1.55, 0.0), (2.45, 0.0))
+    >>> door_segment(LineString([(0, 0), (4, 0)]), 0.9, centre=Point(0.2, 0))
+    ((0.1, 0.0), (1.0, 0.0))
+    >>> door_segment(LineString([(0, 0), (0.8, 0)]), 0.9) is None
+    True
+    """
+    length = wall.length
+    if length < width + EPS:
+        return None
+    clearance = min(CORNER_CLEARANCE, (length - width) / 2)
+    at = length / 2 if centre is None else wall.project(centre)
+    at = min(max(at, clearance + width / 2), length - clearance - width / 2)
+    start, end = wall.interpolate(at - width / 2), wall.interpolate(at + width / 2)
+    return ((round(start.x, 6), round(start.y, 6)), (round(end.x, 6), round(end.y, 6)))
+
+
+def _segments(geometry: BaseGeometry) -> list[LineString]:
+    """The straight pieces of a linear geometry, collinear neighbours merged."""
+    lines = [g for g in getattr(geometry, "geoms", [geometry])
+             if isinstance(g, LineString) and not g.is_empty]
+    if not lines:
+        return []
+    merged = shapely.line_merge(shapely.union_all(lines))
+    pieces = []
+    for line in getattr(merged, "geoms", [merged]):
+        coords = list(line.coords)
+        run = [coords[0]]
+        for point in coords[1:]:
+            # A bend ends a straight stretch: axis-aligned walls turn by 90 degrees.
+            if len(run) >= 2 and not _collinear(run[-2], run[-1], point):
+                pieces.append(LineString(run))
+                run = [run[-1]]
+            run.append(point)
+        pieces.append(LineString(run))
+    return [LineString([p.coords[0], p.coords[-1]]) for p in pieces]
+
+
+def _collinear(a: tuple[float, ...], b: tuple[float, ...], c: tuple[float, ...]) -> bool:
+    return abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) < 1e-9
+
+
+def _larger(rooms: Mapping[str, Polygon], a: str, b: str) -> str:
+    """Doors swing into the larger room: it has the floor space for the leaf."""
+    return a if rooms[a].area >= rooms[b].area else b

@@ -1,0 +1,120 @@
+"""Doors, windows and circulation on hand-made layouts (no solver needed)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+from shapely.geometry import LineString, Polygon, box
+
+from models import OUTSIDE, Problem
+from solver.openings import add_openings, walk
+
+#   +----------+------+
+#   |  bed     | bath |   y 4..8
+#   +----+-----+------+
+#   |hall| living     |   y 0..4, entrance at (6, 0)
+#   +----+------------+
+#   0    2     6      8 (bath from x 6)
+ROOMS = {
+    "hall": box(0, 0, 2, 4),
+    "living": box(2, 0, 8, 4),
+    "bed": box(0, 4, 6, 8),
+    "bath": box(6, 4, 8, 8),
+}
+TYPES = {"hall": "corridor", "living": "living", "bed": "bedroom", "bath": "bathroom"}
+
+
+def problem(**fields: Any) -> Problem:
+    data: dict[str, Any] = {
+        "boundary": [[0, 0], [8, 0], [8, 8], [0, 8]],
+        "entrance": [6, 0],
+        "rooms": [{"id": k, "type": t} for k, t in TYPES.items()],
+        "adjacency": [{"a": "living", "b": "hall"}, {"a": "hall", "b": "bed"},
+                      {"a": "bed", "b": "bath"}],
+    }
+    data.update(fields)
+    return Problem.model_validate(data)
+
+
+def doors_between(p: Problem) -> dict[frozenset[str], Any]:
+    return {frozenset(d.between): d for d in add_openings(p, ROOMS).doors}
+
+
+def test_a_door_sits_centred_on_the_shared_wall_of_each_adjacent_pair() -> None:
+    doors = doors_between(problem())
+    door = doors[frozenset({"hall", "bed"})]
+    (x0, y0), (x1, y1) = door.segment
+    assert y0 == y1 == 4  # in the wall between them
+    assert abs(x1 - x0) == pytest.approx(0.9)
+    assert (x0 + x1) / 2 == pytest.approx(1.0)  # the middle of the 2 m shared wall
+    assert door.requested
+
+
+def test_the_front_door_is_where_the_entrance_is() -> None:
+    doors = doors_between(problem())
+    front = doors[frozenset({OUTSIDE, "living"})]
+    (x0, y0), (x1, y1) = front.segment
+    assert y0 == y1 == 0 and x0 < 6 < x1
+    assert front.opens_into == "living"
+
+
+def test_the_door_policy_keeps_a_bathroom_off_a_kitchen_unless_overridden() -> None:
+    kitchen = problem(rooms=[{"id": k, "type": "kitchen" if k == "bed" else t}
+                             for k, t in TYPES.items()],
+                      adjacency=[{"a": "bed", "b": "bath"}])
+    assert frozenset({"bed", "bath"}) not in doors_between(kitchen)  # bathroom-kitchen
+    custom = problem(openings={"door_policy": {}},
+                     rooms=[{"id": k, "type": "kitchen" if k == "bed" else t}
+                            for k, t in TYPES.items()],
+                     adjacency=[{"a": "bed", "b": "bath"}])
+    assert frozenset({"bed", "bath"}) in doors_between(custom)
+
+
+def test_windows_go_on_exterior_walls_only_and_not_in_windowless_rooms() -> None:
+    openings = add_openings(problem(openings={"windowless": ["bathroom"]}), ROOMS)
+    by_room: dict[str, list[LineString]] = {}
+    for w in openings.windows:
+        by_room.setdefault(w.room, []).append(LineString(w.segment))
+    assert "bath" not in by_room
+    outline = Polygon([(0, 0), (8, 0), (8, 8), (0, 8)]).exterior
+    for lines in by_room.values():
+        for line in lines:
+            assert line.length == pytest.approx(1.2)
+            assert outline.distance(line) < 1e-9 and line.difference(outline).length < 1e-9
+    # The bedroom has 6 m of north wall and 4 m of west wall: two windows, then one.
+    assert len(by_room["bed"]) == 3
+    front = next(d for d in openings.doors if OUTSIDE in d.between)
+    assert all(line.distance(LineString(front.segment)) > 0 for line in by_room["living"])
+
+
+def test_circulation_counts_door_steps_and_finds_dead_ends() -> None:
+    circulation = add_openings(problem(), ROOMS).circulation
+    assert circulation is not None and circulation.reachable
+    assert circulation.steps == {"living": 1, "hall": 2, "bed": 3, "bath": 4}
+    assert circulation.furthest == 4
+    assert circulation.dead_ends == ["bath"]
+
+
+def test_a_room_behind_a_bathroom_is_unreachable() -> None:
+    p = problem(adjacency=[{"a": "living", "b": "bath"}, {"a": "bath", "b": "bed"}],
+                openings={"door_policy": {}})
+    rooms = dict(ROOMS)
+    rooms["living"] = box(2, 0, 8, 4)
+    openings = add_openings(p, rooms)
+    assert openings.circulation is not None
+    assert "bed" in openings.circulation.unreachable  # only through the bathroom
+    assert "hall" in openings.circulation.unreachable  # no door at all
+
+
+def test_require_connected_adds_the_missing_doors() -> None:
+    p = problem(adjacency=[], options={"require_connected": True})
+    openings = add_openings(p, ROOMS)
+    assert openings.circulation is not None and openings.circulation.reachable
+    added = [d for d in openings.doors if not d.requested]
+    assert added and all(OUTSIDE not in d.between for d in added)
+    assert walk(p, openings.doors).reachable
+
+
+def test_without_an_entrance_there_is_no_circulation_report() -> None:
+    assert add_openings(problem(entrance=None), ROOMS).circulation is None
