@@ -26,9 +26,9 @@ from service.errors import ApiError, FieldError, ProblemDetails, field_errors, i
 from service.runner import Runner
 from service.settings import Settings, get_settings
 from service.store import IdempotencyConflict, Job, JobStatus, JobStore
+from solver.export import MEDIA_TYPES, render
 from solver.geometry import make_domain
 from solver.precheck import find_impossibilities
-from solver.render import render_svg
 from solver.solve import default_time_limit
 
 #: Seconds between two looks at the store while streaming events.
@@ -274,19 +274,25 @@ def get_layout(job: JobDep) -> JobPublic:
 
 
 @layouts.get("/{job_id}/result", response_model=Layout,
-             responses={200: {"content": {"image/svg+xml": {}}},
+             responses={200: {"content": {MEDIA_TYPES[f]: {} for f in ("svg", "dxf", "geojson")}},
                         404: {"description": "unknown job, or no layout yet"}})
-def get_result(job: JobDep, format: Literal["json", "svg"] = "json") -> Response:
-    """The layout: the final one, or the best so far while the job runs."""
+def get_result(
+    job: JobDep, format: Literal["json", "svg", "dxf", "geojson"] = "json"
+) -> Response:
+    """The layout: the final one, or the best so far while the job runs; as JSON, an
+    SVG plan, a DXF drawing (metres) or GeoJSON (local metric frame)."""
     text = job.result or job.incumbent
     if text is None:
         raise ApiError(404, f"job {job.id} has no layout yet (status {job.status})",
                        kind="no-result-yet", title="No layout yet")
-    if format == "svg":
-        problem = LayoutProblem.model_validate_json(job.problem)
-        svg = render_svg(problem, Layout.model_validate_json(text))
-        return Response(svg, media_type="image/svg+xml")
-    return Response(text, media_type="application/json")
+    if format == "json":
+        return Response(text, media_type=MEDIA_TYPES["json"])
+    problem = LayoutProblem.model_validate_json(job.problem)
+    body = render(problem, Layout.model_validate_json(text), format)
+    # A plan shows in the browser; drawings and data download as files.
+    disposition = "inline" if format == "svg" else "attachment"
+    headers = {"Content-Disposition": f'{disposition}; filename="{job.id}.{format}"'}
+    return Response(body, media_type=MEDIA_TYPES[format], headers=headers)
 
 
 @layouts.get("/{job_id}/events", responses={200: {"content": {"text/event-stream": {}}}})

@@ -31,7 +31,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager, suppress
 from pathlib import Path
 from types import FrameType
-from typing import TYPE_CHECKING, Any, TextIO
+from typing import TYPE_CHECKING, Any, Literal, TextIO
 
 if TYPE_CHECKING:
     from pydantic import ValidationError
@@ -104,6 +104,9 @@ def _add_solve(commands: Any) -> None:
     p.add_argument("-o", "--output", metavar="LAYOUT.json", default=STDIO,
                    help=f"where to write the layout JSON (default and '{STDIO}': stdout)")
     p.add_argument("--svg", metavar="PLAN.svg", help="also draw the layout as SVG here")
+    p.add_argument("--format", choices=["json", "svg", "dxf", "geojson"],
+                   help="what -o holds (default: from its extension, else json): the layout "
+                   "JSON, an SVG plan, a DXF drawing in metres, or GeoJSON in the local frame")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds for the whole solve (overrides options.time_limit)")
     p.add_argument("--seed", type=int, metavar="K", help="random seed (overrides options.seed)")
@@ -236,11 +239,16 @@ def _check_writable(target: str | None) -> None:
 
 def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -> bool:
     """Write the layout JSON and the SVG; False (with a message) when one failed."""
+    from solver.export import render
     from solver.render import render_svg
 
     ok = True
+    fmt = args.format or _format_of(args.output)
     try:
-        _write_text(args.output, layout.model_dump_json(indent=2) + "\n")
+        if fmt == "json":
+            _write_text(args.output, layout.model_dump_json(indent=2) + "\n")
+        else:
+            _write_text(args.output, render(problem, layout, fmt).decode())
     except OSError as err:
         print(f"{PROG}: error: cannot write {args.output}: {err}", file=sys.stderr)
         ok = False
@@ -251,6 +259,14 @@ def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -
             print(f"{PROG}: error: cannot write {args.svg}: {err}", file=sys.stderr)
             ok = False
     return ok
+
+
+def _format_of(target: str) -> Literal["json", "svg", "dxf", "geojson"]:
+    """The output format an -o file name asks for."""
+    suffix = Path(target).suffix.lower().lstrip(".")
+    if suffix in ("svg", "dxf", "geojson"):
+        return suffix  # type: ignore[return-value]
+    return "json"
 
 
 def _write_text(target: str, text: str) -> None:

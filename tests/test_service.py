@@ -102,6 +102,12 @@ def test_submit_follow_the_events_and_fetch_the_result(client: httpx.Client) -> 
     assert layout["report"]["valid"] and {r["id"] for r in layout["rooms"]} == {"living", "bed"}
     svg = client.get(f"/v1/layouts/{job['id']}/result", params={"format": "svg"})
     assert svg.headers["content-type"].startswith("image/svg+xml") and "<svg" in svg.text
+    dxf = client.get(f"/v1/layouts/{job['id']}/result", params={"format": "dxf"})
+    assert dxf.headers["content-type"] == "image/vnd.dxf" and "ENTITIES" in dxf.text
+    assert "attachment" in dxf.headers["content-disposition"]
+    geo = client.get(f"/v1/layouts/{job['id']}/result", params={"format": "geojson"})
+    assert geo.headers["content-type"] == "application/geo+json"
+    assert geo.json()["type"] == "FeatureCollection"
 
     # Resuming after the third event replays only what came later.
     third = events[2][0]

@@ -1,0 +1,92 @@
+"""GeoJSON and DXF exports, read back with the tools a user would open them in."""
+
+from __future__ import annotations
+
+import io
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import ezdxf
+import pytest
+from shapely.geometry import shape
+
+from models import Layout, Problem
+from solver.export import render, to_geojson
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+@pytest.fixture(scope="module")
+def example() -> tuple[Problem, Layout]:
+    problem = Problem.model_validate_json((EXAMPLES / "house-13.json").read_text())
+    layout = Layout.model_validate_json((EXAMPLES / "house-13.layout.json").read_text())
+    return problem, layout
+
+
+def test_geojson_has_a_valid_polygon_per_room_with_its_properties(
+    example: tuple[Problem, Layout],
+) -> None:
+    problem, layout = example
+    collection = json.loads(render(problem, layout, "geojson"))
+    assert collection["type"] == "FeatureCollection"
+    rooms = [f for f in collection["features"] if f["properties"]["kind"] == "room"]
+    assert {f["properties"]["id"] for f in rooms} == {r.id for r in layout.rooms}
+    for feature in rooms:
+        ring = feature["geometry"]["coordinates"][0]
+        assert ring[0] == ring[-1]  # closed, as RFC 7946 requires
+        polygon = shape(feature["geometry"])
+        assert polygon.is_valid and polygon.exterior.is_ccw
+        room = next(r for r in layout.rooms if r.id == feature["properties"]["id"])
+        assert polygon.area == pytest.approx(room.area, rel=1e-6)
+        assert feature["properties"]["type"] == room.type
+    kinds = {f["properties"]["kind"] for f in collection["features"]}
+    assert {"outline", "room"} <= kinds
+    assert "metres" in collection["crs"]["properties"]["name"]
+
+
+def test_geojson_carries_doors_and_windows_as_lines(example: tuple[Problem, Layout]) -> None:
+    problem, layout = example
+    layout = Layout.model_validate({
+        **layout.model_dump(),
+        "doors": [{"between": ["living", "dining"], "segment": [[5, 1], [5, 1.9]]}],
+        "windows": [{"room": "living", "segment": [[1, 0], [2.2, 0]]}],
+    })
+    features = to_geojson(problem, layout)["features"]
+    door = next(f for f in features if f["properties"]["kind"] == "door")
+    assert door["geometry"] == {"type": "LineString", "coordinates": [[5, 1], [5, 1.9]]}
+    assert any(f["properties"]["kind"] == "window" for f in features)
+
+
+def test_dxf_opens_in_ezdxf_with_a_layer_per_room_type(example: tuple[Problem, Layout]) -> None:
+    problem, layout = example
+    doc = ezdxf.read(io.StringIO(render(problem, layout, "dxf").decode()))
+    assert doc.units == ezdxf.units.M
+    msp = doc.modelspace()
+    polylines = [e for e in msp if e.dxftype() == "LWPOLYLINE"]
+    assert all(p.closed for p in polylines)
+    room_layers = {p.dxf.layer for p in polylines if p.dxf.layer.startswith("ROOM_")}
+    assert room_layers == {f"ROOM_{r.type.upper()}" for r in layout.rooms}
+    assert len([p for p in polylines if p.dxf.layer.startswith("ROOM_")]) == len(layout.rooms)
+    labels = [e.dxf.text for e in msp if e.dxftype() == "TEXT"]
+    assert any(label.startswith("living ") for label in labels)
+    assert {"OUTLINE", "DOORS", "WINDOWS"} <= {layer.dxf.name for layer in doc.layers}
+
+
+def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) -> None:
+    out = tmp_path / "plan.dxf"
+    done = subprocess.run(
+        [sys.executable, "-m", "solver", "solve", str(EXAMPLES / "apartment-5.json"),
+         "-o", str(out), "--quiet"], capture_output=True, text=True, timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    assert ezdxf.readfile(out).modelspace()
+    geo = tmp_path / "plan.json"
+    done = subprocess.run(
+        [sys.executable, "-m", "solver", "solve", str(EXAMPLES / "apartment-5.json"),
+         "-o", str(geo), "--format", "geojson", "--quiet"],
+        capture_output=True, text=True, timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    assert json.loads(geo.read_text())["type"] == "FeatureCollection"
