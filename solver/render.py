@@ -58,6 +58,9 @@ MIN_LABEL_FONT = 4.0
 #: Typical glyph width / font size for sans-serif text, to estimate label widths.
 GLYPH_WIDTH = 0.6
 
+#: Door leaves and swings; window panes.
+DOOR_COLOUR = "#8a5a2b"
+WINDOW_COLOUR = "#3a7bd5"
 #: Characters XML 1.0 forbids even when escaped; ids are user input and may carry them.
 _XML_INVALID = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff]")
 
@@ -102,12 +105,13 @@ def render_svg(problem: Problem, layout: Layout, *, scale: float = 40.0) -> str:
     for index, obstacle in enumerate(problem.obstacles):
         _add_obstacle(svg, frame, Box(obstacle.x, obstacle.y, obstacle.x + obstacle.width,
                                       obstacle.y + obstacle.depth), obstacle.label, index)
-    _add_openings(svg, frame, layout)
     _add_outline(svg, frame, outline)
+    _add_openings(svg, frame, layout)  # over the walls: they are holes in them
     if problem.entrance is not None:
         _add_entrance(svg, frame, problem)
     _add_title(svg, problem.name)
     _add_scale_bar(svg, frame, max_x - min_x, frame.top + plan_h + SCALE_BAND / 2)
+    _add_north_arrow(svg, width - MARGIN - 10, MARGIN)
     _indent(svg)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(svg, encoding="unicode")
 
@@ -190,18 +194,68 @@ def _add_obstacle(svg: ET.Element, frame: _Frame, box: Box, label: str, index: i
 
 
 def _add_openings(svg: ET.Element, frame: _Frame, layout: Layout) -> None:
-    # Doors and windows are part of the returned layout; thin marks keep them legible
-    # without hiding the room colours.
+    """Doors as an opening with the leaf and its swing into the room it opens into,
+    windows as a double line in the wall, as plans draw them."""
+    shapes = {room.id: _room_shape(room) for room in layout.rooms}
     for door in layout.doors:
-        _add_segment(svg, frame, door.segment, "door", "#8a5a2b", 3.0)
+        group = ET.SubElement(svg, "g", {"class": "door"})
+        ET.SubElement(group, "title").text = _clean(" / ".join(door.between))
+        _add_segment(group, frame, door.segment, "door-gap", "white", _wall_width(frame) + 1)
+        into = shapes.get(door.opens_into or "")
+        if into is not None:
+            _add_swing(group, frame, door.segment, into)
     for window in layout.windows:
-        _add_segment(svg, frame, window.segment, "window", "#3a7bd5", 3.0)
+        group = ET.SubElement(svg, "g", {"class": "window"})
+        _add_segment(group, frame, window.segment, "window-gap", "white", _wall_width(frame) + 1)
+        _add_segment(group, frame, window.segment, "window-pane", WINDOW_COLOUR, 2.0)
+
+
+def _add_swing(parent: ET.Element, frame: _Frame, segment: Sequence[tuple[float, float]],
+               room: BaseGeometry) -> None:
+    """The leaf, hinged at the segment's start and standing open into `room`, and the
+    quarter circle its free end sweeps."""
+    (x0, y0), (x1, y1) = segment
+    width = math.hypot(x1 - x0, y1 - y0)
+    nx, ny = -(y1 - y0) / width, (x1 - x0) / width  # a unit normal to the wall
+    probe = ShapelyPoint((x0 + x1) / 2 + nx * 0.05, (y0 + y1) / 2 + ny * 0.05)
+    if not room.contains(probe):
+        nx, ny = -nx, -ny
+    tip = (x0 + nx * width, y0 + ny * width)
+    _add_segment(parent, frame, [(x0, y0), tip], "door-leaf", DOOR_COLOUR, 1.5)
+    start, end = frame.point(*tip), frame.point(x1, y1)
+    radius = width * frame.scale
+    # Which way the arc turns on screen follows from the cross product of leaf and wall.
+    sweep = 1 if (nx * (y1 - y0) - ny * (x1 - x0)) > 0 else 0
+    ET.SubElement(parent, "path", {
+        "class": "door-swing", "fill": "none", "stroke": DOOR_COLOUR, "stroke-width": "0.8",
+        "stroke-dasharray": "3 2",
+        "d": f"M {_num(start[0])},{_num(start[1])} A {_num(radius)},{_num(radius)} 0 0 "
+             f"{sweep} {_num(end[0])},{_num(end[1])}",
+    })
+
+
+def _add_north_arrow(svg: ET.Element, x: float, y: float) -> None:
+    """North is up: y grows north in the problem's frame."""
+    group = ET.SubElement(svg, "g", {"class": "north-arrow"})
+    ET.SubElement(group, "polygon", {
+        "points": f"{_num(x)},{_num(y)} {_num(x - 7)},{_num(y + 20)} {_num(x)},{_num(y + 15)} "
+                  f"{_num(x + 7)},{_num(y + 20)}",
+        "fill": TEXT_COLOUR,
+    })
+    label = ET.SubElement(group, "text", {"x": _num(x), "y": _num(y + 34), "font-size": "12",
+                                          "text-anchor": "middle", "fill": TEXT_COLOUR})
+    label.text = "N"
+
+
+def _wall_width(frame: _Frame) -> float:
+    """Exterior walls drawn about 12 cm thick."""
+    return max(2.0, 0.12 * frame.scale)
 
 
 def _add_outline(svg: ET.Element, frame: _Frame, outline: Polygon) -> None:
     ET.SubElement(svg, "path", {
         "class": "outline", "d": _polygon_path(frame, outline), "fill": "none",
-        "stroke": WALL_COLOUR, "stroke-width": _num(max(2.0, 0.12 * frame.scale)),
+        "stroke": WALL_COLOUR, "stroke-width": _num(_wall_width(frame)),
         "stroke-linejoin": "miter",
     })
 

@@ -181,3 +181,25 @@ def test_scale_sets_the_drawing_size(problem: Problem, layout: Layout) -> None:
     assert float(large.get("width")) - float(small.get("width")) == pytest.approx(10 * 30)
     with pytest.raises(ValueError):
         render_svg(problem, layout, scale=0)
+
+
+def test_doors_swing_into_their_room_windows_sit_in_walls_and_north_is_marked() -> None:
+    from models import Problem
+    from solver.solve import solve
+
+    problem = Problem.model_validate({
+        "boundary": [[0, 0], [8, 0], [8, 5], [0, 5]], "entrance": [2, 0],
+        "rooms": [{"id": "living", "type": "living", "min_size": [3, 3]},
+                  {"id": "bed", "type": "bedroom", "min_size": [3, 3]}],
+        "adjacency": [{"a": "living", "b": "bed"}], "options": {"time_limit": 2},
+    })
+    layout: Layout = solve(problem)
+    assert layout.doors and layout.windows
+    root = ET.fromstring(render_svg(problem, layout))
+    ns = {"svg": "http://www.w3.org/2000/svg"}
+    swings = root.findall(".//svg:path[@class='door-swing']", ns)
+    assert len(swings) == len(layout.doors)
+    assert all(" A " in s.get("d", "") for s in swings)  # an arc
+    assert len(root.findall(".//svg:line[@class='window-pane']", ns)) == len(layout.windows)
+    arrow = root.find(".//svg:g[@class='north-arrow']", ns)
+    assert arrow is not None and "N" in "".join(arrow.itertext())
