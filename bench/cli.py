@@ -1,0 +1,123 @@
+"""The command line of the benchmark harness (issue 7).
+
+    python -m bench [--cases DIR] [--repeat N] [--repeat-large N] [--out DIR]
+                    [--only NAME ...] [--solvers ours,flat,anneal] [--flat-limit S]
+
+Cases run one after another, and on each case the solvers run one after another
+(never two at once), repeat after repeat, so they share the machine equally.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import sys
+import time
+from pathlib import Path
+
+from bench.evaluate import RunRecord, evaluate
+from bench.report import build_results, write_outputs
+from bench.solvers import BASELINE_CAP, SOLVERS, baseline_limit, our_limit
+from models import Problem
+from solver.geometry import make_domain
+
+#: Cases with more rooms than this run `--repeat-large` times.
+LARGE_ABOVE = 20
+DEFAULT_CASES = Path(__file__).resolve().parent.parent.parent / "shared" / "bench" / "cases"
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog="python -m bench", description=(
+        "Run our solver, the flat one-model SCIP baseline and simulated annealing side "
+        "by side on benchmark cases; write results.json, results.md and complexity.png."))
+    p.add_argument("--cases", type=Path, default=DEFAULT_CASES,
+                   help="directory of problem JSON files (default: %(default)s)")
+    p.add_argument("--repeat", type=int, default=3, help="runs per case and solver")
+    p.add_argument("--repeat-large", type=int, default=None,
+                   help=f"runs for cases of more than {LARGE_ABOVE} rooms (default: --repeat)")
+    p.add_argument("--out", type=Path, default=Path("bench/results"),
+                   help="output directory (default: %(default)s)")
+    p.add_argument("--only", nargs="+", default=None, metavar="NAME",
+                   help="case names (file stems) to run")
+    p.add_argument("--solvers", default="ours,flat,anneal",
+                   help="comma-separated subset of ours,flat,anneal")
+    p.add_argument("--flat-limit", type=float, default=BASELINE_CAP,
+                   help="cap in seconds on the flat baseline's and the annealer's limit, "
+                        "which is otherwise 10x ours (default: %(default)s)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    args = p.parse_args(argv)
+    solvers = [s.strip() for s in args.solvers.split(",") if s.strip()]
+    unknown = [s for s in solvers if s not in SOLVERS]
+    if unknown or not solvers:
+        p.error(f"unknown solver(s) {unknown}; choose from {', '.join(SOLVERS)}")
+    args.solvers = solvers
+    if args.repeat < 1 or (args.repeat_large is not None and args.repeat_large < 1):
+        p.error("--repeat and --repeat-large must be at least 1")
+    return args
+
+
+def load_cases(directory: Path, only: list[str] | None) -> dict[str, Problem]:
+    files = sorted(directory.glob("*.json"))
+    if only is not None:
+        missing = set(only) - {f.stem for f in files}
+        if missing:
+            raise SystemExit(f"no case named {', '.join(sorted(missing))} in {directory}")
+        files = [f for f in files if f.stem in only]
+    cases = {f.stem: Problem.model_validate_json(f.read_text(encoding="utf-8")) for f in files}
+    # Smallest first: the quick cases report before the long ones start.
+    return dict(sorted(cases.items(), key=lambda kv: (len(kv[1].rooms), kv[0])))
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    cases = load_cases(args.cases, args.only)
+    if not cases:
+        print(f"no cases in {args.cases}", file=sys.stderr)
+        return 2
+
+    def log(text: str) -> None:
+        if not args.quiet:
+            print(text, file=sys.stderr, flush=True)
+
+    records: list[RunRecord] = []
+    started = time.monotonic()
+    for name, problem in cases.items():
+        domain = make_domain(problem)
+        large = len(problem.rooms) > LARGE_ABOVE
+        repeats = args.repeat_large if large and args.repeat_large is not None else args.repeat
+        log(f"{name}: {len(problem.rooms)} rooms, ours {our_limit(problem):g} s, baselines "
+            f"{baseline_limit(problem, args.flat_limit):g} s, {repeats} run(s)")
+        for repeat in range(repeats):
+            seed = problem.options.seed + repeat
+            for solver in args.solvers:
+                gc.collect()
+                trace = SOLVERS[solver](problem, seed=seed, cap=args.flat_limit)
+                record = evaluate(problem, domain, trace, case=name, repeat=repeat, seed=seed)
+                records.append(record)
+                log(f"  {solver:6} run {repeat + 1}: first valid {_t(record.first_valid)}, "
+                    f"first passing {_t(record.first_pass)}, final {record.final_time:.2f} s, "
+                    f"coverage {_pct(record.coverage)}, violations {record.hard_violations}, "
+                    f"objective {_f(record.objective)}")
+        # Written after every case: a long run that is stopped keeps what it measured.
+        settings = {
+            "cases": str(args.cases), "solvers": args.solvers, "repeat": args.repeat,
+            "repeat_large": args.repeat_large, "large_above": LARGE_ABOVE,
+            "flat_limit": args.flat_limit, "seconds": round(time.monotonic() - started, 1),
+        }
+        write_outputs(build_results(
+            {k: v for k, v in cases.items() if any(r.case == k for r in records)},
+            records, settings), args.out)
+    log(f"wrote {args.out}/results.json, results.md, complexity.png")
+    return 0
+
+
+def _t(v: float | None) -> str:
+    return "none" if v is None else f"{v:.2f} s"
+
+
+def _pct(v: float | None) -> str:
+    return "-" if v is None else f"{100 * v:.1f} %"
+
+
+def _f(v: float | None) -> str:
+    return "-" if v is None else f"{v:.1f}"

@@ -1,0 +1,150 @@
+"""Judging a solver's trace with the independent checker (solver/checker.py).
+
+A layout is *valid* when the checker passes it (every hard constraint holds) and it
+covers at least `COVERAGE_GOAL` of the free area; it *passes* when the checker passes
+it whatever its coverage. The recorded layouts are checked in time order, after the
+run, until the first of each kind is found.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+import shapely
+
+from bench.solvers import Rooms, Trace
+from models import Problem
+from solver.checker import COVERAGE_GOAL, SOFT_KINDS, CheckResult, check_layout
+from solver.geometry import Domain
+from solver.solve import layout_objective
+
+#: Layouts whose rectangles overlap, or leave the bounding box, by more than this (m^2)
+#: cannot pass the checker (its tolerance is far below), so it is not run on them.
+QUICK_TOLERANCE = 1e-3
+#: Layouts this far below the coverage goal cannot reach it after the checker's snapping.
+QUICK_COVERAGE_SLACK = 0.005
+
+
+@dataclass
+class RunRecord:
+    """One run of one solver on one case: every figure of the benchmark."""
+
+    case: str
+    solver: str
+    repeat: int
+    seed: int
+    time_limit: float
+    status: str
+    #: Seconds to the first layout that passes the checker and covers >= 99 %.
+    first_valid: float | None
+    #: Seconds to the first layout that passes the checker, whatever its coverage.
+    first_pass: float | None
+    #: Seconds until the solver returned its final layout.
+    final_time: float
+    #: Seconds to the last improvement of the final layout (last incumbent or snapshot).
+    last_improvement: float | None
+    coverage: float | None
+    hard_violations: int | None
+    size_error: float | None
+    objective: float | None
+    valid: bool
+    layouts_recorded: int
+    layouts_checked: int
+    extra: dict[str, Any]
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def hard_violations(check: CheckResult) -> int:
+    """The checker's failed checks other than coverage."""
+    return sum(1 for c in check.constraints if not c.satisfied and c.kind not in SOFT_KINDS)
+
+
+def evaluate(
+    problem: Problem, domain: Domain, trace: Trace, *, case: str, repeat: int, seed: int
+) -> RunRecord:
+    """Every figure of one run, from its trace."""
+    first_valid = first_pass = None
+    checked = 0
+    for elapsed, rooms in trace.layouts:
+        if first_valid is not None:
+            break
+        if first_pass is not None and _quick_coverage(domain, rooms) < (
+                COVERAGE_GOAL - QUICK_COVERAGE_SLACK):
+            continue
+        if not _may_pass(domain, rooms):
+            continue
+        check = check_layout(problem, rooms)
+        checked += 1
+        if not check.valid:
+            continue
+        if first_pass is None:
+            first_pass = elapsed
+        if check.coverage >= COVERAGE_GOAL:
+            first_valid = elapsed
+    coverage = violations = size = objective = None
+    valid = False
+    if trace.final is not None:
+        check = check_layout(problem, trace.final)
+        checked += 1
+        coverage = check.coverage
+        violations = hard_violations(check)
+        size = sum(check.size_error.values())
+        objective = layout_objective(problem, domain, trace.final)
+        valid = check.valid and check.coverage >= COVERAGE_GOAL
+    last = trace.extra.get("last_improvement")
+    if last is None and trace.layouts:
+        last = _last_change(trace)
+    return RunRecord(
+        case=case, solver=trace.solver, repeat=repeat, seed=seed,
+        time_limit=trace.time_limit, status=trace.status, first_valid=first_valid,
+        first_pass=first_pass, final_time=trace.seconds,
+        last_improvement=float(last) if last is not None else None,
+        coverage=coverage, hard_violations=violations, size_error=size,
+        objective=objective, valid=valid, layouts_recorded=len(trace.layouts),
+        layouts_checked=checked,
+        extra={k: v for k, v in trace.extra.items() if k != "last_improvement"},
+    )
+
+
+def _last_change(trace: Trace) -> float:
+    """Time of the last recorded layout that differs from the final one (the final
+    layout of `ours` is appended when `solve` returns, after its last incumbent)."""
+    times = [t for t, _ in trace.layouts]
+    if len(times) >= 2 and trace.layouts[-1][1] == trace.layouts[-2][1]:
+        return times[-2]
+    return times[-1]
+
+
+def _arrays(rooms: Rooms) -> np.ndarray:
+    return np.array([[b.x0, b.y0, b.x1, b.y1] for boxes in rooms.values() for b in boxes])
+
+
+def _may_pass(domain: Domain, rooms: Rooms) -> bool:
+    """False when rectangles of different rooms overlap, or a rectangle sticks out of
+    the bounding box, by more than `QUICK_TOLERANCE` m^2 (rectangle arithmetic only)."""
+    owners = np.array([k for k, boxes in enumerate(rooms.values()) for _ in boxes])
+    r = _arrays(rooms)
+    if len(r) == 0:
+        return False
+    bb = domain.bbox
+    area = (r[:, 2] - r[:, 0]) * (r[:, 3] - r[:, 1])
+    inside = (np.clip(np.minimum(r[:, 2], bb.x1) - np.maximum(r[:, 0], bb.x0), 0, None)
+              * np.clip(np.minimum(r[:, 3], bb.y1) - np.maximum(r[:, 1], bb.y0), 0, None))
+    if float(np.max(area - inside)) > QUICK_TOLERANCE:
+        return False
+    ox = np.clip(np.minimum(r[:, None, 2], r[None, :, 2])
+                 - np.maximum(r[:, None, 0], r[None, :, 0]), 0, None)
+    oy = np.clip(np.minimum(r[:, None, 3], r[None, :, 3])
+                 - np.maximum(r[:, None, 1], r[None, :, 1]), 0, None)
+    overlap = ox * oy
+    overlap[owners[:, None] == owners[None, :]] = 0.0
+    return float(overlap.max()) <= QUICK_TOLERANCE
+
+
+def _quick_coverage(domain: Domain, rooms: Rooms) -> float:
+    union = shapely.union_all([b.to_polygon() for boxes in rooms.values() for b in boxes])
+    return float(domain.free.intersection(union).area) / domain.area if domain.area else 1.0

@@ -1,0 +1,257 @@
+"""Medians over repeats, machine facts, and the three outputs: results.json,
+results.md and complexity.png."""
+
+from __future__ import annotations
+
+import datetime
+import json
+import math
+import os
+import platform
+import statistics
+import subprocess
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from bench.evaluate import RunRecord
+from models import Problem
+
+#: Figures whose median is taken over the runs.
+MEDIAN_FIELDS = ("first_valid", "first_pass", "final_time", "last_improvement", "coverage",
+                 "hard_violations", "size_error", "objective")
+#: Times where a run that found nothing counts as +infinity (so "none" wins a majority).
+TIME_FIELDS = frozenset({"first_valid", "first_pass"})
+
+
+def complexity(problem: Problem) -> dict[str, int]:
+    """Constraint counts as the paper's Table 1 gives them (size, overlap, ratio, pos,
+    boundary, adjacency: one per room that has the constraint, one overlap per room,
+    one per adjacency requirement), their total, and rooms + total, the complexity of
+    its Fig. 18."""
+    rooms = problem.rooms
+    counts = {
+        "size": sum(1 for r in rooms if r.min_size or r.max_size or r.target_size),
+        "overlap": len(rooms),
+        "ratio": sum(1 for r in rooms if r.aspect_ratio is not None),
+        "pos": sum(1 for r in rooms if r.positions),
+        "boundary": sum(1 for r in rooms if r.boundary),
+        "adjacency": len(problem.adjacency),
+    }
+    total = sum(counts.values())
+    return {**counts, "total": total, "rooms": len(rooms), "complexity": len(rooms) + total}
+
+
+def median(values: Sequence[float | None], *, none_is_inf: bool) -> float | None:
+    """Median of the runs; `None` (nothing found) counts as +inf for times, and is left
+    out for measurements of a final layout."""
+    if none_is_inf:
+        xs = [math.inf if v is None else float(v) for v in values]
+    else:
+        xs = [float(v) for v in values if v is not None]
+    if not xs:
+        return None
+    m = statistics.median(xs)
+    return None if math.isinf(m) else m
+
+
+def summarise(records: Sequence[RunRecord]) -> dict[str, Any]:
+    """Medians of one case and solver."""
+    out: dict[str, Any] = {"runs": len(records)}
+    for name in MEDIAN_FIELDS:
+        out[name] = median([getattr(r, name) for r in records], none_is_inf=name in TIME_FIELDS)
+    out["found_valid"] = sum(1 for r in records if r.first_valid is not None)
+    out["found_pass"] = sum(1 for r in records if r.first_pass is not None)
+    out["final_valid"] = sum(1 for r in records if r.valid)
+    out["time_limit"] = records[0].time_limit
+    return out
+
+
+def machine_info() -> dict[str, Any]:
+    """CPU model, cores, Python, pyscipopt and SCIP versions, date."""
+    cpu = platform.processor() or "unknown"
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    import pyscipopt
+
+    scip = pyscipopt.Model()
+    version = f"{scip.getMajorVersion()}.{scip.getMinorVersion()}.{scip.getTechVersion()}"
+    scip.freeProb()
+    return {
+        **_revision(),
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "python": platform.python_version(),
+        "pyscipopt": pyscipopt.__version__,
+        "scip": version,
+        "platform": platform.platform(),
+        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+    }
+
+
+def _revision() -> dict[str, Any]:
+    """The commit the solver code came from, and whether its files differed from it."""
+    root = Path(__file__).resolve().parent.parent
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True,
+                              text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "solver", "models"],
+                               cwd=root, capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return {"commit": None, "solver_modified": None}
+    return {"commit": head, "solver_modified": bool(dirty.strip())}
+
+
+def build_results(
+    cases: dict[str, Problem], records: Sequence[RunRecord], settings: dict[str, Any]
+) -> dict[str, Any]:
+    """The whole of results.json."""
+    summary: dict[str, dict[str, Any]] = {}
+    for name, problem in cases.items():
+        per_solver = {}
+        for solver in dict.fromkeys(r.solver for r in records if r.case == name):
+            runs = [r for r in records if r.case == name and r.solver == solver]
+            per_solver[solver] = summarise(runs)
+        summary[name] = {**complexity(problem), "solvers": per_solver}
+    return {
+        "machine": machine_info(),
+        "settings": settings,
+        "summary": summary,
+        "runs": [r.to_json() for r in records],
+    }
+
+
+def write_outputs(results: dict[str, Any], out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.json").write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
+    (out / "results.md").write_text(markdown(results), encoding="utf-8")
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        print("matplotlib is not installed (pip install -e '.[bench]'): no complexity.png",
+              file=sys.stderr)
+        return
+    plot_complexity(results, out / "complexity.png")
+
+
+def _s(v: float | None, found: int, runs: int) -> str:
+    if v is None:
+        return "none" if found == 0 else f"none ({found}/{runs} found)"
+    text = f"{v:.2f}" if v < 100 else f"{v:.0f}"
+    return text if found in (runs, -1) else f"{text} ({found}/{runs})"
+
+
+def _num(v: float | None, fmt: str) -> str:
+    return "-" if v is None else format(v, fmt)
+
+
+def markdown(results: dict[str, Any]) -> str:
+    """The tables of results.md."""
+    mach = results["machine"]
+    lines = [
+        "# Benchmark results",
+        "",
+        f"{mach['date']}, {mach['cpu']}, {mach['cores']} cores, Python {mach['python']}, "
+        f"pyscipopt {mach['pyscipopt']}, SCIP {mach['scip']}. "
+        f"Medians over the runs (seeds: case seed + repeat index). Times in seconds on the "
+        f"harness's clock; *valid* = passes the independent checker and covers >= 99 %; "
+        f"*passes* = passes the checker whatever the coverage. A time of \"none\" means no "
+        f"such layout in the majority of runs; (k/n) counts the runs that found one.",
+        "",
+        "| case | rooms | complexity | solver | limit (s) | runs | first valid | first passing "
+        "| final | coverage | hard violations | size error | Eq. 12 objective |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name, case in results["summary"].items():
+        for solver, s in case["solvers"].items():
+            runs = s["runs"]
+            cov = "-" if s["coverage"] is None else f"{100 * s['coverage']:.1f} %"
+            lines.append(
+                f"| {name} | {case['rooms']} | {case['complexity']} | {solver} "
+                f"| {s['time_limit']:g} | {runs} "
+                f"| {_s(s['first_valid'], s['found_valid'], runs)} "
+                f"| {_s(s['first_pass'], s['found_pass'], runs)} "
+                f"| {_s(s['final_time'], -1, runs)} | {cov} "
+                f"| {_num(s['hard_violations'], 'g')} | {_num(s['size_error'], '.1f')} "
+                f"| {_num(s['objective'], '.1f')} |")
+    lines += ["", "Speed-up of ours against the flat baseline (flat time / our time, medians):",
+              "", "| case | rooms | to first valid layout | to first passing layout |",
+              "|---|---|---|---|"]
+    for name, case in results["summary"].items():
+        solvers = case["solvers"]
+        if "ours" not in solvers or "flat" not in solvers:
+            continue
+        cells = [_ratio(solvers["ours"], solvers["flat"], key) for key in
+                 ("first_valid", "first_pass")]
+        lines.append(f"| {name} | {case['rooms']} | {cells[0]} | {cells[1]} |")
+    lines.append("")
+    return "\n".join(lines)
+
+
+def _ratio(ours: dict[str, Any], flat: dict[str, Any], key: str) -> str:
+    o, f = ours[key], flat[key]
+    limit = f"{flat['time_limit']:g}"
+    if o is None and f is None:
+        return f"neither found one (ours within {ours['time_limit']:g} s, flat within {limit} s)"
+    if f is None:
+        return f"flat found none within {limit} s (ours {o:.2f} s: > {flat['time_limit'] / o:.0f}x)"
+    if o is None:
+        return f"ours found none within {ours['time_limit']:g} s (flat {f:.2f} s)"
+    return f"{f / o:.1f}x ({f:.2f} s / {o:.2f} s)"
+
+
+def plot_complexity(results: dict[str, Any], path: Path) -> None:
+    """Median time to the first valid layout (left) and to the first layout passing the
+    checker (right) against rooms + constraints, log-log, one series per solver; runs
+    that found none are drawn hollow at their time limit."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot as plt
+    from matplotlib.ticker import ScalarFormatter
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharey=True)
+    solvers = list(dict.fromkeys(s for c in results["summary"].values() for s in c["solvers"]))
+    style = {name: (colour, marker) for name, colour, marker in zip(
+        solvers, ("tab:blue", "tab:orange", "tab:green", "tab:red"), "os^D", strict=False)}
+    panels = (("first_valid", "first valid layout (checker + coverage >= 99 %)"),
+              ("first_pass", "first layout passing the checker"))
+    for ax, (key, title) in zip(axes, panels, strict=True):
+        for k, solver in enumerate(solvers):
+            found, missing = [], []
+            for case in results["summary"].values():
+                s = case["solvers"].get(solver)
+                if s is None:
+                    continue
+                if s[key] is not None:
+                    found.append((case["complexity"], s[key]))
+                else:
+                    # Shifted a little per solver so equal limits stay visible.
+                    missing.append((case["complexity"] * (1 + 0.03 * k), s["time_limit"]))
+            colour, marker = style.get(solver, ("black", "o"))
+            if found:
+                ax.plot(*zip(*sorted(found), strict=True), marker=marker, color=colour,
+                        label=solver)
+            if missing:
+                ax.plot(*zip(*sorted(missing), strict=True), marker=marker, ls="none",
+                        mfc="none", color=colour, label=f"{solver}: none within its limit")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(ScalarFormatter())
+        ax.tick_params(axis="x", which="minor", labelsize=7)
+        ax.set_xlabel("complexity: rooms + constraints (Table 1 counts)")
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    axes[0].set_ylabel("median time (s)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

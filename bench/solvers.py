@@ -1,0 +1,148 @@
+"""The three solvers the benchmark compares, each run once on a problem.
+
+Every runner returns a `Trace`: the layouts it produced over time (incumbents as they
+arrive, or the annealer's periodic snapshots), its final layout and its wall time, all
+on the harness's own clock started just before the solver is called (model building
+included). Nothing is checked while a solver runs: the checker would slow it down, so
+`bench.evaluate` checks the recorded layouts afterwards.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from pyscipopt import SCIP_EVENTTYPE, Model
+
+from bench.anneal import Annealer
+from models import Problem
+from solver.formulation import LevelModel, build_level
+from solver.geometry import Box, make_domain
+from solver.level_one import level_one_spec
+from solver.scip_run import MEMORY_LIMIT_MB
+from solver.solve import Phase, SolveEvent, default_time_limit, solve
+
+Rooms = dict[str, list[Box]]
+
+#: The flat baseline and the annealer get this many times our time limit ...
+BASELINE_FACTOR = 10.0
+#: ... capped by the `--flat-limit` option, by default at this many seconds.
+BASELINE_CAP = 60.0
+#: Seconds between the annealer's snapshots of its best layout.
+ANNEAL_SNAPSHOT_EVERY = 0.1
+
+
+@dataclass
+class Trace:
+    """What one run of one solver produced."""
+
+    solver: str
+    time_limit: float
+    #: (seconds since the start, whole layout) for every incumbent or snapshot, in order.
+    layouts: list[tuple[float, Rooms]] = field(default_factory=list)
+    final: Rooms | None = None
+    #: Wall time until the solver returned its final layout.
+    seconds: float = 0.0
+    status: str = ""
+    extra: dict[str, float | int | str] = field(default_factory=dict)
+
+
+def our_limit(problem: Problem) -> float:
+    """The time limit `solve` uses for `problem`."""
+    return problem.options.time_limit or default_time_limit(len(problem.rooms))
+
+
+def baseline_limit(problem: Problem, cap: float = BASELINE_CAP) -> float:
+    """Ten times our limit, at most `cap` seconds."""
+    return min(BASELINE_FACTOR * our_limit(problem), cap)
+
+
+def run_ours(problem: Problem, *, seed: int, cap: float = BASELINE_CAP) -> Trace:
+    """`solver.solve.solve` at the problem's default time limit."""
+    problem = problem.model_copy(update={"options": problem.options.model_copy(
+        update={"seed": seed})})
+    trace = Trace("ours", our_limit(problem))
+    started = time.monotonic()
+
+    def on_event(event: SolveEvent) -> None:
+        if event.phase is Phase.INCUMBENT and event.rooms is not None:
+            trace.layouts.append((time.monotonic() - started, event.rooms))
+
+    layout = solve(problem, on_event=on_event)
+    trace.seconds = time.monotonic() - started
+    trace.status = str(layout.report.termination)
+    if layout.rooms:
+        trace.final = {r.id: [Box.of(rect) for rect in r.rectangles] for r in layout.rooms}
+        trace.layouts.append((trace.seconds, trace.final))
+    trace.extra["levels"] = layout.report.levels
+    return trace
+
+
+def flat_model(problem: Problem) -> LevelModel:
+    """Level 1 of the paper as one SCIP model: every constraint family, the objective of
+    Eq. 12 through the epigraph, the user's own size bounds; SCIP's default settings."""
+    domain = make_domain(problem)
+    return build_level(level_one_spec(problem, domain, window=None))
+
+
+def run_flat(problem: Problem, *, seed: int, cap: float = BASELINE_CAP) -> Trace:
+    """The flat baseline: `flat_model` solved by SCIP with its defaults (only the time
+    and memory limits and the random seed set), no start, no hierarchy."""
+    limit = baseline_limit(problem, cap)
+    trace = Trace("flat", limit)
+    started = time.monotonic()
+    lm = flat_model(problem)
+    trace.extra["build_seconds"] = round(time.monotonic() - started, 3)
+    m = lm.model
+    m.setParam("limits/time", limit)
+    m.setParam("limits/memory", MEMORY_LIMIT_MB)
+    m.setParam("randomization/randomseedshift", seed)
+
+    def best_solution(model: Model, _event: object) -> None:
+        sol = model.getBestSol()
+        trace.layouts.append((time.monotonic() - started, _read(model, sol, lm)))
+
+    m.attachEventHandlerCallback(best_solution, [SCIP_EVENTTYPE.BESTSOLFOUND],
+                                 name="bench-incumbents")
+    m.optimize()
+    trace.seconds = time.monotonic() - started
+    trace.status = m.getStatus()
+    if m.getNSols() > 0:
+        trace.final = _read(m, m.getBestSol(), lm)
+        # The best solution at the end is the last incumbent; keep the final time exact.
+        trace.layouts.append((trace.seconds, trace.final))
+    trace.extra.update(nodes=m.getNNodes(), solutions=m.getNSols(), gap=m.getGap(),
+                       variables=m.getNVars(), constraints=m.getNConss())
+    m.freeProb()
+    return trace
+
+
+def _read(model: Model, sol: object, lm: LevelModel) -> Rooms:
+    rooms: Rooms = {}
+    for name, v in lm.rects.items():
+        x, y = model.getSolVal(sol, v.x), model.getSolVal(sol, v.y)
+        rooms[name] = [Box(x, y, x + model.getSolVal(sol, v.w), y + model.getSolVal(sol, v.d))]
+    return rooms
+
+
+def run_anneal(problem: Problem, *, seed: int, cap: float = BASELINE_CAP) -> Trace:
+    """Simulated annealing (bench/anneal.py) for as long as the flat baseline."""
+    limit = baseline_limit(problem, cap)
+    trace = Trace("anneal", limit)
+    started = time.monotonic()
+    annealer = Annealer(problem, make_domain(problem), seed=seed)
+    result = annealer.run(limit - (time.monotonic() - started),
+                          snapshot_every=ANNEAL_SNAPSHOT_EVERY)
+    trace.seconds = time.monotonic() - started
+    offset = trace.seconds - result.seconds  # set-up time before the search's own clock
+    trace.layouts = [(s.elapsed + offset, s.rooms) for s in result.snapshots]
+    trace.final = result.rooms
+    trace.status = "timelimit"
+    trace.extra.update(moves=result.moves, accepted=result.accepted,
+                       last_improvement=result.last_improvement + offset)
+    return trace
+
+
+Runner = Callable[..., Trace]
+SOLVERS: dict[str, Runner] = {"ours": run_ours, "flat": run_flat, "anneal": run_anneal}

@@ -1,0 +1,70 @@
+"""The benchmark harness end to end on a tiny problem: all three solvers, one run."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+from bench.cli import main
+from bench.report import complexity
+from models import Problem
+
+TINY = {
+    "name": "tiny-3",
+    "boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],
+    "rooms": [
+        {"id": "a", "min_size": [1.5, 1.5], "max_size": [4, 4], "target_size": [3, 4],
+         "boundary": ["west"]},
+        {"id": "b", "min_size": [1.5, 1.5], "max_size": [4, 4], "target_size": [3, 2]},
+        {"id": "c", "min_size": [1.5, 1.5], "max_size": [4, 4], "target_size": [3, 2],
+         "aspect_ratio": [1, 2]},
+    ],
+    "adjacency": [{"a": "a", "b": "b", "min_contact": 1.0}],
+    "options": {"time_limit": 1},
+}
+
+
+@pytest.fixture
+def cases(tmp_path: Path) -> Path:
+    directory = tmp_path / "cases"
+    directory.mkdir()
+    (directory / "tiny-3.json").write_text(json.dumps(TINY))
+    return directory
+
+
+def test_harness_writes_every_output_with_every_field(cases: Path, tmp_path: Path) -> None:
+    out = tmp_path / "results"
+    code = main(["--cases", str(cases), "--repeat", "1", "--out", str(out),
+                 "--solvers", "ours,flat,anneal", "--flat-limit", "1", "--quiet"])
+    assert code == 0
+    for name in ("results.json", "results.md"):
+        assert (out / name).stat().st_size > 0, name
+    if importlib.util.find_spec("matplotlib") is not None:  # the optional `bench` extra
+        assert (out / "complexity.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    results = json.loads((out / "results.json").read_text())
+    assert {"cpu", "cores", "python", "pyscipopt", "scip", "date"} <= set(results["machine"])
+    runs = results["runs"]
+    assert sorted(r["solver"] for r in runs) == ["anneal", "flat", "ours"]
+    for run in runs:
+        for key in ("first_valid", "first_pass", "final_time", "coverage", "hard_violations",
+                    "size_error", "objective"):
+            assert key in run, key
+        assert run["final_time"] <= run["time_limit"] + 2.0
+    ours = next(r for r in runs if r["solver"] == "ours")
+    # Ours lays out three rooms in a rectangle completely and validly within its second.
+    assert ours["first_valid"] is not None and ours["hard_violations"] == 0
+    assert ours["coverage"] >= 0.99
+    summary = results["summary"]["tiny-3"]
+    assert summary["complexity"] == 3 + (3 + 3 + 1 + 0 + 1 + 1)
+    assert set(summary["solvers"]) == {"ours", "flat", "anneal"}
+    table = (out / "results.md").read_text()
+    assert "| tiny-3 | 3 |" in table and "Speed-up" in table
+
+
+def test_complexity_counts_constraints_as_table_1_does() -> None:
+    counts = complexity(Problem.model_validate(TINY))
+    assert counts == {"size": 3, "overlap": 3, "ratio": 1, "pos": 0, "boundary": 1,
+                      "adjacency": 1, "total": 9, "rooms": 3, "complexity": 12}
