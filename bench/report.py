@@ -92,6 +92,8 @@ def machine_info() -> dict[str, Any]:
         "pyscipopt": pyscipopt.__version__,
         "scip": version,
         "platform": platform.platform(),
+        # Other work on the machine slows every solver: the load when results were written.
+        "load_average": [round(x, 2) for x in os.getloadavg()],
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
     }
 
