@@ -1,4 +1,5 @@
-"""The `floorplan` command: the solver's subcommands plus `serve`."""
+"""The `floorplan` command: the solver's subcommands plus `serve` (and `submit`, from
+the Python client, when it is installed)."""
 
 from __future__ import annotations
 
@@ -39,4 +40,12 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    return solver_cli.main(argv, extra=(add_serve,))
+    extra: list[solver_cli.CommandAdder] = [add_serve]
+    try:  # `floorplan submit` comes with the Python client (clients/python), when installed
+        from floorplan_client.cli import add_submit
+    except ModuleNotFoundError as err:
+        if err.name != "floorplan_client":
+            raise
+    else:
+        extra.append(add_submit)
+    return solver_cli.main(argv, extra=extra)
