@@ -21,6 +21,7 @@ from floorplan_client._core import (
     NotGiven,
     ProblemInput,
     RequestOptions,
+    ResultFormat,
     Timeout,
     Tracker,
     deadline_after,
@@ -182,16 +183,16 @@ class AsyncJob(BaseJob):
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout: ...
 
     @overload
-    async def result(self, format: Literal["svg"], *,
+    async def result(self, format: Literal["svg", "dxf", "geojson"], *,
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> str: ...
 
-    async def result(self, format: Literal["json", "svg"] = "json", *,
+    async def result(self, format: ResultFormat = "json", *,
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout | str:
-        """The job's layout, or its SVG plan with ``format="svg"``: see `Job.result`."""
+        """The job's layout, or its plan as SVG, DXF or GeoJSON text: see `Job.result`."""
         options = RequestOptions("GET", f"/v1/layouts/{self.id}/result",
                                  params={"format": format}, timeout=timeout)
         response = await self._client._send(options)
-        if format == "svg":
+        if format != "json":
             self._client._expect_empty(response)
             return response.text
         return self._client._parse(response, Layout)

@@ -19,6 +19,7 @@ from floorplan_client._core import (
     NotGiven,
     ProblemInput,
     RequestOptions,
+    ResultFormat,
     Timeout,
     Tracker,
     deadline_after,
@@ -216,18 +217,20 @@ class Job(BaseJob):
                timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout: ...
 
     @overload
-    def result(self, format: Literal["svg"], *,
+    def result(self, format: Literal["svg", "dxf", "geojson"], *,
                timeout: Timeout | NotGiven = NOT_GIVEN) -> str: ...
 
-    def result(self, format: Literal["json", "svg"] = "json", *,
+    def result(self, format: ResultFormat = "json", *,
                timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout | str:
-        """The job's layout as a `models.Layout`, or with ``format="svg"`` its plan as
-        SVG text. While the job runs this is the best layout so far
-        (``report.termination`` ``in_progress``); `NoResultYet` before there is one."""
+        """The job's layout as a `models.Layout`; with ``format="svg"`` its plan as SVG
+        text, with ``"dxf"`` a DXF drawing (metres, a layer per room type), with
+        ``"geojson"`` GeoJSON text in the problem's metric frame. While the job runs this
+        is the best layout so far (``report.termination`` ``in_progress``);
+        `NoResultYet` before there is one."""
         options = RequestOptions("GET", f"/v1/layouts/{self.id}/result",
                                  params={"format": format}, timeout=timeout)
         response = self._client._send(options)
-        if format == "svg":
+        if format != "json":
             self._client._expect_empty(response)
             return response.text
         return self._client._parse(response, Layout)

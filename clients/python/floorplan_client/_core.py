@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from email.utils import parsedate_to_datetime
 from http import HTTPStatus
 from pathlib import Path
-from typing import Any, Final, Generic, TypeVar
+from typing import Any, Final, Generic, Literal, TypeVar
 
 import httpx2 as httpx
 from pydantic import BaseModel, ValidationError
@@ -85,6 +85,10 @@ NOT_GIVEN: Final = NotGiven()
 Timeout = float | httpx.Timeout | None
 #: A problem: a `models.Problem`, a dict of its JSON, or the path of a JSON file.
 ProblemInput = Problem | Mapping[str, Any] | str | os.PathLike[str]
+
+#: What `Job.result` can fetch: the layout (a `models.Layout`), or as text an SVG plan,
+#: a DXF drawing or GeoJSON.
+ResultFormat = Literal["json", "svg", "dxf", "geojson"]
 
 #: Failures in sending or receiving that another attempt may well not meet.
 RETRYABLE_ERRORS: tuple[type[httpx.TransportError], ...] = (

@@ -2,14 +2,16 @@
 layout.
 
     floorplan submit PROBLEM.json [--server URL] [--api-key KEY] [--wait]
-                     [-o LAYOUT.json] [--svg PLAN.svg] [--time-limit S] [--seed K] [--quiet]
+                     [-o LAYOUT.json] [--format json|svg|dxf|geojson] [--svg PLAN.svg]
+                     [--time-limit S] [--seed K] [--quiet]
 
 Without ``--wait`` (or ``-o``/``--svg``, which imply it) the job's id goes to stdout
 and the command returns at once. With it, progress goes to stderr (status, level,
 sub-domain, incumbent objective, elapsed time: a live line on a terminal with rich
 installed, else one line per event), then the layout JSON to ``-o`` (stdout when
-omitted) and the plan to ``--svg``. Ctrl-C cancels the job and still writes the best
-layout found so far; a second Ctrl-C aborts at once. Exit codes are `EXIT_*` below,
+omitted; by its extension, or ``--format``, an SVG plan, a DXF drawing or GeoJSON, as
+the service renders them) and the plan to ``--svg``. Ctrl-C cancels the job and still
+writes the best layout found so far; a second Ctrl-C aborts at once. Exit codes are `EXIT_*` below,
 the same as ``floorplan solve``'s.
 
 The `floorplan` command (``service/cli.py``) adds this subcommand with `add_submit`
@@ -34,6 +36,7 @@ if TYPE_CHECKING:
     from rich.console import Console
 
     from floorplan_client import Event, Job
+    from floorplan_client._core import ResultFormat
     from models import Layout
 
 EXIT_OK = 0
@@ -51,6 +54,8 @@ EXIT_INTERRUPTED = 130
 PROG = "floorplan"
 #: Stands for stdin / stdout in file arguments.
 STDIO = "-"
+#: What -o can hold: the layout JSON, or the service's SVG, DXF or GeoJSON rendering.
+FORMATS = ("json", "svg", "dxf", "geojson")
 #: Seconds to wait for a job to end once Ctrl-C has canceled it.
 CANCEL_WAIT = 30.0
 #: Least seconds between two plain progress lines (status changes always print).
@@ -83,6 +88,9 @@ def add_submit(commands: Any) -> None:
                    "(implied by -o and --svg)")
     p.add_argument("-o", "--output", metavar="LAYOUT.json",
                    help=f"where to write the layout JSON (default and '{STDIO}': stdout)")
+    p.add_argument("--format", choices=list(FORMATS),
+                   help="what -o holds (default: from its extension, else json): the layout "
+                   "JSON, an SVG plan, a DXF drawing in metres, or GeoJSON in the local frame")
     p.add_argument("--svg", metavar="PLAN.svg", help="also write the plan as SVG here")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds for the solve (overrides options.time_limit)")
@@ -241,11 +249,15 @@ def _check_writable(target: str | None) -> None:
 
 
 def _write_outputs(job: Job, layout: Layout, args: argparse.Namespace, *, svg: bool) -> bool:
-    """Write the layout JSON and (when asked and `svg`) the plan; False after a failure."""
+    """Write the layout (in -o's format) and, when asked and `svg`, the plan; False
+    after a failure."""
     ok = True
     target = args.output or STDIO
+    fmt = args.format or format_of(target)
     try:
-        _write_text(target, layout.model_dump_json(indent=2) + "\n")
+        text = layout.model_dump_json(indent=2) + "\n" if fmt == "json" \
+            else job.result(format=fmt)
+        _write_text(target, text)
     except OSError as err:
         print(f"{PROG}: error: cannot write {target}: {err}", file=sys.stderr)
         ok = False
@@ -256,6 +268,12 @@ def _write_outputs(job: Job, layout: Layout, args: argparse.Namespace, *, svg: b
             print(f"{PROG}: error: cannot write {args.svg}: {err}", file=sys.stderr)
             ok = False
     return ok
+
+
+def format_of(target: str) -> ResultFormat:
+    """The output format an -o file name asks for: its extension, else json."""
+    suffix = Path(target).suffix.lower().lstrip(".")
+    return suffix if suffix in FORMATS else "json"  # type: ignore[return-value]
 
 
 def _write_text(target: str, text: str) -> None:
