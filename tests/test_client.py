@@ -5,6 +5,8 @@ The async client has its own file, mirroring this one; so has `floorplan submit`
 from __future__ import annotations
 
 import json
+import re
+import shutil
 import socket
 import time
 from collections.abc import Iterator
@@ -39,6 +41,7 @@ from models import Layout, Problem, Termination
 from tests.servers import Server
 from tests.test_service import LONG, SMALL
 
+ROOT = Path(__file__).resolve().parents[1]
 KEY = "alpha"
 #: Two rooms whose minimum sizes need 32 m² of a 24 m² flat: infeasible at once.
 CROWDED: dict[str, Any] = {**SMALL, "name": "crowded", "adjacency": [],
@@ -324,3 +327,22 @@ def test_a_full_queue_is_rate_limited_honouring_retry_after(tmp_path: Path) -> N
             waiting.wait(timeout=60)
     finally:
         s.stop()
+
+
+def test_the_readme_examples_run(server: Server, tmp_path: Path,
+                                 monkeypatch: pytest.MonkeyPatch,
+                                 capsys: pytest.CaptureFixture[str]) -> None:
+    section = (ROOT / "README.md").read_text().split("\n## Use it from Python\n")[1]
+    examples = re.findall(r"```python\n(.*?)```", section.split("\n## ")[0], re.DOTALL)
+    assert len(examples) == 2
+    (tmp_path / "examples").mkdir()
+    shutil.copy(ROOT / "examples" / "apartment-5.json", tmp_path / "examples")
+    monkeypatch.chdir(tmp_path)
+    for code in examples:
+        code = code.replace('"http://127.0.0.1:8000", api_key=None',
+                            f"{server.url!r}, api_key={KEY!r}")
+        exec(compile(code, "README.md", "exec"), {"__name__": "readme"})
+    out = capsys.readouterr().out
+    assert "valid=True" in out and "incumbent objective" in out and "status succeeded" in out
+    assert "minimum sizes need" in out
+    assert "<svg" in (tmp_path / "plan.svg").read_text()
