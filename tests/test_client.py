@@ -76,7 +76,7 @@ def first_incumbent(job: Job, timeout: float = 30) -> Layout:
 
 def test_submit_follow_the_events_wait_and_fetch_the_layout(fp: Client) -> None:
     job = fp.submit(SMALL)
-    assert job.status is JobStatus.QUEUED and len(job.id) == 36
+    assert job.info.status is JobStatus.QUEUED and len(job.id) == 36
     events = list(job.events(timeout=60))
     assert isinstance(events[0], StatusEvent) and events[0].status is JobStatus.RUNNING
     assert isinstance(events[-1], StatusEvent) and events[-1].status is JobStatus.SUCCEEDED
@@ -317,7 +317,7 @@ def test_a_full_queue_is_rate_limited_honouring_retry_after(tmp_path: Path) -> N
                 waiting.result()
             assert no_result.value.problem.title == "No layout yet"
             pauses: list[float] = []
-            fp._sleep = pauses.append  # type: ignore[method-assign]
+            fp._sleep = pauses.append  # type: ignore[method-assign,assignment]
             with pytest.raises(RateLimited) as caught:
                 fp.submit(SMALL)
             assert caught.value.retry_after == 5 and pauses == [5.0]  # the service's word

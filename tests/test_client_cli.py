@@ -14,7 +14,14 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from floorplan_client import Client, JobStatus, NoResultYet, ProgressEvent, StatusEvent
+from floorplan_client import (
+    Client,
+    Event,
+    JobStatus,
+    NoResultYet,
+    ProgressEvent,
+    StatusEvent,
+)
 from floorplan_client.cli import (
     EXIT_FAILURE,
     EXIT_INVALID,
@@ -131,7 +138,7 @@ def test_ctrl_c_cancels_the_job_and_writes_the_best_layout(server: Server,
 
 
 def test_the_displays_show_status_level_objective_and_time() -> None:
-    events = [StatusEvent(status=JobStatus.RUNNING),
+    events: list[Event] = [StatusEvent(status=JobStatus.RUNNING),
               ProgressEvent(progress=Progress(level=2, subdomain=1, subdomains=3,
                                               objective=12.414)),
               StatusEvent(status=JobStatus.SUCCEEDED)]

@@ -66,7 +66,7 @@ class Recorder:
         self.client = Client("http://service.test", api_key=options.pop("api_key", None),
                              http_client=httpx.Client(transport=httpx.MockTransport(record)),
                              **options)
-        self.client._sleep = self.pauses.append  # type: ignore[method-assign]
+        self.client._sleep = self.pauses.append  # type: ignore[method-assign,assignment]
 
 
 def answers(*responses: httpx.Response | Exception) -> Handler:

@@ -206,7 +206,7 @@ class BaseClient:
         return after if after <= C.MAX_RETRY_AFTER else None
 
     def _backoff(self, attempt: int) -> float:
-        delay = min(C.INITIAL_RETRY_DELAY * 2 ** attempt, C.MAX_RETRY_DELAY)
+        delay = min(C.INITIAL_RETRY_DELAY * 2.0 ** attempt, C.MAX_RETRY_DELAY)
         return delay * self._random.uniform(1 - C.RETRY_JITTER, 1)
 
     def _pauses(self) -> Pauses:

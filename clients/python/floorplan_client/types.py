@@ -72,9 +72,9 @@ class Progress(_Model):
     level: int | None = None
     subdomain: int | None = None
     subdomains: int | None = None
-    objective: float | None = Field(None, description="Eq. 12 of the incumbent layout")
+    objective: float | None = Field(default=None, description="Eq. 12 of the incumbent layout")
     dual_bound: float | None = None
-    elapsed: float | None = Field(None, description="seconds since the solve started")
+    elapsed: float | None = Field(default=None, description="seconds since the solve started")
     detail: str | None = None
 
     def __str__(self) -> str:
@@ -112,7 +112,7 @@ class JobInfo(_Model):
     id: str
     status: JobStatus
     termination: Termination | None = Field(
-        None, description="why the solve stopped; set when the job ends")
+        default=None, description="why the solve stopped; set when the job ends")
     progress: Progress | None = None
     error: ErrorInfo | None = None
     attempts: int = 0
@@ -179,7 +179,8 @@ class StatusEvent(_Model):
     """The job changed status; the last event of a job is its terminal status."""
 
     kind: Literal["status"] = "status"
-    id: int | None = Field(None, description="the event's id in the stream (None when polled)")
+    id: int | None = Field(default=None,
+                           description="the event's id in the stream (None when polled)")
     status: JobStatus
     termination: Termination | None = None
     error: ErrorInfo | None = None
@@ -212,7 +213,7 @@ class IncumbentEvent(_Model):
 
     kind: Literal["incumbent"] = "incumbent"
     id: int | None = None
-    progress: Progress = Field(default_factory=Progress)
+    progress: Progress = Field(default_factory=lambda: Progress())
     layout: Layout
 
     def __str__(self) -> str:
