@@ -260,3 +260,28 @@ def test_every_public_name_can_be_imported() -> None:
         assert getattr(floorplan_client, name) is not None
     with pytest.raises(AttributeError):
         floorplan_client.Nothing  # noqa: B018
+
+
+def test_every_public_call_has_a_docstring() -> None:
+    import inspect
+
+    import floorplan_client.cli
+
+    missing = []
+    names = [(name, getattr(floorplan_client, name)) for name in floorplan_client.__all__]
+    names += [(f"cli.{name}", value) for name, value in vars(floorplan_client.cli).items()
+              if not name.startswith("_") and getattr(value, "__module__", "")
+              == "floorplan_client.cli"]
+    for name, value in names:
+        if not (inspect.isclass(value) or inspect.isfunction(value)):
+            continue
+        if not inspect.getdoc(value):
+            missing.append(name)
+        if inspect.isclass(value) and value.__module__.startswith("floorplan_client"):
+            for attr, member in vars(value).items():
+                if attr.startswith("_") or attr.startswith("model_"):
+                    continue
+                if (inspect.isfunction(member) or isinstance(member, property)) \
+                        and not member.__doc__:
+                    missing.append(f"{name}.{attr}")
+    assert missing == []

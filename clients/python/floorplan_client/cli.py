@@ -363,12 +363,9 @@ class JobState:
 
     def objective_text(self) -> str:
         """E.g. ``objective 12.41``; "" before the first incumbent."""
-        if self.objective is None:
-            return ""
-        value = self.objective
-        if not math.isfinite(value) or abs(value) >= 1e19:
-            return "objective inf"
-        return f"objective {value:.2f}"
+        from floorplan_client.types import format_number
+
+        return "" if self.objective is None else f"objective {format_number(self.objective)}"
 
 
 class Display(Protocol):

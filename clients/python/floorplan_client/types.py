@@ -86,13 +86,14 @@ class Progress(_Model):
                 where += f" sub {self.subdomain}/{self.subdomains}"
             parts.append(where)
         if self.objective is not None:
-            parts.append(f"objective {_number(self.objective)}")
+            parts.append(f"objective {format_number(self.objective)}")
         if self.dual_bound is not None:
-            parts.append(f"bound {_number(self.dual_bound)}")
+            parts.append(f"bound {format_number(self.dual_bound)}")
         if self.elapsed is not None:
             parts.append(f"elapsed {self.elapsed:.2f} s")
-        if self.detail:
-            parts.append(self.detail)
+        detail = (self.detail or "").removeprefix(f"level {self.level}: ")  # said already
+        if detail:
+            parts.append(detail)
         return "  ".join(parts) or (self.phase or "")
 
 
@@ -221,7 +222,7 @@ class IncumbentEvent(_Model):
         objective = self.progress.objective
         if objective is None:
             objective = self.layout.report.objective
-        value = _number(objective) if objective is not None else "?"
+        value = format_number(objective) if objective is not None else "?"
         return f"incumbent objective {value}, {len(self.layout.rooms)} rooms"
 
 
@@ -229,8 +230,13 @@ class IncumbentEvent(_Model):
 Event = Annotated[StatusEvent | ProgressEvent | IncumbentEvent, Field(discriminator="kind")]
 
 
-def _number(value: float) -> str:
-    if not math.isfinite(value) or abs(value) >= 1e19:  # 1e19: SCIP's infinity
+#: Bounds at or beyond this magnitude are SCIP's infinity, and shown as such.
+SCIP_INFINITY = 1e19
+
+
+def format_number(value: float) -> str:
+    """An objective or bound for people: ``12.41``, ``3.2e+07``, ``inf``."""
+    if not math.isfinite(value) or abs(value) >= SCIP_INFINITY:
         return "-inf" if value < 0 else "inf"
     return f"{value:.3g}" if abs(value) >= 1e6 else f"{round(value, 2) + 0.0:.2f}"
 
