@@ -13,11 +13,12 @@ import argparse
 import gc
 import sys
 import time
+import traceback
 from pathlib import Path
 
 from bench.evaluate import RunRecord, evaluate
-from bench.report import build_results, write_outputs
-from bench.solvers import BASELINE_CAP, SOLVERS, baseline_limit, our_limit
+from bench.report import build_results, machine_info, write_outputs
+from bench.solvers import BASELINE_CAP, SOLVERS, Trace, baseline_limit, our_limit
 from models import Problem
 from solver.geometry import make_domain
 
@@ -81,6 +82,8 @@ def main(argv: list[str] | None = None) -> int:
 
     records: list[RunRecord] = []
     started = time.monotonic()
+    # Taken before any solving: the commit is the one whose code was imported.
+    machine = machine_info()
     for name, problem in cases.items():
         domain = make_domain(problem)
         large = len(problem.rooms) > LARGE_ABOVE
@@ -91,7 +94,13 @@ def main(argv: list[str] | None = None) -> int:
             seed = problem.options.seed + repeat
             for solver in args.solvers:
                 gc.collect()
-                trace = SOLVERS[solver](problem, seed=seed, cap=args.flat_limit)
+                try:
+                    trace = SOLVERS[solver](problem, seed=seed, cap=args.flat_limit)
+                except Exception as err:  # a solver's bug is a result, not the end of the run
+                    log(traceback.format_exc())
+                    limit = (our_limit(problem) if solver == "ours"
+                             else baseline_limit(problem, args.flat_limit))
+                    trace = Trace(solver, limit, status=f"error: {type(err).__name__}: {err}")
                 record = evaluate(problem, domain, trace, case=name, repeat=repeat, seed=seed)
                 records.append(record)
                 log(f"  {solver:6} run {repeat + 1}: first valid {_t(record.first_valid)}, "
@@ -106,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
         }
         write_outputs(build_results(
             {k: v for k, v in cases.items() if any(r.case == k for r in records)},
-            records, settings), args.out)
+            records, settings, machine), args.out)
     log(f"wrote {args.out}/results.json, results.md, complexity.png")
     return 0
 

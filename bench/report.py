@@ -64,7 +64,8 @@ def summarise(records: Sequence[RunRecord]) -> dict[str, Any]:
     out["found_valid"] = sum(1 for r in records if r.first_valid is not None)
     out["found_pass"] = sum(1 for r in records if r.first_pass is not None)
     out["final_valid"] = sum(1 for r in records if r.valid)
-    out["time_limit"] = records[0].time_limit
+    out["time_limit"] = max(r.time_limit for r in records)
+    out["errors"] = [r.status for r in records if r.status.startswith("error")]
     return out
 
 
@@ -92,7 +93,7 @@ def machine_info() -> dict[str, Any]:
         "pyscipopt": pyscipopt.__version__,
         "scip": version,
         "platform": platform.platform(),
-        # Other work on the machine slows every solver: the load when results were written.
+        # Other work on the machine slows every solver: the load as the run started.
         "load_average": [round(x, 2) for x in os.getloadavg()],
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
     }
@@ -112,9 +113,12 @@ def _revision() -> dict[str, Any]:
 
 
 def build_results(
-    cases: dict[str, Problem], records: Sequence[RunRecord], settings: dict[str, Any]
+    cases: dict[str, Problem],
+    records: Sequence[RunRecord],
+    settings: dict[str, Any],
+    machine: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """The whole of results.json."""
+    """The whole of results.json; `machine` defaults to the facts of now."""
     summary: dict[str, dict[str, Any]] = {}
     for name, problem in cases.items():
         per_solver = {}
@@ -123,7 +127,7 @@ def build_results(
             per_solver[solver] = summarise(runs)
         summary[name] = {**complexity(problem), "solvers": per_solver}
     return {
-        "machine": machine_info(),
+        "machine": machine if machine is not None else machine_info(),
         "settings": settings,
         "summary": summary,
         "runs": [r.to_json() for r in records],
@@ -175,14 +179,20 @@ def markdown(results: dict[str, Any]) -> str:
         for solver, s in case["solvers"].items():
             runs = s["runs"]
             cov = "-" if s["coverage"] is None else f"{100 * s['coverage']:.1f} %"
+            label = solver + (f" ({len(s['errors'])} crashed)" if s.get("errors") else "")
             lines.append(
-                f"| {name} | {case['rooms']} | {case['complexity']} | {solver} "
+                f"| {name} | {case['rooms']} | {case['complexity']} | {label} "
                 f"| {s['time_limit']:g} | {runs} "
                 f"| {_s(s['first_valid'], s['found_valid'], runs)} "
                 f"| {_s(s['first_pass'], s['found_pass'], runs)} "
                 f"| {_s(s['final_time'], -1, runs)} | {cov} "
                 f"| {_num(s['hard_violations'], 'g')} | {_num(s['size_error'], '.1f')} "
                 f"| {_num(s['objective'], '.1f')} |")
+    errors = [f"- {name}, {solver}: {e}" for name, case in results["summary"].items()
+              for solver, s in case["solvers"].items() for e in s.get("errors", [])]
+    if errors:
+        lines += ["", "Runs that raised instead of returning a layout (counted as finding "
+                      "none):", "", *errors]
     lines += ["", "Speed-up of ours against the flat baseline (flat time / our time, medians):",
               "", "| case | rooms | to first valid layout | to first passing layout |",
               "|---|---|---|---|"]
