@@ -29,6 +29,7 @@ from solver.formulation import LevelModel, active_families, build_level
 from solver.geometry import (
     Box,
     Domain,
+    GeometryError,
     domain_lines,
     edges_named,
     make_domain,
@@ -74,8 +75,10 @@ PLAN_SECONDS_PER_ROOM = 0.002
 CONSTRUCT_ABOVE = 20
 #: Share of the neighbourhood search spent with coverage weighted first.
 COVERAGE_PHASE_SHARE = 0.85
-#: Output coordinates closer than this (metres) are made equal.
-OUTPUT_SNAP = 1e-5
+#: Output coordinates closer than this (metres) are made equal: SCIP's feasibility
+#: tolerance is relative, so at 60 m two walls meant to meet may lie 6e-5 m apart.
+#: The same tolerance as the checker's.
+OUTPUT_SNAP = 1e-4
 
 
 def default_time_limit(rooms: int) -> float:
@@ -364,7 +367,7 @@ def _layout(run: _Run, domain: Domain, pieces: list[Piece], levels: int) -> Layo
     # Walls SCIP placed 1e-7 apart become exactly shared, as a CAD user expects.
     rooms = snap_rooms(room_boxes(pieces), *domain_lines(problem), OUTPUT_SNAP)
     check = check_layout(problem, rooms)
-    polygons = {room.id: room_polygon(rooms[room.id]) for room in problem.rooms}
+    polygons = {room.id: _outline_of(rooms[room.id]) for room in problem.rooms}
     out = [
         RoomLayout(id=room.id, type=room.type, polygon=polygon_coords(polygons[room.id]),
                    rectangles=[b.to_rect() for b in rooms[room.id]],
@@ -395,6 +398,18 @@ def _layout(run: _Run, domain: Domain, pieces: list[Piece], levels: int) -> Layo
     run.emit(Phase.DONE, objective=objective, detail=f"coverage {check.coverage:.1%}")
     return Layout(name=problem.name, rooms=out, doors=openings.doors, windows=openings.windows,
                   report=report)
+
+
+def _outline_of(boxes: list[Box]) -> shapely.Polygon:
+    """A room's polygon. Rectangles that do not form one polygon are a failed
+    'connected' check in the report, never an exception: the largest part stands for
+    the room's outline, and `rectangles` still lists every piece."""
+    try:
+        return room_polygon(boxes)
+    except GeometryError:
+        union = shapely.union_all([b.to_polygon() for b in boxes])
+        parts = list(getattr(union, "geoms", [union]))
+        return shapely.orient_polygons(max(parts, key=lambda g: g.area))
 
 
 def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float | None) -> Layout:

@@ -229,3 +229,15 @@ def test_problems_above_twenty_rooms_are_built_in_batches_and_come_back_valid() 
     assert any("built in batches: found" in e.detail for e in events)
     assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
     assert layout.report.coverage > 0.8
+
+
+def test_rectangles_that_do_not_join_fail_a_check_instead_of_raising() -> None:
+    from solver.geometry import Box
+    from solver.solve import _outline_of
+
+    polygon = _outline_of([Box(0, 0, 2, 2), Box(2.001, 0, 4, 1)])
+    assert polygon.area == pytest.approx(4.0)  # the larger part stands for the room
+    p = problem(boundary=[[0, 0], [4, 0], [4, 2], [0, 2]], rooms=[{"id": "a"}])
+    checks = check_layout(p, {"a": [Box(0, 0, 2, 2), Box(2.001, 0, 4, 1)]})
+    assert not checks.valid
+    assert any(c.kind == "connected" and not c.satisfied for c in checks.constraints)
