@@ -52,9 +52,8 @@ def placement_order(spec: LevelSpec, rng: random.Random | None) -> list[str]:
     names = [r.name for r in spec.rects]
     links: dict[str, set[str]] = {n: set() for n in names}
     for c in spec.contacts:
-        members = set(c.a) | {n for group in c.partners for n in group}
-        for n in members:
-            links[n] |= members - {n}
+        for n in c.members:
+            links[n] |= c.members - {n}
     area = {r.name: r.min_size[0] * r.min_size[1] for r in spec.rects}
     with_points = [r.name for r in spec.rects if r.positions]
     rest = sorted(set(names) - set(with_points), key=lambda n: (-len(links[n]), -area[n], n))
@@ -106,10 +105,9 @@ def batch_spec(spec: LevelSpec, placed: dict[str, Box], batch: set[str]) -> Leve
     present = set(placed) | batch
     contacts = tuple(
         c for c in spec.contacts
-        if (names := set(c.a) | {n for g in c.partners for n in g}) <= present
-        and names & batch
+        if c.members <= present and c.members & batch
     )
-    named = {n for c in contacts for n in (set(c.a) | {m for g in c.partners for m in g})}
+    named = {n for c in contacts for n in c.members}
     rects = tuple(
         r if r.name in batch else replace(r, fixed=placed[r.name])
         for r in spec.rects if r.name in batch or (r.name in named and r.name in placed)

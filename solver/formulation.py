@@ -66,6 +66,11 @@ class ContactSpec:
     partners: tuple[tuple[str, ...], ...]
     min_contact: float
 
+    @property
+    def members(self) -> set[str]:
+        """Every rectangle the contact names."""
+        return set(self.a) | {n for group in self.partners for n in group}
+
 
 @dataclass(frozen=True)
 class EnvelopeSpec:

@@ -192,6 +192,12 @@ def rectangles_of(region: BaseGeometry) -> list[Box]:
     return result
 
 
+def bounding_box(boxes: Sequence[Box]) -> Box:
+    """The smallest box around `boxes`."""
+    return Box(min(b.x0 for b in boxes), min(b.y0 for b in boxes),
+               max(b.x1 for b in boxes), max(b.y1 for b in boxes))
+
+
 def unusable_space(region: Box, walls: Sequence[Box], smallest: float) -> tuple[Box, ...]:
     """`region` minus what a room at least `smallest` wide can use among `walls`, as few
     rectangles: slivers between walls then cost no disjunctions. What such a room can

@@ -21,7 +21,7 @@ from shapely.geometry.base import BaseGeometry
 
 from models import Problem
 from solver.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
-from solver.geometry import EPS, Box, Domain, Edge, rectangles_of
+from solver.geometry import EPS, Box, Domain, Edge, bounding_box, rectangles_of
 
 #: Uncovered parts smaller than this (m²) are numerical dust, not gaps.
 GAP_AREA = 1e-3
@@ -76,11 +76,6 @@ def room_boxes(pieces: Iterable[Piece]) -> dict[str, list[Box]]:
     for p in pieces:
         rooms.setdefault(p.room, []).append(p.box)
     return rooms
-
-
-def bounding_box(boxes: Sequence[Box]) -> Box:
-    return Box(min(b.x0 for b in boxes), min(b.y0 for b in boxes),
-               max(b.x1 for b in boxes), max(b.y1 for b in boxes))
 
 
 def relative_size_error(problem: Problem, rooms: dict[str, list[Box]]) -> dict[str, float]:

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import shapely
 
 from solver.formulation import LevelModel, LevelSpec, build_level, level_objective
-from solver.geometry import Box, Domain, unusable_space
+from solver.geometry import Box, Domain, bounding_box, unusable_space
 from solver.scip_run import LevelResult, LevelStatus, complete_start
 
 #: Rooms freed per neighbourhood at first ...
@@ -60,9 +60,8 @@ def search_neighbourhoods(
     min_sizes = {r.name: r.min_size for r in spec.rects}
     partners: dict[str, set[str]] = {}
     for c in spec.contacts:
-        members = set(c.a) | {n for group in c.partners for n in group}
-        for name in members:
-            partners.setdefault(name, set()).update(members - {name})
+        for name in c.members:
+            partners.setdefault(name, set()).update(c.members - {name})
     tried: set[frozenset[str]] = set()  # neighbourhoods already optimal for this incumbent
     while time.monotonic() < deadline - 0.05 and not (should_stop and should_stop()):
         free, gap = choose_neighbourhood(best.rects, domain, rng, size=size,
@@ -127,29 +126,24 @@ def neighbourhood_spec(
 ) -> LevelSpec:
     """`spec` with only the `free` rooms placed: every other room is a blocked box, and
     held as a fixed rectangle where a contact of a free room names it."""
-    partners = {n for c in spec.contacts if _names(c.a, c.partners) & free
-                for n in _names(c.a, c.partners)} - free
+    partners = {n for c in spec.contacts if c.members & free
+                for n in c.members} - free
     kept = []
     for r in spec.rects:
         if r.name in free:
             kept.append(r)
         elif r.name in partners:
             kept.append(replace(r, fixed=rects[r.name]))
-    contacts = tuple(c for c in spec.contacts if _names(c.a, c.partners) & free)
+    contacts = tuple(c for c in spec.contacts if c.members & free)
     # The free rooms rearrange within the box they span with the gap near them: a
     # smaller box means fewer disjunctions and smaller big-M values.
-    region = _clip(_span([rects[n] for n in free] + list(extra)), spec.region)
+    region = _clip(bounding_box([rects[n] for n in free] + list(extra)), spec.region)
     settled = [rects[r.name] for r in spec.rects if r.name not in free]
     inside = [_clip(b, region) for b in (*spec.blocked, *settled) if _overlaps(b, region)]
     smallest = min(min(r.min_size) for r in spec.rects if r.name in free)
     blocked = unusable_space(region, inside, smallest)
     return replace(spec, name=f"{spec.name}/lns", region=region, rects=tuple(kept),
                    contacts=contacts, blocked=blocked)
-
-
-def _span(boxes: list[Box]) -> Box:
-    return Box(min(b.x0 for b in boxes), min(b.y0 for b in boxes),
-               max(b.x1 for b in boxes), max(b.y1 for b in boxes))
 
 
 def _clip(b: Box, region: Box) -> Box:
@@ -159,10 +153,6 @@ def _clip(b: Box, region: Box) -> Box:
 
 def _overlaps(a: Box, b: Box) -> bool:
     return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
-
-
-def _names(a: tuple[str, ...], partners: tuple[tuple[str, ...], ...]) -> set[str]:
-    return set(a) | {n for group in partners for n in group}
 
 
 def choose_neighbourhood(

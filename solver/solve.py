@@ -30,6 +30,7 @@ from solver.geometry import (
     Box,
     Domain,
     GeometryError,
+    bounding_box,
     domain_lines,
     edges_named,
     make_domain,
@@ -41,7 +42,6 @@ from solver.hierarchy import (
     Piece,
     absorb_gaps,
     apply_refinement,
-    bounding_box,
     on_edge,
     plan_refinement,
     room_boxes,
@@ -421,11 +421,11 @@ def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float
         boxes = rooms.get(room.id, [])
         if not boxes:
             continue
-        union = shapely.union_all([b.to_polygon() for b in boxes])
-        polygon = union if isinstance(union, shapely.Polygon) else union.convex_hull
+        polygon = _outline_of(boxes)
+        area = shapely.union_all([b.to_polygon() for b in boxes]).area
         out.append(RoomLayout(
-            id=room.id, type=room.type, polygon=polygon_coords(shapely.orient_polygons(polygon)),
-            rectangles=[b.to_rect() for b in boxes], area=round(float(union.area), 6),
+            id=room.id, type=room.type, polygon=polygon_coords(polygon),
+            rectangles=[b.to_rect() for b in boxes], area=round(float(area), 6),
         ))
     covered = shapely.union_all([b.to_polygon() for boxes in rooms.values() for b in boxes])
     cover = float(domain_free.intersection(covered).area)
