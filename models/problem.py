@@ -151,9 +151,9 @@ class Options(_Strict):
         "relative size error = E_size of the room / |target|^2",
     )
     require_connected: bool = Field(
-        False, description="every room must be reachable through doors from the entrance; "
-        "missing doors are added where walls allow, and the report says if any room stays "
-        "unreachable",
+        False, description="every room must be reachable through doors from the entrance: "
+        "the solver adds the adjacencies that guarantee it, then doors where walls allow; "
+        "the report says if any room stays unreachable",
     )
 
 

@@ -49,7 +49,7 @@ from solver.hierarchy import (
 )
 from solver.level_one import level_one_spec, windows_to_try
 from solver.neighbourhood import NEIGHBOURHOOD_SIZE, coverage_first, search_neighbourhoods
-from solver.openings import add_openings
+from solver.openings import add_openings, connection_demands
 from solver.precheck import find_impossibilities
 from solver.scip_run import (
     Incumbent,
@@ -179,6 +179,8 @@ def solve(
 ) -> Layout:
     """Lay out `problem`: a valid layout, or a report saying why there is none."""
     started = time.monotonic()
+    # The doors every room needs, as adjacencies the MIQP must honour.
+    problem = connection_demands(problem)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
     # The last gaps and the check run after the search: keep time for them.
     reserve = min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
