@@ -16,6 +16,9 @@ class Termination(StrEnum):
     """Every MIQP was solved to optimality (within SCIP's default gap)."""
     TIME_LIMIT = "timelimit"
     """The time limit was reached; the best layout found so far is returned."""
+    STALLED = "stalled"
+    """Ended before the time limit: the layout covers the whole floor and the search
+    stopped improving its size error (a local optimum, not a proven one)."""
     INFEASIBLE = "infeasible"
     """No layout satisfies the hard constraints (see `Report.infeasibility`)."""
     INTERRUPTED = "interrupted"

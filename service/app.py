@@ -82,8 +82,8 @@ class JobPublic(BaseModel):
 
     id: UUID
     status: JobStatus
-    termination: str | None = Field(None, description="optimal, timelimit, infeasible, "
-                                    "interrupted, no_solution; set when the job ends")
+    termination: str | None = Field(None, description="optimal, timelimit, stalled, "
+                                    "infeasible, interrupted, no_solution; set when the job ends")
     progress: Progress | None = None
     error: JobError | None = None
     attempts: int

@@ -223,7 +223,7 @@ def connecting_doors(
                 if not may_connect(problem, room_id, other):
                     continue
                 wall = longest_shared_wall(rooms[room_id], rooms[other])
-                if wall is None or wall.length < width:
+                if wall is None or wall.length < width + EPS:
                     continue
                 # A door onto a corridor or living space beats a longer wall onto a
                 # bedroom: nobody wants to cross a bedroom to get anywhere.

@@ -48,7 +48,13 @@ from solver.hierarchy import (
     select_subdomains,
 )
 from solver.level_one import level_one_spec, windows_to_try
-from solver.neighbourhood import NEIGHBOURHOOD_SIZE, coverage_first, search_neighbourhoods
+from solver.neighbourhood import (
+    GAP_AREA,
+    NEIGHBOURHOOD_SIZE,
+    coverage_first,
+    covered_area,
+    search_neighbourhoods,
+)
 from solver.openings import add_openings, connection_demands
 from solver.precheck import find_impossibilities
 from solver.scip_run import (
@@ -58,6 +64,7 @@ from solver.scip_run import (
     complete_start,
     run_level,
 )
+from solver.slicing import slicing_applies, slicing_layout
 
 #: Seconds per job up to `BASE_ROOMS` rooms (Sec. 5.4) ...
 BASE_TIME = 5.0
@@ -75,6 +82,8 @@ PLAN_SECONDS_PER_ROOM = 0.002
 CONSTRUCT_ABOVE = 20
 #: Share of the neighbourhood search spent with coverage weighted first.
 COVERAGE_PHASE_SHARE = 0.85
+#: A fully covering layout's polish ends after this many steps in a row without gain.
+STALL_STEPS = 8
 #: Output coordinates closer than this (metres) are made equal: SCIP's feasibility
 #: tolerance is relative, so at 60 m two walls meant to meet may lie 6e-5 m apart.
 #: The same tolerance as the checker's.
@@ -127,6 +136,8 @@ class _Run:
     #: The size window of the first layout (None: the user's own bounds).
     window: float | None = None
     level: int = 1
+    #: The level-1 search ended early, fully covering and no longer improving.
+    stalled: bool = False
 
     def remaining(self) -> float:
         return self.deadline - time.monotonic()
@@ -249,7 +260,9 @@ def _level_one(
     first: LevelResult | None = None
     proven_infeasible = False
     large = len(problem.rooms) > CONSTRUCT_ABOVE
-    if large:
+    if slicing_applies(problem):
+        first = _slice(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
+    if large and first is None:
         first = _construct(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
     for window in [] if first is not None else windows_to_try(problem):
         left = deadline - time.monotonic()
@@ -287,6 +300,20 @@ def _level_one(
     run.incumbent(domain, {k: [b] for k, b in first.rects.items()})
     boxes = _improve_level_one(run, domain, first.rects, deadline)
     return [_piece(problem, domain, room_id, box) for room_id, box in boxes.items()], None
+
+
+def _slice(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
+    """A first layout of rows of rooms filling the floor (solver/slicing.py)."""
+    started = time.monotonic()
+    rects = slicing_layout(run.problem, domain, deadline=deadline)
+    outcome = "found" if rects is not None else "nothing found"
+    run.relaxations.append(f"user bounds, sliced into rows: {outcome}")
+    run.emit(Phase.RELAXATION, detail=f"size bounds user bounds, sliced into rows: {outcome}")
+    if rects is None:
+        return None
+    return LevelResult(LevelStatus.FEASIBLE, rects, layout_objective(
+        run.problem, domain, {k: [b] for k, b in rects.items()}), None,
+        time.monotonic() - started)
 
 
 def _construct(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
@@ -327,21 +354,27 @@ def _improve_level_one(
         run.incumbent(domain, {k: [b] for k, b in rects.items()})
 
     # Coverage first (what users judge a plan by), then the user's own weights without
-    # giving coverage back.
+    # giving coverage back. A start that covers everything skips the first phase, and
+    # its search stops once it stalls: only E_size is left to gain, and the user is
+    # better served by the layout now than by a few hundredths later.
     rng = random.Random(run.problem.options.seed)
+    covers = covered_area(domain, start.rects) >= domain.area - GAP_AREA
     middle = time.monotonic() + (deadline - time.monotonic()) * COVERAGE_PHASE_SHARE
-    first_pass = search_neighbourhoods(
+    first_pass = None if covers else search_neighbourhoods(
         coverage_first(lm.spec), start.rects, domain, deadline=middle, rng=rng,
         step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
         on_improvement=improved,
     )
     best = search_neighbourhoods(
-        lm.spec, first_pass.rects, domain, deadline=deadline, rng=rng,
+        lm.spec, start.rects if first_pass is None else first_pass.rects, domain,
+        deadline=deadline, rng=rng,
         step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
-        keep_coverage=True, on_improvement=improved,
+        keep_coverage=True, patience=STALL_STEPS if covers else None,
+        on_improvement=improved,
     )
-    steps = first_pass.steps + best.steps
-    improvements = first_pass.improvements + best.improvements
+    run.stalled = covers and time.monotonic() < deadline - 0.05 and not run.stopped()
+    steps = best.steps + (first_pass.steps if first_pass else 0)
+    improvements = best.improvements + (first_pass.improvements if first_pass else 0)
     run.emit(Phase.LEVEL, objective=best.objective,
              detail=f"neighbourhood search: {improvements} of {steps} steps improved")
     return best.rects
@@ -361,6 +394,8 @@ def _termination(run: _Run) -> Termination:
         s in (LevelStatus.OPTIMAL, LevelStatus.INFEASIBLE) for s in run.statuses
     ):
         return Termination.OPTIMAL
+    if run.stalled and run.remaining() > 0:
+        return Termination.STALLED
     return Termination.TIME_LIMIT
 
 
