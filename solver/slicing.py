@@ -30,6 +30,11 @@ from solver.geometry import Box, Domain, rectangles_of
 #: Row counts tried per region, relative to the region's depth over the typical
 #: target depth; the plan with the least E_size wins.
 ROW_TRIES = (0, -1, 1)
+#: Passes of the dealing's hill-climb; each tries every loose room in every other row.
+BALANCE_PASSES = 4
+#: An empty row smaller than this (m²) costs nothing: it is dropped and its region's
+#: other rows take its depth.
+MIN_ROW_AREA = 1e-9
 
 
 @dataclass
@@ -126,6 +131,7 @@ def _plan_rows(problem: Problem, regions: list[Box], shift: int) -> list[_Row] |
             room = loose.pop(0)
             row.rooms.append(room)
             room_area += math.prod(_target(room, typical)) * scale
+    _balance(rows, typical)
     rows = [row for row in rows if row.rooms]
     for row in rows:
         # Along the row by x: pinned rooms where their points are, the others spread
@@ -136,6 +142,98 @@ def _plan_rows(problem: Problem, regions: list[Box], shift: int) -> list[_Row] |
                 else row.band.x0 + (loose_ids.index(r.id) + 0.5) * step for r in row.rooms}
         row.rooms.sort(key=lambda r: slot[r.id])
     return rows if rows else None
+
+
+@dataclass
+class _Tally:
+    """A row's rooms as the sums its estimated E_size needs: count, widths, depths,
+    squared depths; moving a room in or out is O(1)."""
+
+    band: Box
+    n: int = 0
+    widths: float = 0.0
+    depths: float = 0.0
+    squares: float = 0.0
+
+    def cost(self, n: int, widths: float, depths: float, squares: float) -> float:
+        if n == 0:
+            return 0.0 if self.band.area < MIN_ROW_AREA else self.band.width ** 2
+        h = self.band.depth
+        misfit = widths - self.band.width
+        return misfit ** 2 / n + n * h * h - 2 * h * depths + squares
+
+    def now(self) -> float:
+        return self.cost(self.n, self.widths, self.depths, self.squares)
+
+    def changed(self, out: tuple[float, float] | None, into: tuple[float, float] | None
+                ) -> float:
+        """The cost with the room of target `out` taken out and `into` put in."""
+        n, widths, depths, squares = self.n, self.widths, self.depths, self.squares
+        for sign, target in ((-1, out), (1, into)):
+            if target is not None:
+                n += sign
+                widths += sign * target[0]
+                depths += sign * target[1]
+                squares += sign * target[1] ** 2
+        return self.cost(n, widths, depths, squares)
+
+    def apply(self, out: tuple[float, float] | None, into: tuple[float, float] | None
+              ) -> None:
+        for sign, target in ((-1, out), (1, into)):
+            if target is not None:
+                self.n += sign
+                self.widths += sign * target[0]
+                self.depths += sign * target[1]
+                self.squares += sign * target[1] ** 2
+
+
+def _balance(rows: list[_Row], typical: float) -> None:
+    """Hill-climb the dealing: move or swap loose rooms between rows while that lowers
+    an estimate of E_size with the rows at their planned depths, a row's width misfit
+    spread evenly over its rooms (what the QP would do with it)."""
+    target = {r.id: _target(r, typical) for row in rows for r in row.rooms}
+    tallies = [_Tally(row.band) for row in rows]
+    for row, tally in zip(rows, tallies, strict=True):
+        for room in row.rooms:
+            tally.apply(None, target[room.id])
+    for _ in range(BALANCE_PASSES):
+        improved = False
+        for a, row_a in enumerate(rows):
+            for room in [r for r in row_a.rooms if not r.positions]:
+                mine = target[room.id]
+                cost_a = tallies[a].now()
+                best: tuple[float, int, Room | None] = (1e-9, -1, None)
+                for b, row_b in enumerate(rows):
+                    if b == a:
+                        continue
+                    base = cost_a + tallies[b].now()
+                    # Move the room to row b, or swap it with one of b's loose rooms.
+                    gain = base - tallies[a].changed(mine, None) - tallies[b].changed(None, mine)
+                    if gain > best[0]:
+                        best = (gain, b, None)
+                    for other in row_b.rooms:
+                        if other.positions:
+                            continue
+                        theirs = target[other.id]
+                        gain = (base - tallies[a].changed(mine, theirs)
+                                - tallies[b].changed(theirs, mine))
+                        if gain > best[0]:
+                            best = (gain, b, other)
+                _, b, other = best
+                if b < 0:
+                    continue
+                row_b = rows[b]
+                row_a.rooms = [r for r in row_a.rooms if r is not room]
+                row_b.rooms = [r for r in row_b.rooms if r is not other]
+                row_b.rooms.append(room)
+                theirs = None if other is None else target[other.id]
+                if other is not None:
+                    row_a.rooms.append(other)
+                tallies[a].apply(mine, theirs)
+                tallies[b].apply(theirs, mine)
+                improved = True
+        if not improved:
+            return
 
 
 def _size_rows(

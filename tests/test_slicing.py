@@ -13,7 +13,8 @@ from solver.solve import solve
 
 
 def offices(count: int, **fields: Any) -> Problem:
-    # 24 x 12 m with a 4 x 4 m core; targets add up to the free area.
+    # 24 x 12 m with a 4 x 4 m core; the targets add up to the free area, half of the
+    # rooms a little wide and half a little deep.
     free = 24 * 12 - 16
     side = (free / count) ** 0.5
     data: dict[str, Any] = {
@@ -27,8 +28,17 @@ def offices(count: int, **fields: Any) -> Problem:
     return Problem.model_validate(data)
 
 
+def tiled_offices() -> Problem:
+    # Targets read off a tiling that exists: rows of 4 m deep rooms, 4 m wide along the
+    # full-width bands and 5 m wide beside the core. Zero E_size is possible.
+    sizes = [(4.0, 4.0)] * 12 + [(5.0, 4.0)] * 4
+    return offices(16).model_copy(update={"rooms": [
+        room.model_copy(update={"target_size": size})
+        for room, size in zip(offices(16).rooms, sizes, strict=True)]})
+
+
 def test_rows_fill_the_floor_and_honour_sizes_and_guide_points() -> None:
-    p = offices(18)
+    p = tiled_offices()
     rooms = p.rooms
     rooms[0] = rooms[0].model_copy(update={"positions": [(22.5, 11.0)]})
     rooms[1] = rooms[1].model_copy(update={"positions": [(1.0, 1.0)]})
@@ -39,8 +49,9 @@ def test_rows_fill_the_floor_and_honour_sizes_and_guide_points() -> None:
     assert check.valid, [c for c in check.constraints if not c.satisfied]
     assert check.coverage > 0.999
     assert rects["o0"].contains_point(22.5, 11.0) and rects["o1"].contains_point(1.0, 1.0)
-    # Sized to the targets: the mean error per room is a fraction of a square metre.
-    assert sum(check.size_error.values()) / len(p.rooms) < 1.0
+    # Sized to the targets: close to the tiling they were read off (the dealing's
+    # hill-climb ends in a near tiling here, 0.13 m² a room, not always the exact one).
+    assert sum(check.size_error.values()) / len(p.rooms) < 0.2
 
 
 def test_no_row_plan_when_the_bounds_cannot_fill_the_floor() -> None:
