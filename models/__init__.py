@@ -3,6 +3,8 @@
 from models.layout import (
     OUTSIDE,
     Circulation,
+    Conflict,
+    ConflictItem,
     ConstraintCheck,
     Door,
     Infeasibility,
@@ -29,6 +31,8 @@ __all__ = [
     "OUTSIDE",
     "Adjacency",
     "Circulation",
+    "Conflict",
+    "ConflictItem",
     "ConstraintCheck",
     "Door",
     "Infeasibility",

@@ -90,6 +90,38 @@ class ConstraintCheck(BaseModel):
     detail: str = ""
 
 
+class ConflictItem(BaseModel):
+    """One of the user's constraints in a conflict (see `Conflict`)."""
+
+    path: str = Field(
+        description="where the constraint is in the problem, a dotted path as in validation "
+        "errors: rooms.2.min_size.0, rooms.2.boundary, rooms.2.positions.0, adjacency.1; "
+        "options.require_connected for a constraint that option added")
+    kind: str = Field(
+        description="min_size, max_size (one axis each), aspect_ratio, position, boundary, "
+        "adjacency; connection and entrance for what require_connected added (a wall "
+        "for a door, the front-door room covering the entrance)")
+    rooms: list[str] = Field(description="ids of the rooms the constraint names")
+    constraint: str = Field(
+        description="compact form, e.g. kitchen.width>=4, kitchen.boundary=east, "
+        "kitchen-dining>=0.9")
+    phrase: str = Field(description="the constraint in words")
+
+
+class Conflict(BaseModel):
+    """A small set of the user's constraints that cannot all hold together: without
+    any one of them the rest can (when `minimal`). Constraints outside the set are not
+    to blame and may stay as they are."""
+
+    explanation: str = Field(description="the conflict in one sentence, naming the rooms "
+                             "and the outline's dimensions")
+    constraints: list[ConflictItem]
+    minimal: bool = Field(
+        description="dropping any one member was shown to make the rest satisfiable; "
+        "false when some check ran out of time (the set still cannot hold, but a "
+        "smaller one may exist)")
+
+
 class Infeasibility(BaseModel):
     """Why no layout was returned."""
 
@@ -97,6 +129,9 @@ class Infeasibility(BaseModel):
     findings: list[str] = Field(default_factory=list, description="cheap impossibilities")
     active_families: list[str] = Field(default_factory=list)
     relaxations_tried: list[str] = Field(default_factory=list)
+    conflict: Conflict | None = Field(
+        None, description="when the problem is infeasible: a small set of its constraints "
+        "that cannot hold together, searched in the time the solve had left")
 
 
 class Report(BaseModel):

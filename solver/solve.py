@@ -24,6 +24,7 @@ from models import (
     Termination,
 )
 from solver.checker import check_layout
+from solver.conflicts import find_conflict
 from solver.construct import construct
 from solver.formulation import LevelModel, active_families, build_level
 from solver.geometry import (
@@ -99,6 +100,7 @@ class Phase(StrEnum):
     RELAXATION = "relaxation"  # a feasibility attempt of the size-window schedule ended
     LEVEL = "level"  # a level starts
     SUBDOMAIN = "subdomain"  # a sub-domain solve ended
+    CONFLICT = "conflict"  # the search for constraints that cannot hold together ended
     INCUMBENT = "incumbent"  # SCIP found a better solution of the current MIQP
     DONE = "done"
 
@@ -138,6 +140,8 @@ class _Run:
     level: int = 1
     #: The level-1 search ended early, fully covering and no longer improving.
     stalled: bool = False
+    #: The problem as the user sent it, before require_connected added to it.
+    asked: Problem | None = None
 
     def remaining(self) -> float:
         return self.deadline - time.monotonic()
@@ -190,17 +194,18 @@ def solve(
 ) -> Layout:
     """Lay out `problem`: a valid layout, or a report saying why there is none."""
     started = time.monotonic()
+    asked = problem
     # The doors every room needs, as adjacencies the MIQP must honour.
     problem = connection_demands(problem)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
     # The last gaps and the check run after the search: keep time for them.
     reserve = min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
-    run = _Run(problem, started + limit - reserve, started, on_event, should_stop)
+    run = _Run(problem, started + limit - reserve, started, on_event, should_stop, asked=asked)
     domain = make_domain(problem)
     findings = find_impossibilities(problem, domain)
     if findings:
-        return _no_layout(run, Termination.INFEASIBLE, Infeasibility(
-            reason="the problem is infeasible before any solving", findings=findings))
+        return _no_layout(run, Termination.INFEASIBLE, _explained(run, domain, Infeasibility(
+            reason="the problem is infeasible before any solving", findings=findings)))
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
     pieces, failure = _level_one(run, domain, started + (run.deadline - started) * LEVEL_ONE_SHARE)
     if pieces is None:
@@ -284,9 +289,10 @@ def _level_one(
     if first is None:
         spec = level_one_spec(problem, domain, window=None)
         if proven_infeasible:
-            return None, _no_layout(run, Termination.INFEASIBLE, Infeasibility(
+            why = Infeasibility(
                 reason="SCIP proved that no single-rectangle layout satisfies the constraints",
-                active_families=active_families(spec), relaxations_tried=run.relaxations))
+                active_families=active_families(spec), relaxations_tried=run.relaxations)
+            return None, _no_layout(run, Termination.INFEASIBLE, _explained(run, domain, why))
         if run.stopped():
             termination = Termination.INTERRUPTED
             reason = "stopped on request before any layout was found"
@@ -470,6 +476,17 @@ def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float
                     uncovered_area=float(domain_free.area) - cover, objective=objective,
                     termination=Termination.IN_PROGRESS, valid=False)
     return Layout(name=problem.name, rooms=out, report=report)
+
+
+def _explained(run: _Run, domain: Domain, why: Infeasibility) -> Infeasibility:
+    """`why` with a small set of the user's constraints that cannot hold together,
+    searched in the time the solve has left (solver/conflicts.py)."""
+    conflict = find_conflict(run.asked or run.problem, domain, deadline=run.deadline,
+                             solved=run.problem, should_stop=run.should_stop)
+    if conflict is not None:
+        run.emit(Phase.CONFLICT, detail=f"{len(conflict.constraints)} constraints cannot "
+                 f"hold together{'' if conflict.minimal else ' (perhaps not minimal)'}")
+    return why.model_copy(update={"conflict": conflict})
 
 
 def _no_layout(run: _Run, termination: Termination, why: Infeasibility) -> Layout:
