@@ -8,6 +8,7 @@ import asyncio
 import base64
 import hashlib
 import json
+import threading
 import time
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -20,12 +21,13 @@ from fastapi.openapi.utils import get_openapi
 from fastapi.responses import JSONResponse, StreamingResponse
 from pydantic import BaseModel, Field, ValidationError
 
-from models import Layout
+from models import Conflict, Layout
 from models import Problem as LayoutProblem
 from service.errors import ApiError, FieldError, ProblemDetails, field_errors, install
 from service.runner import Runner
 from service.settings import Settings, get_settings
 from service.store import IdempotencyConflict, Job, JobStatus, JobStore
+from solver.conflicts import Diagnosis, diagnose
 from solver.export import MEDIA_TYPES, render
 from solver.geometry import make_domain
 from solver.precheck import find_impossibilities
@@ -37,6 +39,14 @@ STREAM_POLL = 0.25
 HEARTBEAT = 15.0
 #: Retry-After (seconds) suggested when the queue is full.
 RETRY_AFTER = 5
+#: Seconds POST /v1/validate?explain=true spends by default, and at most (never more
+#: than FLOORPLAN_MAX_TIME_LIMIT either).
+EXPLAIN_SECONDS = 3.0
+EXPLAIN_MAX_SECONDS = 30.0
+#: Explaining validations at once: their SCIP checks run in this process, so a burst
+#: of them must not take every core from the solves.
+EXPLAINS_AT_ONCE = 2
+_explaining = threading.BoundedSemaphore(EXPLAINS_AT_ONCE)
 
 EXAMPLE_PROBLEM: dict[str, Any] = {
     "name": "studio",
@@ -75,6 +85,9 @@ class JobError(BaseModel):
     code: str
     message: str
     findings: list[str] = Field(default_factory=list)
+    conflict: Conflict | None = Field(
+        None, description="for an infeasible problem: a small set of its constraints that "
+        "cannot hold together, by path and in words")
 
 
 class JobPublic(BaseModel):
@@ -115,6 +128,13 @@ class Validation(BaseModel):
     errors: list[FieldError] = Field(default_factory=list)
     findings: list[str] = Field(default_factory=list,
                                 description="reasons no layout can exist")
+    feasible: bool | None = Field(
+        None, description="with explain: true when SCIP found a layout meeting every hard "
+        "constraint, false when it proved there is none, null when neither in the time "
+        "given; absent without explain")
+    conflict: Conflict | None = Field(
+        None, description="with explain, when no layout can exist: a small set of the "
+        "problem's constraints that cannot hold together, by path and in words")
 
 
 def _time(epoch: float | None) -> datetime | None:
@@ -350,18 +370,40 @@ def delete_layout(job: JobDep, store: StoreDep) -> Response:
 misc = APIRouter(tags=["service"])
 
 
-@misc.post("/v1/validate", response_model=Validation, openapi_extra=PROBLEM_BODY_DOC)
-async def validate_problem(request: Request, settings: SettingsDep) -> Validation:
+@misc.post("/v1/validate", response_model=Validation, openapi_extra=PROBLEM_BODY_DOC,
+           response_model_exclude_unset=True)
+async def validate_problem(
+    request: Request, settings: SettingsDep,
+    explain: Annotated[bool, Query(
+        description="also ask SCIP, briefly, whether a layout exists, and when none "
+        "does, which constraints cannot hold together")] = False,
+    time_limit: Annotated[float, Query(
+        gt=0, le=EXPLAIN_MAX_SECONDS, description="seconds explain may take (at most "
+        "the service's largest options.time_limit)")] = EXPLAIN_SECONDS,
+) -> Validation:
     """Check a problem without solving it: the schema, then the cheap impossibilities
-    (total area, sizes that fit nowhere, contradictory ratios, ...)."""
+    (total area, sizes that fit nowhere, contradictory ratios, ...). With `explain`,
+    a short SCIP check of the whole problem follows, and a conflict search when no
+    layout can exist."""
     try:
         problem, _raw = await problem_body(request, settings)
     except ApiError as err:
         if err.status != 422:
             raise
-        return Validation(valid=False, errors=err.errors or [])
-    findings = await asyncio.to_thread(find_impossibilities, problem, make_domain(problem))
-    return Validation(valid=not findings, findings=findings)
+        return Validation(valid=False, errors=err.errors or [], findings=[])
+    if not explain:
+        findings = await asyncio.to_thread(find_impossibilities, problem, make_domain(problem))
+        return Validation(valid=not findings, errors=[], findings=findings)
+    seconds = min(time_limit, settings.max_time_limit)
+    found = await asyncio.to_thread(_diagnose, problem, seconds)
+    return Validation(valid=not found.findings and found.feasible is not False, errors=[],
+                      findings=found.findings, feasible=found.feasible,
+                      conflict=found.conflict)
+
+
+def _diagnose(problem: LayoutProblem, seconds: float) -> Diagnosis:
+    with _explaining:
+        return diagnose(problem, time_limit=seconds)
 
 
 @misc.get("/healthz")

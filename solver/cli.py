@@ -438,6 +438,10 @@ def no_layout_message(layout: Layout) -> str:
     lines = [f"{PROG}: no layout ({r.termination.value}): "
              f"{why.reason if why else 'no reason given'}"]
     if why is not None:
+        if why.conflict is not None:
+            lines.append(f"  {why.conflict.explanation}")
+            lines += _section("constraints in conflict", [
+                f"{c.path}: {c.constraint}" for c in why.conflict.constraints])
         lines += _section("findings", why.findings)
         lines += _section("relaxations tried", why.relaxations_tried)
         lines += _section("constraint families", why.active_families)

@@ -283,8 +283,7 @@ def find_conflict(
     kept, groups_proven = deletion_filter(within, checker, checker.out_of_time)
     if checker.checks == 0:
         return None
-    kept.sort(key=_listing_key)
-    items = [describe(g, solved, domain) for g in kept]
+    items = describe_all(kept, solved, domain)
     minimal = rooms_proven and groups_proven
     return Conflict(explanation=explanation(items, domain, minimal=minimal),
                     constraints=items, minimal=minimal)
@@ -310,6 +309,37 @@ def _listing_key(g: Group) -> tuple[bool, int, int, int]:
 
 AXIS_WORDS = (("wide", "width"), ("deep", "depth"))
 REQUIRE_CONNECTED = "options.require_connected"
+
+
+def describe_all(groups: Collection[Group], problem: Problem,
+                 domain: Domain) -> list[ConflictItem]:
+    """The groups as conflict items, in the problem's order. A bound needed on both
+    axes is one item (`rooms.2.min_size`): dropping it all frees the room as much as
+    dropping either axis did."""
+    items = []
+    for g in sorted(groups, key=_listing_key):
+        if g.kind in (Kind.MIN_SIZE, Kind.MAX_SIZE):
+            other = Group(g.kind, g.room, 1 - g.index, g.rooms)
+            if other in groups:
+                if g.index == 0:
+                    items.append(_describe_size(g, problem))
+                continue
+        items.append(describe(g, problem, domain))
+    return items
+
+
+def _describe_size(g: Group, problem: Problem) -> ConflictItem:
+    """Both axes of a room's minimum (or maximum) size as one item."""
+    assert g.room is not None
+    room = problem.rooms[g.room]
+    least = g.kind is Kind.MIN_SIZE
+    bounds = room.min_size if least else room.max_size
+    assert bounds is not None
+    w, d = bounds
+    return _item(f"rooms.{g.room}.{g.kind}", g.kind, [room.id],
+                 f"{room.id}.size{'>=' if least else '<='}{w:g}x{d:g}",
+                 f"'{room.id}' must be {'at least' if least else 'at most'} {w:g} m wide "
+                 f"and {d:g} m deep")
 
 
 def describe(g: Group, problem: Problem, domain: Domain) -> ConflictItem:
