@@ -390,10 +390,9 @@ def describe(g: Group, problem: Problem, domain: Domain) -> ConflictItem:
 def _describe_adjacency(g: Group, problem: Problem) -> ConflictItem:
     adj = problem.adjacency[g.index]
     partners = adj.partners
-    together = "-".join([adj.a, *partners]) if adj.b is not None else \
+    together = f"{adj.a}-{partners[0]}" if len(partners) == 1 else \
         f"{adj.a}-({'|'.join(partners)})"
-    whom = f"'{partners[0]}'" if adj.b is not None else \
-        " or ".join(f"'{p}'" for p in partners)
+    whom = " or ".join(f"'{p}'" for p in partners)
     if g.kind is Kind.ADJACENCY:
         return _item(f"adjacency.{g.index}", g.kind, [adj.a, *partners],
                      f"{together}>={adj.min_contact:g}",
