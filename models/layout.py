@@ -91,7 +91,7 @@ class ConstraintCheck(BaseModel):
 
 
 class ConflictItem(BaseModel):
-    """One of the user's constraints in a conflict (see `Conflict`)."""
+    """One of the user's constraints in a conflict (see `ConflictSet`)."""
 
     path: str = Field(
         description="where the constraint is in the problem, a dotted path as in validation "
@@ -108,7 +108,7 @@ class ConflictItem(BaseModel):
     phrase: str = Field(description="the constraint in words")
 
 
-class Conflict(BaseModel):
+class ConflictSet(BaseModel):
     """A small set of the user's constraints that cannot all hold together: without
     any one of them the rest can (when `minimal`). Constraints outside the set are not
     to blame and may stay as they are."""
@@ -129,7 +129,7 @@ class Infeasibility(BaseModel):
     findings: list[str] = Field(default_factory=list, description="cheap impossibilities")
     active_families: list[str] = Field(default_factory=list)
     relaxations_tried: list[str] = Field(default_factory=list)
-    conflict: Conflict | None = Field(
+    conflict: ConflictSet | None = Field(
         None, description="when the problem is infeasible: a small set of its constraints "
         "that cannot hold together, searched in the time the solve had left")
 

@@ -21,7 +21,7 @@ from fastapi.openapi.utils import get_openapi
 from fastapi.responses import JSONResponse, StreamingResponse
 from pydantic import BaseModel, Field, ValidationError
 
-from models import Conflict, Layout
+from models import ConflictSet, Layout
 from models import Problem as LayoutProblem
 from service.errors import ApiError, FieldError, ProblemDetails, field_errors, install
 from service.runner import Runner
@@ -85,7 +85,7 @@ class JobError(BaseModel):
     code: str
     message: str
     findings: list[str] = Field(default_factory=list)
-    conflict: Conflict | None = Field(
+    conflict: ConflictSet | None = Field(
         None, description="for an infeasible problem: a small set of its constraints that "
         "cannot hold together, by path and in words")
 
@@ -132,7 +132,7 @@ class Validation(BaseModel):
         None, description="with explain: true when SCIP found a layout meeting every hard "
         "constraint, false when it proved there is none, null when neither in the time "
         "given; absent without explain")
-    conflict: Conflict | None = Field(
+    conflict: ConflictSet | None = Field(
         None, description="with explain, when no layout can exist: a small set of the "
         "problem's constraints that cannot hold together, by path and in words")
 

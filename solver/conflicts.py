@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import TypeVar
 
-from models import Conflict, ConflictItem, Problem
+from models import ConflictItem, ConflictSet, Problem
 from solver.formulation import build_level
 from solver.geometry import EPS, Domain, Edge, edges_named, make_domain
 from solver.level_one import level_one_spec
@@ -264,7 +264,7 @@ def deletion_filter(
 def find_conflict(
     asked: Problem, domain: Domain, *, deadline: float, solved: Problem | None = None,
     should_stop: Callable[[], bool] | None = None,
-) -> Conflict | None:
+) -> ConflictSet | None:
     """A small set of the constraints of `asked` that cannot hold together, searched
     until `deadline` (a `time.monotonic()` value). `asked` must be known infeasible (a
     precheck finding, or SCIP's proof on level 1). `solved` is the problem as solved,
@@ -285,7 +285,7 @@ def find_conflict(
         return None
     items = describe_all(kept, solved, domain)
     minimal = rooms_proven and groups_proven
-    return Conflict(explanation=explanation(items, domain, minimal=minimal),
+    return ConflictSet(explanation=explanation(items, domain, minimal=minimal),
                     constraints=items, minimal=minimal)
 
 
@@ -440,7 +440,7 @@ class Diagnosis:
 
     findings: list[str]
     feasible: bool | None
-    conflict: Conflict | None
+    conflict: ConflictSet | None
 
 
 def diagnose(

@@ -17,7 +17,7 @@ from typing import Any
 import httpx2 as httpx
 import pytest
 
-from models import Conflict, Problem, Termination
+from models import ConflictSet, Problem, Termination
 from solver.conflicts import Verdict, deletion_filter, diagnose, find_conflict
 from solver.formulation import build_level
 from solver.geometry import make_domain
@@ -142,7 +142,7 @@ def level_one(problem: Problem) -> LevelStatus:
     return run_level(build_level(spec, feasibility=True), time_limit=CHECK_SECONDS).status
 
 
-def assert_irreducible(problem: Problem, conflict: Conflict) -> None:
+def assert_irreducible(problem: Problem, conflict: ConflictSet) -> None:
     paths = {c.path for c in conflict.constraints}
     assert len(paths) == len(conflict.constraints)
     assert level_one(only(problem, paths)) is LevelStatus.INFEASIBLE
