@@ -307,3 +307,17 @@ def test_the_service_explains_in_the_failed_job_and_in_validate(server: Server) 
                                  "adjacency": []}).json()
         assert fine == {"valid": True, "errors": [], "findings": [], "feasible": True,
                         "conflict": None}
+
+
+def test_the_python_client_hands_over_the_conflict(server: Server) -> None:
+    from floorplan_client import Client, Infeasible
+
+    with Client(server.url, api_key=None) as fp:
+        with pytest.raises(Infeasible) as caught:
+            fp.submit(CHAIN).wait(timeout=30)
+        conflict = caught.value.conflict
+        assert conflict is not None and conflict.minimal
+        assert "adjacency.1" in [c.path for c in conflict.constraints]
+        verdict = fp.validate(CHAIN, explain=True, time_limit=5)
+        assert verdict.feasible is False and verdict.conflict == conflict
+        assert fp.validate(CHAIN).feasible is None
