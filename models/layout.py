@@ -118,8 +118,8 @@ class ConflictSet(BaseModel):
     constraints: list[ConflictItem]
     minimal: bool = Field(
         description="dropping any one member was shown to make the rest satisfiable; "
-        "false when some check ran out of time (the set still cannot hold, but a "
-        "smaller one may exist)")
+        "false when some check was not settled in time (the set still cannot hold, but "
+        "a smaller one may exist)")
 
 
 class Infeasibility(BaseModel):

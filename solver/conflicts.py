@@ -39,10 +39,20 @@ from solver.openings import connection_demands
 from solver.precheck import find_impossibilities
 from solver.scip_run import LevelStatus, run_level
 
-#: A SCIP check gets at least this many seconds while that much is left ...
-CHECK_FLOOR = 0.5
-#: ... and at most this share of the time left: one hard check must not take it all.
+#: A SCIP check gets this share of the time left ...
 CHECK_SHARE = 0.25
+#: ... but at least this many seconds (while that much is left) and at most this many:
+#: checks on the models of a few rooms decide in milliseconds, and one that has not
+#: decided in seconds is a packing SCIP is unlikely to settle at all.
+CHECK_FLOOR = 0.5
+CHECK_CAP = 2.0
+#: After this many undecided SCIP checks the rest are judged by the prechecks alone:
+#: each undecided one costs its whole limit and teaches nothing.
+MAX_UNDECIDED = 3
+#: SCIP is asked only about models of at most this many rooms: beyond, one MILP of
+#: all rooms rarely settles anything in seconds (solve.py builds large first layouts
+#: in batches for that reason), and building it alone takes a good part of a second.
+MAX_SCIP_ROOMS = 20
 #: No check is started with less than this many seconds left.
 MIN_CHECK = 0.05
 #: `diagnose`: share of its time the first check (is the whole problem feasible?) may use.
@@ -180,19 +190,25 @@ def level_one_verdict(
     problem: Problem, domain: Domain, groups: Collection[Group], *, time_limit: float,
     should_stop: Callable[[], bool] | None = None,
 ) -> Verdict:
-    """Can every constraint in `groups` hold at once, each room one rectangle?"""
+    """Can every constraint in `groups` hold at once, each room one rectangle? The
+    prechecks, then SCIP within `time_limit` (0: the prechecks alone)."""
     if not groups:
         return Verdict.FEASIBLE
     sub = restricted(problem, groups)
     if find_impossibilities(sub, domain):
         return Verdict.INFEASIBLE
-    if time_limit < MIN_CHECK:
+    if not scip_may_decide(sub, time_limit):
         return Verdict.UNDECIDED
     lm = build_level(level_one_spec(sub, domain, window=None), feasibility=True)
     result = run_level(lm, time_limit=time_limit, should_stop=should_stop)
     if result.status is LevelStatus.INFEASIBLE:
         return Verdict.INFEASIBLE
     return Verdict.FEASIBLE if result.rects is not None else Verdict.UNDECIDED
+
+
+def scip_may_decide(problem: Problem, time_limit: float) -> bool:
+    """Whether asking SCIP about `problem` within `time_limit` is worth it."""
+    return time_limit >= MIN_CHECK and len(problem.rooms) <= MAX_SCIP_ROOMS
 
 
 @dataclass
@@ -204,21 +220,46 @@ class _Checker:
     deadline: float
     should_stop: Callable[[], bool] | None
     checks: int = 0
+    undecided: int = 0
     _seen: dict[frozenset[Group], Verdict] = field(default_factory=dict)
+    #: Sets the prechecks alone left undecided, still to be shown to SCIP when asked.
+    _prechecked: set[frozenset[Group]] = field(default_factory=set)
 
     def out_of_time(self) -> bool:
         stopped = self.should_stop is not None and self.should_stop()
         return stopped or self.deadline - time.monotonic() < MIN_CHECK
 
     def __call__(self, groups: Collection[Group]) -> Verdict:
+        """The prechecks, then SCIP."""
+        return self._verdict(groups, scip=True)
+
+    def by_prechecks(self, groups: Collection[Group]) -> Verdict:
+        """The prechecks alone: infeasible or undecided, in milliseconds."""
+        return self._verdict(groups, scip=False)
+
+    def _verdict(self, groups: Collection[Group], *, scip: bool) -> Verdict:
         key = frozenset(groups)
-        if key not in self._seen:
-            left = self.deadline - time.monotonic()
+        # Sets of many rooms SCIP is not asked about: the prechecks' verdict stands.
+        retry = scip and key in self._prechecked and \
+            len(frozenset().union(*(g.rooms for g in key))) <= MAX_SCIP_ROOMS
+        if key not in self._seen or retry:
             self.checks += 1
-            self._seen[key] = level_one_verdict(
-                self.problem, self.domain, key, should_stop=self.should_stop,
-                time_limit=min(left, max(CHECK_FLOOR, left * CHECK_SHARE)))
+            seconds = self._scip_seconds() if scip else 0.0
+            verdict = level_one_verdict(self.problem, self.domain, key, time_limit=seconds,
+                                        should_stop=self.should_stop)
+            self._seen[key] = verdict
+            self._prechecked.discard(key)
+            if verdict is Verdict.UNDECIDED and not scip:
+                self._prechecked.add(key)
+            elif verdict is Verdict.UNDECIDED and seconds >= MIN_CHECK:
+                self.undecided += 1
         return self._seen[key]
+
+    def _scip_seconds(self) -> float:
+        if self.undecided >= MAX_UNDECIDED:
+            return 0.0
+        left = self.deadline - time.monotonic()
+        return min(left, max(CHECK_FLOOR, min(CHECK_CAP, left * CHECK_SHARE)))
 
 
 def deletion_filter(
@@ -227,9 +268,11 @@ def deletion_filter(
 ) -> tuple[list[T], bool]:
     """The items that an infeasibility needs, out of `items` (all of them together are
     known infeasible; `verdict_with(subset)` judges a subset). Candidates are dropped
-    a chunk at a time; a chunk the rest cannot do without is halved until the needed
-    item is found. Returns the kept items, in the order given, and whether each was
-    shown needed (False when a check was undecided or time ran out)."""
+    a chunk at a time, the chunk doubling after each drop; a chunk the rest cannot do
+    without is halved until the needed item is found, and the next chunk starts at one
+    item (needed items often come together). Returns the kept items, in the order
+    given, and whether each was shown needed (False when a check was undecided or time
+    ran out)."""
     kept: list[T] = []
     proven = True
     candidates = list(items)
@@ -241,7 +284,7 @@ def deletion_filter(
         if needed_within == 1:
             kept.append(candidates.pop(0))
             proven = proven and needed_shown
-            needed_within, chunk = 0, max(1, len(candidates) // 2)
+            needed_within, chunk = 0, 1
             continue
         if out_of_time():
             left = set(kept) | set(candidates)
@@ -251,10 +294,11 @@ def deletion_filter(
         if verdict is Verdict.INFEASIBLE:
             del candidates[:chunk]
             needed_within = max(0, needed_within - chunk)
+            chunk *= 2
         elif chunk == 1:
             kept.append(candidates.pop(0))
             proven = proven and verdict is Verdict.FEASIBLE
-            needed_within, chunk = 0, max(1, len(candidates) // 2)
+            needed_within = 0
         else:
             needed_within, needed_shown = chunk, verdict is Verdict.FEASIBLE
     needed = set(kept)
@@ -273,20 +317,33 @@ def find_conflict(
     solved = solved if solved is not None else connection_demands(asked)
     groups = constraint_groups(solved, asked)
     checker = _Checker(solved, domain, deadline, should_stop)
-    rooms, rooms_proven = deletion_filter(
-        _rooms_in_drop_order(groups),
-        lambda active: checker([g for g in groups if g.rooms <= set(active)]),
-        checker.out_of_time,
-    )
-    within = [g for g in groups if g.rooms <= set(rooms)]
-    within.sort(key=lambda g: (DROP_ORDER.index(g.kind), g.room or 0, g.index))
-    kept, groups_proven = deletion_filter(within, checker, checker.out_of_time)
+    if find_impossibilities(solved, domain):
+        # The prechecks' own proof first: shrinking with them alone costs no SCIP, and
+        # SCIP is then asked only about the few constraints that proof rests on.
+        groups, _ = _shrink(groups, checker.by_prechecks, checker.out_of_time)
+    kept, minimal = _shrink(groups, checker, checker.out_of_time)
     if checker.checks == 0:
         return None
     items = describe_all(kept, solved, domain)
-    minimal = rooms_proven and groups_proven
     return ConflictSet(explanation=explanation(items, domain, minimal=minimal),
-                    constraints=items, minimal=minimal)
+                       constraints=items, minimal=minimal)
+
+
+def _shrink(
+    groups: Sequence[Group], verdict_with: Callable[[list[Group]], Verdict],
+    out_of_time: Callable[[], bool],
+) -> tuple[list[Group], bool]:
+    """`deletion_filter` over whole rooms (each with every group naming it), then over
+    the groups of the rooms kept. Every group kept is tested on its own in the second
+    pass, so whether the set is minimal is that pass's to say."""
+    rooms, _ = deletion_filter(
+        _rooms_in_drop_order(groups),
+        lambda active: verdict_with([g for g in groups if g.rooms <= set(active)]),
+        out_of_time,
+    )
+    within = [g for g in groups if g.rooms <= set(rooms)]
+    within.sort(key=lambda g: (DROP_ORDER.index(g.kind), g.room or 0, g.index))
+    return deletion_filter(within, verdict_with, out_of_time)
 
 
 def _rooms_in_drop_order(groups: Sequence[Group]) -> list[int]:
@@ -337,9 +394,9 @@ def _describe_size(g: Group, problem: Problem) -> ConflictItem:
     assert bounds is not None
     w, d = bounds
     return _item(f"rooms.{g.room}.{g.kind}", g.kind, [room.id],
-                 f"{room.id}.size{'>=' if least else '<='}{w:g}x{d:g}",
-                 f"'{room.id}' must be {'at least' if least else 'at most'} {w:g} m wide "
-                 f"and {d:g} m deep")
+                 f"{room.id}.size{'>=' if least else '<='}{_m(w)}x{_m(d)}",
+                 f"'{room.id}' must be {'at least' if least else 'at most'} {_m(w)} m wide "
+                 f"and {_m(d)} m deep")
 
 
 def describe(g: Group, problem: Problem, domain: Domain) -> ConflictItem:
@@ -356,30 +413,30 @@ def describe(g: Group, problem: Problem, domain: Domain) -> ConflictItem:
             least = g.kind is Kind.MIN_SIZE
             return _item(
                 f"{path}.{g.kind}.{g.index}", g.kind, [name],
-                f"{name}.{noun}{'>=' if least else '<='}{bounds[g.index]:g}",
+                f"{name}.{noun}{'>=' if least else '<='}{_m(bounds[g.index])}",
                 f"'{name}' must be {'at least' if least else 'at most'} "
-                f"{bounds[g.index]:g} m {adjective}")
+                f"{_m(bounds[g.index])} m {adjective}")
         case Kind.ASPECT_RATIO:
             assert room.aspect_ratio is not None
             lo, hi = room.aspect_ratio
             return _item(f"{path}.aspect_ratio", g.kind, [name],
-                         f"{name}.aspect_ratio=[{lo:g}, {hi:g}]",
-                         f"'{name}' must have its long side {lo:g} to {hi:g} times its "
+                         f"{name}.aspect_ratio=[{_m(lo)}, {_m(hi)}]",
+                         f"'{name}' must have its long side {_m(lo)} to {_m(hi)} times its "
                          "short side")
         case Kind.POSITION:
             x, y = room.positions[g.index]
             return _item(f"{path}.positions.{g.index}", g.kind, [name],
-                         f"{name} covers ({x:g}, {y:g})",
-                         f"'{name}' must cover the point ({x:g}, {y:g})")
+                         f"{name} covers ({_m(x)}, {_m(y)})",
+                         f"'{name}' must cover the point ({_m(x)}, {_m(y)})")
         case Kind.ENTRANCE:
             x, y = room.positions[g.index]
             return _item(REQUIRE_CONNECTED, g.kind, [name],
-                         f"{name} covers the entrance ({x:g}, {y:g})",
-                         f"'{name}' must cover the entrance at ({x:g}, {y:g}) to be "
+                         f"{name} covers the entrance ({_m(x)}, {_m(y)})",
+                         f"'{name}' must cover the entrance at ({_m(x)}, {_m(y)}) to be "
                          "the front-door room (require_connected)")
         case Kind.BOUNDARY:
             edges = edges_named(problem, domain.edges, room.boundary)
-            sides = " or ".join(f"edge {e.index} ({e.facing}, {_edge_length(e):g} m)"
+            sides = " or ".join(f"edge {e.index} ({e.facing}, {_m(_edge_length(e))} m)"
                                 for e in edges)
             return _item(f"{path}.boundary", g.kind, [name],
                          f"{name}.boundary={','.join(str(b) for b in room.boundary)}",
@@ -395,12 +452,12 @@ def _describe_adjacency(g: Group, problem: Problem) -> ConflictItem:
     whom = " or ".join(f"'{p}'" for p in partners)
     if g.kind is Kind.ADJACENCY:
         return _item(f"adjacency.{g.index}", g.kind, [adj.a, *partners],
-                     f"{together}>={adj.min_contact:g}",
-                     f"'{adj.a}' and {whom} must share at least {adj.min_contact:g} m of "
+                     f"{together}>={_m(adj.min_contact)}",
+                     f"'{adj.a}' and {whom} must share at least {_m(adj.min_contact)} m of "
                      "wall")
     return _item(REQUIRE_CONNECTED, g.kind, [adj.a, *partners],
-                 f"{together}>={adj.min_contact:g} (require_connected)",
-                 f"'{adj.a}' must share at least {adj.min_contact:g} m of wall with {whom} "
+                 f"{together}>={_m(adj.min_contact)} (require_connected)",
+                 f"'{adj.a}' must share at least {_m(adj.min_contact)} m of wall with {whom} "
                  "for a door (require_connected)")
 
 
@@ -412,20 +469,30 @@ def _item(path: str, kind: Kind, rooms: list[str], constraint: str,
 
 def _edge_length(edge: Edge) -> float:
     lo, hi = edge.span
-    return round(hi - lo, 6)
+    return hi - lo
+
+
+def _m(value: float) -> str:
+    """A length or coordinate for people: centimetres at most, no trailing zeros.
+
+    >>> _m(4.425223), _m(3.0), _m(0.9), _m(-0.5), _m(-0.001)
+    ('4.43', '3', '0.9', '-0.5', '0')
+    """
+    text = f"{value:.2f}".rstrip("0").rstrip(".")
+    return "0" if text == "-0" else text
 
 
 def explanation(items: Sequence[ConflictItem], domain: Domain, *, minimal: bool) -> str:
     """The conflict in one sentence, with the outline's dimensions."""
     box = domain.bbox
-    where = f"the {box.width:g} x {box.depth:g} m outline"
+    where = f"the {_m(box.width)} x {_m(box.depth)} m outline"
     if domain.area < box.area - EPS:
         where += f" ({domain.area:.4g} m² free)"
     head = ("This constraint cannot hold" if len(items) == 1
             else f"These {len(items)} constraints cannot all hold")
     sentence = f"{head} in {where}: {'; '.join(item.phrase for item in items)}."
     if not minimal:
-        sentence += " Some checks ran out of time, so a smaller set may exist."
+        sentence += " Not every check was settled in time, so a smaller set may exist."
     return sentence
 
 
