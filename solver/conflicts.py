@@ -11,11 +11,14 @@ them for good when the rest stays provably infeasible, keep them otherwise. A ch
 asks the cheap prechecks first (a finding is a proof), then SCIP about the level-1
 model (one rectangle per room, the user's bounds, zero objective).
 
-Two exact speed-ups. Whole rooms go first, each with every group naming it: rooms far
-from the conflict leave in a few checks and the group phase solves small models. And
-candidates are tried in chunks that halve when a chunk holds a needed group, so k
-needed groups out of n cost about k log(n/k) checks rather than n. A check that runs
-out of time keeps its group, and the set is then reported as possibly not minimal.
+What keeps it fast changes no answer. Whole rooms go first, each with every group
+naming it: rooms far from the conflict leave in a few checks and the group phase
+solves small models. Candidates are tried in chunks that double after a drop and halve
+when a chunk holds a needed group: k needed out of n cost about k log(n/k) checks when
+few are needed, about n when most are. And an infeasibility the prechecks proved is
+first shrunk with the prechecks alone, in milliseconds. A check left unsettled (SCIP
+out of time, or not asked: `MAX_SCIP_ROOMS`, `MAX_UNDECIDED`) keeps its group, and the
+set is then reported as possibly not minimal.
 
 A room left with no group is left out of the model: as a zero-size rectangle on a
 vertex of the outline it is clear of every room and every blocked box, so it never
