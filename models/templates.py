@@ -69,6 +69,9 @@ ENTRANCE_INSET = 0.3
 #: a contact of exactly one door's width leaves the door no clearance from the corners
 #: (solver/openings.py keeps 0.1 m), and rounding can then lose the door altogether.
 DOOR_CLEARANCE = 0.1
+#: At most this many rooms to choose from in a templated `any_of` (each is a binary
+#: of Eq. 11 for the solver); the circulation hubs come first.
+MAX_OPTIONS = 6
 #: Lengths in the expanded problem are rounded to centimetres.
 DECIMALS = 2
 
@@ -306,7 +309,8 @@ def _fill_sizes(problem: TemplatedProblem, template: Template, types: Sequence[s
     claimed = sum(room.target_size[0] * room.target_size[1] for room in sketches
                   if room.target_size is not None and "target_size" in room.model_fields_set)
     left = max(site.area - claimed, LEAST_SHARE_LEFT * site.area)
-    typical = sum(template.spec(types[k]).area for k in sized)
+    aimed = [k for k in sized if "target_size" not in sketches[k].model_fields_set]
+    typical = sum(template.spec(types[k]).area for k in aimed or sized)
     factor = math.sqrt(left / typical)
     wide = site.width >= site.depth
     cap = (min(site.width, MAX_COORDINATE), min(site.depth, MAX_COORDINATE))
@@ -477,7 +481,8 @@ def _default_adjacency(problem: TemplatedProblem, template: Template, ids: Seque
 
 class _Network:
     """Adjacencies as a door graph: who can be reached from the root through doors the
-    door policy allows, never through a room that is an end (a bathroom)."""
+    door policy allows, never through a room that is an end (a bathroom). Links are
+    only ever added, so the reached set only grows, one walk from each new room."""
 
     def __init__(self, problem: TemplatedProblem, template: Template, ids: Sequence[str],
                  types: Sequence[str]) -> None:
@@ -485,15 +490,25 @@ class _Network:
         self.type_of = dict(zip(ids, types, strict=True))
         self.policy = problem.openings.door_policy
         self.ends = {i for i in ids if self.type_of[i] in problem.openings.no_passage}
-        self.links: list[tuple[str, list[str]]] = [
-            (a.a, a.partners) for a in problem.adjacency
-            if a.a in self.type_of and all(p in self.type_of for p in a.partners)]
-        self.user_pairs = {frozenset((a, p)) for a, partners in self.links for p in partners}
+        self.contact = _round(problem.openings.door_width + 2 * DOOR_CLEARANCE)
         self.hubs = [self.ids[k] for k in _hubs(template, types)]
         self.root = self.ids[_root(problem, template, types)]
         self.added: list[dict[str, Any]] = []
-        self._reached = {self.root}
-        self.contact = _round(problem.openings.door_width + 2 * DOOR_CLEARANCE)
+        #: Two rooms that must touch: a door between them, either way.
+        self.doors: dict[str, list[str]] = {i: [] for i in ids}
+        #: The user's `any_of`: its room is reached once all its options are.
+        self.choices: list[tuple[str, list[str]]] = []
+        self.user_pairs: set[frozenset[str]] = set()
+        for adj in problem.adjacency:
+            if adj.a not in self.type_of or not all(p in self.type_of for p in adj.partners):
+                continue  # an unknown id: Problem's own checks report it
+            self.user_pairs |= {frozenset((adj.a, p)) for p in adj.partners}
+            if len(adj.partners) == 1:
+                self._door(adj.a, adj.partners[0])
+            else:
+                self.choices.append((adj.a, adj.partners))
+        self.reached: set[str] = set()
+        self._reach([self.root])
 
     def allows(self, a: str, b: str) -> bool:
         """The door policy lets a and b share a door (both ways)."""
@@ -503,29 +518,37 @@ class _Network:
         return a != b and one_way(self.type_of[a], self.type_of[b]) and one_way(
             self.type_of[b], self.type_of[a])
 
+    def _door(self, a: str, b: str) -> None:
+        if self.allows(a, b):
+            self.doors[a].append(b)
+            self.doors[b].append(a)
+
+    def _reach(self, start: Iterable[str]) -> None:
+        """Mark `start` reached and walk on from it."""
+        queue = list(start)
+        self.reached.update(queue)
+        while queue:
+            while queue:
+                here = queue.pop()
+                if here in self.ends:
+                    continue
+                for there in self.doors[here]:
+                    if there not in self.reached:
+                        self.reached.add(there)
+                        queue.append(there)
+            for room, options in self.choices:
+                if room not in self.reached and all(
+                        p in self.reached and p not in self.ends and self.allows(room, p)
+                        for p in options):
+                    self.reached.add(room)
+                    queue.append(room)
+
     def pair(self, a: str, b: str) -> None:
         if frozenset((a, b)) in self.user_pairs:
             return  # the user's own adjacency for this pair stands
-        self.links.append((a, [b]))
+        self._door(a, b)
         self.added.append({"a": a, "b": b, "min_contact": self.contact})
-
-    def reached(self) -> set[str]:
-        """Grown from the last answer: links are only ever added."""
-        reached = self._reached
-        changed = True
-        while changed:
-            changed = False
-            for a, partners in self.links:
-                through = [p for p in partners if p in reached and p not in self.ends
-                           and self.allows(a, p)]
-                if a not in reached and through and len(through) == len(partners):
-                    reached.add(a)
-                    changed = True
-                if (len(partners) == 1 and a in reached and a not in self.ends
-                        and partners[0] not in reached and self.allows(a, partners[0])):
-                    reached.add(partners[0])
-                    changed = True
-        return reached
+        self._reach([room for room in (a, b) if room in self.reached])
 
     def connect_all(self) -> None:
         """Hubs first, each to an earlier hub; then the rooms one walks through, then
@@ -538,20 +561,22 @@ class _Network:
             self.connect(room, self.hubs)
 
     def connect(self, room: str, candidates: Sequence[str]) -> None:
-        reached = self.reached()
-        if room in reached or room == self.root:
+        if room in self.reached:
             return
-        usable = [c for c in candidates if c in reached and c not in self.ends
-                  and self.allows(room, c)]
-        if not usable:
-            usable = [c for c in self.ids if c in reached and c not in self.ends
-                      and self.allows(room, c)]
-        if not usable:
+
+        def usable(pool: Iterable[str]) -> list[str]:
+            return [c for c in pool if c in self.reached and c not in self.ends
+                    and self.allows(room, c)][:MAX_OPTIONS]
+
+        options = usable(candidates) or usable(self.ids)
+        if not options:
             return  # nothing it may open onto: the layout will say it is unreachable
-        self.links.append((room, usable))
         partners: dict[str, Any] = (
-            {"b": usable[0]} if len(usable) == 1 else {"any_of": usable})
+            {"b": options[0]} if len(options) == 1 else {"any_of": options})
         self.added.append({"a": room, **partners, "min_contact": self.contact})
+        for option in options:  # it touches one of them; all are reached
+            self.doors[option].append(room)
+        self._reach([room])
 
 
 def _residential_pairs(ids: Sequence[str], types: Sequence[str]) -> list[tuple[str, str]]:
