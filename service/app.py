@@ -22,6 +22,7 @@ from pydantic import BaseModel, Field, ValidationError
 
 from models import Layout
 from models import Problem as LayoutProblem
+from models.templates import TemplatedProblem
 from service.errors import ApiError, FieldError, ProblemDetails, field_errors, install
 from service.runner import Runner
 from service.settings import Settings, get_settings
@@ -51,6 +52,15 @@ EXAMPLE_PROBLEM: dict[str, Any] = {
          "target_size": [2, 2]},
     ],
     "adjacency": [{"a": "living", "b": "bed"}, {"a": "bed", "b": "bath"}],
+    "options": {"time_limit": 5, "seed": 0},
+}
+#: The same flat from its room types alone: the residential template fills in the rest.
+EXAMPLE_TEMPLATED: dict[str, Any] = {
+    "name": "studio",
+    "boundary": [[0, 0], [8, 0], [8, 6], [0, 6]],
+    "entrance": [4, 0],
+    "template": "residential",
+    "rooms": ["living", "bedroom", "bathroom"],
     "options": {"time_limit": 5, "seed": 0},
 }
 
@@ -115,6 +125,10 @@ class Validation(BaseModel):
     errors: list[FieldError] = Field(default_factory=list)
     findings: list[str] = Field(default_factory=list,
                                 description="reasons no layout can exist")
+    problem: LayoutProblem | None = Field(
+        None, description="the problem as it would be solved, a template expanded: the "
+        "fields given or filled in (defaults left out); edit it and send it as is. "
+        "Absent when the problem is not well formed")
 
 
 def _time(epoch: float | None) -> datetime | None:
@@ -209,8 +223,14 @@ PROBLEM_BODY_DOC: dict[str, Any] = {
     "requestBody": {
         "required": True,
         "content": {"application/json": {
-            "schema": {"$ref": "#/components/schemas/Problem"},
-            "example": EXAMPLE_PROBLEM,
+            # A plain problem, or one a template fills in from its room types.
+            "schema": {"anyOf": [{"$ref": "#/components/schemas/Problem"},
+                                 {"$ref": "#/components/schemas/TemplatedProblem"}]},
+            "examples": {
+                "plain": {"summary": "every constraint stated", "value": EXAMPLE_PROBLEM},
+                "templated": {"summary": "room types only (residential template)",
+                              "value": EXAMPLE_TEMPLATED},
+            },
         }},
     }
 }
@@ -350,18 +370,21 @@ def delete_layout(job: JobDep, store: StoreDep) -> Response:
 misc = APIRouter(tags=["service"])
 
 
-@misc.post("/v1/validate", response_model=Validation, openapi_extra=PROBLEM_BODY_DOC)
+@misc.post("/v1/validate", response_model=Validation, openapi_extra=PROBLEM_BODY_DOC,
+           response_model_exclude_unset=True)
 async def validate_problem(request: Request, settings: SettingsDep) -> Validation:
     """Check a problem without solving it: the schema, then the cheap impossibilities
-    (total area, sizes that fit nowhere, contradictory ratios, ...)."""
+    (total area, sizes that fit nowhere, contradictory ratios, ...). A well-formed
+    problem comes back as it would be solved, a template expanded."""
     try:
         problem, _raw = await problem_body(request, settings)
     except ApiError as err:
         if err.status != 422:
             raise
-        return Validation(valid=False, errors=err.errors or [])
+        return Validation(valid=False, errors=err.errors or [], findings=[])
     findings = await asyncio.to_thread(find_impossibilities, problem, make_domain(problem))
-    return Validation(valid=not findings, findings=findings)
+    # exclude_unset on the answer: the problem shows what was given or filled in.
+    return Validation(valid=not findings, errors=[], findings=findings, problem=problem)
 
 
 @misc.get("/healthz")
@@ -429,7 +452,8 @@ def _openapi(app: FastAPI) -> dict[str, Any]:
     schema = get_openapi(title=app.title, version=app.version, description=app.description,
                          routes=app.routes)
     components = schema.setdefault("components", {}).setdefault("schemas", {})
-    for model, name in ((LayoutProblem, "Problem"), (ProblemDetails, "ProblemDetails")):
+    for model, name in ((LayoutProblem, "Problem"), (TemplatedProblem, "TemplatedProblem"),
+                        (ProblemDetails, "ProblemDetails")):
         model_schema = model.model_json_schema(ref_template="#/components/schemas/{model}")
         components.update(model_schema.pop("$defs", {}))
         components[name] = model_schema

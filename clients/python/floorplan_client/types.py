@@ -171,6 +171,9 @@ class Validation(_Model):
     errors: list[FieldError] = Field(default_factory=list)
     findings: list[str] = Field(default_factory=list,
                                 description="reasons no layout can exist")
+    problem: Problem | None = Field(
+        None, description="the problem as the service would solve it (a template "
+        "expanded); None when it is not well formed, or from an older service")
 
 
 # Events of a job, from its event stream (or made from polling where there is none).
