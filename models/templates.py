@@ -72,6 +72,8 @@ DOOR_CLEARANCE = 0.1
 #: At most this many rooms to choose from in a templated `any_of` (each is a binary
 #: of Eq. 11 for the solver); the circulation hubs come first.
 MAX_OPTIONS = 6
+#: The template fills in no aspect ratio for a room the user aims beyond this ratio.
+MAX_RATIO = 100.0
 #: Lengths in the expanded problem are rounded to centimetres.
 DECIMALS = 2
 
@@ -290,6 +292,8 @@ class _Site:
     def fits_square(self, side: float) -> bool:
         """Whether a side x side square fits in the free area (erosion, as the solver's
         precheck tests it)."""
+        if side <= 0:
+            return True
         scaled = affinity.scale(self.free, xfact=1 / side, yfact=1 / side, origin=(0, 0))
         return not scaled.buffer(-0.5 + 1e-9, join_style="mitre").is_empty
 
@@ -355,9 +359,11 @@ def _room_sizes(room: RoomSketch, spec: RoomSpec, factor: float, wide: bool,
     maxs = list(room.max_size) if room.max_size is not None and "max_size" in given else highs
     aim = (list(room.target_size) if room.target_size is not None and "target_size" in given
            else target)
-    # Widen the ratio to admit the aimed size, and drop it if no allowed size meets it.
+    # Widen the ratio to admit the aimed size, and drop it if no allowed size meets it
+    # (or the user aims at a sliver no ratio of ours describes).
     long_side, short_side = max(aim), min(aim)
-    if short_side > 0:
+    sane = long_side <= MAX_RATIO * short_side
+    if sane and short_side > 0:
         lo_ratio = min(lo_ratio, long_side / short_side)
         hi_ratio = max(hi_ratio, long_side / short_side)
     ratio = [max(1.0, _round_down(lo_ratio)), _round_up(hi_ratio)]
@@ -368,7 +374,7 @@ def _room_sizes(room: RoomSketch, spec: RoomSpec, factor: float, wide: bool,
         filled["max_size"] = maxs
     if "target_size" not in given:
         filled["target_size"] = aim
-    if "aspect_ratio" not in given and _ratio_possible(ratio, mins, maxs):
+    if "aspect_ratio" not in given and sane and _ratio_possible(ratio, mins, maxs):
         filled["aspect_ratio"] = ratio
     return filled
 

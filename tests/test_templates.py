@@ -346,3 +346,41 @@ def test_a_templated_six_room_flat_solves_to_a_valid_reachable_layout() -> None:
     assert sum(1 for c in report.constraints if c.kind == "adjacency") == len(
         problem.adjacency)
     assert math.isclose(sum(r.area for r in layout.rooms), 80, rel_tol=0.05)
+
+
+COORDINATE = st.one_of(st.integers(-3, 40), st.floats(-1e5, 1e5, allow_nan=False))
+SIZE = st.tuples(st.floats(0, 50), st.floats(0, 50))
+ROOM_OBJECTS = st.fixed_dictionaries({}, optional={
+    "id": st.sampled_from(["a", "bedroom-1", "living", "x"]),
+    "type": st.one_of(st.sampled_from(KNOWN_TYPES), st.text(max_size=5)),
+    "min_size": SIZE, "max_size": SIZE, "target_size": SIZE,
+    "aspect_ratio": st.tuples(st.floats(1, 5), st.floats(1, 9)),
+    "positions": st.lists(st.tuples(COORDINATE, COORDINATE), max_size=2),
+    "boundary": st.lists(st.sampled_from(["north", "south", 0, 1, 7]), max_size=2),
+})
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
+@given(boundary=st.one_of(OUTLINES, st.lists(st.tuples(COORDINATE, COORDINATE), min_size=4,
+                                             max_size=7)),
+       rooms=st.lists(st.one_of(st.sampled_from(KNOWN_TYPES), ROOM_OBJECTS), min_size=1,
+                      max_size=8),
+       obstacles=st.lists(st.fixed_dictionaries({
+           "x": COORDINATE, "y": COORDINATE, "width": st.floats(0.1, 20),
+           "depth": st.floats(0.1, 20)}), max_size=2),
+       entrance=st.one_of(st.none(), st.tuples(COORDINATE, COORDINATE)),
+       adjacency=st.lists(st.fixed_dictionaries({
+           "a": st.sampled_from(["living", "bedroom-1", "a", "kitchen"]),
+           "b": st.sampled_from(["living", "bathroom", "x", "kitchen"])}), max_size=2))
+def test_odd_templated_input_is_refused_with_located_errors_never_a_crash(
+    boundary: list[Any], rooms: list[Any], obstacles: list[Any], entrance: Any,
+    adjacency: list[Any],
+) -> None:
+    data = {"boundary": boundary, "template": "residential", "rooms": rooms,
+            "obstacles": obstacles, "entrance": entrance, "adjacency": adjacency}
+    try:
+        problem = Problem.model_validate(data)
+    except ValidationError as err:
+        assert all(e["loc"] for e in err.errors())
+        return
+    assert "template" not in problem.model_dump()
