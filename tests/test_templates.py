@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -318,6 +319,16 @@ def test_the_template_only_makes_problems_the_precheck_finds_nothing_against(
             "template_rooms_too_many", "template_room_does_not_fit"}, err
         return
     assert find_impossibilities(problem, make_domain(problem)) == []
+
+
+def test_the_example_and_its_committed_expansion_agree() -> None:
+    """examples/flat-7-template.expanded.json is what `floorplan solve --expand` writes;
+    regenerate it when the template changes."""
+    examples = Path(__file__).resolve().parents[1] / "examples"
+    templated_file = examples / "flat-7-template.json"
+    expanded_file = examples / "flat-7-template.expanded.json"
+    assert Problem.model_validate_json(templated_file.read_text()) == (
+        Problem.model_validate_json(expanded_file.read_text()))
 
 
 def test_expand_is_the_same_as_validating() -> None:
