@@ -122,11 +122,12 @@ class Template:
         return self.sizes.get(room_type, self.sizes[GENERIC_TYPE])
 
 
-# The residential table. Floors: UK Nationally Described Space Standard (bedroom),
-# International Residential Code (habitable rooms, hallways, stairs, toilet space),
-# accessibility turning circle (foyer), fixture sizes (kitchen, bathroom). Typical and
-# largest sizes are our own, set so that a two-bedroom flat adds up to about the 70 m²
-# the NDSS asks of it. docs/templates.md gives every figure's source.
+# The residential table. Floors: England's Nationally Described Space Standard
+# (bedroom), the International Residential Code (habitable rooms, hallways, stairs, wc),
+# the ADA wheelchair turning circle (foyer, bathroom), the NKBA one-cook work aisle
+# (kitchen), the London Plan (balcony). Typical and largest sizes are our own, set so
+# that a two-bedroom flat adds up to about the 70 m² the NDSS asks of it.
+# docs/templates.md gives every figure's source.
 RESIDENTIAL = Template(
     name="residential",
     sizes={
@@ -137,7 +138,7 @@ RESIDENTIAL = Template(
         "bathroom": RoomSpec(1.5, 2.2, 2.6, 3.8, (1.0, 2.2)),
         "wc": RoomSpec(0.8, 1.0, 1.6, 2.4, (1.0, 2.8)),
         "foyer": RoomSpec(1.5, 2.0, 2.6, 4.0, (1.0, 2.5)),
-        "hall": RoomSpec(1.2, 1.8, 3.0, 5.5, (1.0, 3.5)),
+        "hall": RoomSpec(0.92, 1.8, 3.0, 5.5, (1.0, 3.5)),
         "corridor": RoomSpec(0.92, 1.2, 5.0, 12.0, (2.5, 10.0)),
         "study": RoomSpec(2.13, 2.8, 3.2, 4.5, (1.0, 2.0), exterior=3),
         "office": RoomSpec(2.13, 2.8, 3.2, 4.5, (1.0, 2.0), exterior=3),
@@ -146,7 +147,7 @@ RESIDENTIAL = Template(
         "laundry": RoomSpec(1.5, 1.8, 2.4, 3.5, (1.0, 2.5)),
         "balcony": RoomSpec(1.5, 1.6, 3.6, 7.0, (1.5, 5.0), exterior=1),
         "stairs": RoomSpec(0.92, 1.0, 4.0, 5.0, (2.0, 5.0)),
-        "garage": RoomSpec(2.6, 3.0, 5.5, 7.0, (1.3, 2.5)),
+        "garage": RoomSpec(2.6, 3.0, 5.5, 7.0, (1.3, 2.5), exterior=1),
         GENERIC_TYPE: RoomSpec(2.0, 3.0, 3.5, 5.0, (1.0, 2.0)),
     },
     circulation=("foyer", "hall", "corridor"),
