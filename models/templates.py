@@ -74,6 +74,9 @@ DOOR_CLEARANCE = 0.1
 MAX_OPTIONS = 6
 #: The template fills in no aspect ratio for a room the user aims beyond this ratio.
 MAX_RATIO = 100.0
+#: A generated id keeps at most this much of the type, leaving room for "-123" within
+#: the 100 characters an id may have.
+MAX_ID_BASE = 90
 #: Lengths in the expanded problem are rounded to centimetres.
 DECIMALS = 2
 
@@ -249,7 +252,7 @@ def _room_ids(rooms: Sequence[RoomSketch], types: Sequence[str]) -> list[str]:
         if room.id is not None:
             ids.append(room.id)
             continue
-        base = room_type or GENERIC_TYPE
+        base = (room_type or GENERIC_TYPE)[:MAX_ID_BASE]
         if unnamed[room_type] == 1 and base not in taken:
             name = base
         else:
@@ -395,8 +398,8 @@ def _check_floors_fit(problem: TemplatedProblem, template: Template, types: Sequ
     """Refuse a problem whose smallest rooms cannot fit: better a message naming the
     rooms than a problem the solver proves infeasible."""
     errors: list[InitErrorDetails] = []
-    need = sum(rooms[k]["min_size"][0] * rooms[k]["min_size"][1] for k in range(len(rooms))
-               if "min_size" in rooms[k])
+    mins = [room["min_size"] for room in rooms if room.get("min_size") is not None]
+    need = sum(width * depth for width, depth in mins)
     if need > MIN_AREA_SHARE * site.area:
         errors.append(_error(
             ("rooms",), [room["id"] for room in rooms], "template_rooms_too_many",

@@ -59,6 +59,12 @@ def test_room_objects_keep_their_ids_and_generated_ids_avoid_them() -> None:
         ("kitchen", "kitchen")]
 
 
+def test_generated_ids_stay_within_the_id_length_limit() -> None:
+    long_type = "x" * 100
+    problem = Problem.model_validate(templated([{"type": long_type}] * 2, 20, 20))
+    assert [r.id for r in problem.rooms] == ["x" * 90 + "-1", "x" * 90 + "-2"]
+
+
 def test_the_expanded_problem_has_no_template_and_validates_to_itself() -> None:
     problem = Problem.model_validate(templated(FLAT, entrance=[2, 0]))
     assert "template" not in problem.model_dump()
@@ -360,12 +366,12 @@ def test_a_templated_six_room_flat_solves_to_a_valid_reachable_layout() -> None:
 
 
 COORDINATE = st.one_of(st.integers(-3, 40), st.floats(-1e5, 1e5, allow_nan=False))
-SIZE = st.tuples(st.floats(0, 50), st.floats(0, 50))
+SIZE = st.one_of(st.none(), st.tuples(st.floats(0, 50), st.floats(0, 50)))
 ROOM_OBJECTS = st.fixed_dictionaries({}, optional={
     "id": st.sampled_from(["a", "bedroom-1", "living", "x"]),
     "type": st.one_of(st.sampled_from(KNOWN_TYPES), st.text(max_size=5)),
     "min_size": SIZE, "max_size": SIZE, "target_size": SIZE,
-    "aspect_ratio": st.tuples(st.floats(1, 5), st.floats(1, 9)),
+    "aspect_ratio": st.one_of(st.none(), st.tuples(st.floats(1, 5), st.floats(1, 9))),
     "positions": st.lists(st.tuples(COORDINATE, COORDINATE), max_size=2),
     "boundary": st.lists(st.sampled_from(["north", "south", 0, 1, 7]), max_size=2),
 })
