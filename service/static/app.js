@@ -326,7 +326,9 @@ function showSummary(job, info, layout) {
   $("summary").hidden = false;
 }
 
-// Downloads: plain links; with an API key the file is fetched with it and saved.
+// Downloads: real links (to copy or open), but a click fetches the file itself, with
+// the API key when there is one, and saves it under the problem's name: the server
+// names its files after the job id, and a plain link could not send the key.
 
 function setDownloads(job, available) {
   const base = (job.problem.name || "layout").replace(/[^\w.-]+/g, "_");
@@ -341,9 +343,9 @@ function setDownloads(job, available) {
   }
 }
 
-async function downloadWithKey(event) {
+async function downloadFile(event) {
   const link = event.target.closest("a");
-  if (!link?.href || !$("api-key").value.trim()) return; // no key: the browser fetches it
+  if (!link?.href || event.ctrlKey || event.metaKey || event.shiftKey) return;
   event.preventDefault();
   try {
     const response = await fetch(link.href, { headers: authHeaders(), cache: "no-store" });
@@ -439,7 +441,7 @@ function start() {
   $("problem-form").addEventListener("submit", submit);
   $("validate").addEventListener("click", validate);
   $("cancel").addEventListener("click", cancel);
-  $("downloads").addEventListener("click", downloadWithKey);
+  $("downloads").addEventListener("click", downloadFile);
   setInterval(showElapsed, CLOCK_MS);
 
   loadExamples();

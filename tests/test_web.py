@@ -1,0 +1,228 @@
+"""The web page at `/`, in real headless Chromium (Debian's /usr/bin/chromium, driven by
+Playwright) against a real `floorplan serve` process on loopback. Screenshots go to
+build/screenshots/.
+
+Without the browser the tests skip, saying why; under CI (the CI variable set) they
+fail instead, so that a missing install cannot pass for a green run.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import re
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.servers import Server
+
+CHROMIUM = Path("/usr/bin/chromium")
+SCREENSHOTS = Path(__file__).resolve().parents[1] / "build" / "screenshots"
+VIEWPORT = {"width": 1280, "height": 860}
+#: Milliseconds to wait for a job to end; apartment-5 takes about a second.
+JOB_TIMEOUT_MS = 30_000
+APARTMENT_ROOMS = ["foyer", "living", "kitchen", "bedroom", "bathroom"]
+API_KEY = "web-test-key"
+
+# Records every drawing of the plan as [source, rooms drawn], from the page's own
+# data-drawn counter, so the test sees the incumbents go by however fast they come.
+RECORD_DRAWINGS = """() => {
+  window.drawings = [];
+  const plan = document.getElementById("plan");
+  new MutationObserver(() => window.drawings.push(
+      [plan.dataset.source, plan.querySelectorAll(".room").length]))
+    .observe(plan, { attributes: true, attributeFilter: ["data-drawn"] });
+}"""
+
+
+def _browser_missing() -> str | None:
+    if importlib.util.find_spec("playwright") is None:
+        return "the playwright package is not installed (it is in the dev extra)"
+    if not CHROMIUM.exists():
+        return f"{CHROMIUM} is missing: apt-get install -y chromium chromium-driver"
+    return None
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Any]:
+    missing = _browser_missing()
+    if missing:
+        if os.environ.get("CI"):
+            pytest.fail(f"the browser tests must run in CI: {missing}")
+        pytest.skip(missing)
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        # Debian's Chromium, never a downloaded build.
+        chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), headless=True)
+        yield chromium
+        chromium.close()
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    s = Server(tmp_path_factory.mktemp("web"), WORKERS="1").start()
+    yield s
+    s.stop()
+
+
+@pytest.fixture
+def page(browser: Any) -> Iterator[Any]:
+    """A fresh browser context (no stored key or job); fails the test on any script
+    error or Content-Security-Policy violation the page logs."""
+    context = browser.new_context(viewport=VIEWPORT, accept_downloads=True)
+    tab = context.new_page()
+    errors: list[str] = []
+    tab.on("pageerror", lambda err: errors.append(f"uncaught: {err}"))
+    # Answers of 4xx are part of the tests; the browser logs each as a failed load.
+    tab.on("console", lambda msg: errors.append(msg.text) if msg.type == "error"
+           and "Failed to load resource" not in msg.text else None)
+    yield tab
+    context.close()
+    assert not errors, errors
+
+
+def expect(locator: Any) -> Any:
+    from playwright.sync_api import expect as playwright_expect
+
+    return playwright_expect(locator)
+
+
+def screenshot(tab: Any, name: str) -> None:
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    tab.screenshot(path=str(SCREENSHOTS / name), full_page=True)
+
+
+def pick_example(tab: Any, name: str, *, time_limit: str) -> None:
+    expect(tab.locator(f"#example option[value='{name}']")).to_be_attached()
+    tab.select_option("#example", name)
+    expect(tab.locator("#problem")).to_have_value(re.compile(f'"name": "{name}"'))
+    tab.fill("#time-limit", time_limit)
+
+
+def download(tab: Any, link: str) -> tuple[str, str]:
+    """Clicks a download link; returns the file's suggested name and its text."""
+    with tab.expect_download() as started:
+        tab.click(link)
+    saved = started.value
+    return saved.suggested_filename, Path(saved.path()).read_text(encoding="utf-8")
+
+
+def test_an_example_redraws_live_then_reports_and_downloads(page: Any, server: Server) -> None:
+    page.goto(server.url)
+    expect(page.locator("#status")).to_have_text("idle")
+    pick_example(page, "apartment-5", time_limit="3")
+    page.evaluate(RECORD_DRAWINGS)
+    page.click("#submit")
+
+    expect(page.locator("#status")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
+    expect(page.locator("#summary")).to_be_visible()
+    drawings = page.evaluate("window.drawings")
+    live = [rooms for source, rooms in drawings if source == "incumbent"]
+    assert live and max(live) > 0, drawings  # the incumbent was drawn while solving
+    assert drawings[-1] == ["result", 5], drawings
+    for room in APARTMENT_ROOMS:
+        expect(page.locator(f"#plan .room[data-room='{room}'] .label")).to_contain_text(room)
+    assert page.locator("#plan .door").count() > 0
+    for field in ("level", "objective", "elapsed"):
+        expect(page.locator(f"#{field}")).not_to_have_text("–")
+    expect(page.locator("#elapsed")).to_have_text(re.compile(r"^\d+\.\d s$"))
+
+    term = page.locator("#summary-list dd")
+    expect(term.and_(page.locator("[data-term='coverage']"))).to_have_text(
+        re.compile(r"^\d+\.\d %$"))
+    expect(term.and_(page.locator("[data-term='valid']"))).to_have_text("yes")
+    expect(term.and_(page.locator("[data-term='termination']"))).to_have_text(
+        re.compile("^(optimal|timelimit)$"))
+    expect(term.and_(page.locator("[data-term='rooms placed']"))).to_have_text("5 of 5")
+    expect(page.locator("#messages")).to_be_hidden()
+    screenshot(page, "web-page.png")
+
+    name, svg = download(page, "#download-svg")
+    assert name == "apartment-5.svg" and "<svg" in svg and "bedroom" in svg
+    name, dxf = download(page, "#download-dxf")
+    assert name == "apartment-5.dxf" and "ENTITIES" in dxf
+    name, geojson = download(page, "#download-geojson")
+    features = json.loads(geojson)["features"]
+    assert name == "apartment-5.geojson"
+    assert {f["properties"].get("id") for f in features} >= set(APARTMENT_ROOMS)
+    name, layout = download(page, "#download-json")
+    assert name == "apartment-5.layout.json" and json.loads(layout)["report"]["valid"]
+
+
+def test_bad_input_shows_every_field_path_and_the_findings(page: Any, server: Server) -> None:
+    page.goto(server.url)
+    page.fill("#problem", '{"boundary": [[0, 0], [6, 0], [6, 4]')
+    page.click("#submit")
+    expect(page.locator("#messages")).to_contain_text("not valid JSON")
+
+    bad = {"boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],
+           "rooms": [{"id": "a", "min_size": [-1, 2]}, {"id": "", "type": "bedroom"}]}
+    page.fill("#problem", json.dumps(bad))
+    page.click("#submit")
+    messages = page.locator("#messages")
+    expect(messages).to_contain_text("(422)")
+    expect(messages.locator("code", has_text="rooms.0.min_size")).to_have_count(1)
+    expect(messages.locator("code", has_text="rooms.1.id")).to_have_count(1)
+    expect(page.locator("#submit")).to_be_enabled()
+    expect(page.locator("#status")).to_have_text("idle")  # nothing was queued
+
+    too_small = {"boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],
+                 "rooms": [{"id": r, "min_size": [4, 4]} for r in "ab"]}
+    page.fill("#problem", json.dumps(too_small))
+    page.click("#validate")
+    expect(messages).to_contain_text("No layout can exist")
+    expect(messages.locator("li")).not_to_have_count(0)
+
+
+def test_cancel_keeps_the_best_layout_so_far(page: Any, server: Server) -> None:
+    page.goto(server.url)
+    pick_example(page, "house-13", time_limit="60")
+    page.click("#submit")
+    expect(page.locator("#plan")).to_have_attribute("data-source", "incumbent",
+                                                     timeout=JOB_TIMEOUT_MS)
+    expect(page.locator("#cancel")).to_be_enabled()
+    screenshot(page, "web-live.png")
+    page.click("#cancel")
+    expect(page.locator("#status")).to_have_text("canceled", timeout=JOB_TIMEOUT_MS)
+    summary = page.locator("#summary-list")
+    expect(summary.locator("[data-term='termination']")).to_have_text("interrupted")
+    expect(summary.locator("[data-term='rooms placed']")).to_have_text(re.compile(r" of 13$"))
+    expect(page.locator("#plan")).to_have_attribute("data-source", "result")
+    expect(page.locator("#download-svg")).to_have_attribute("href", re.compile("format=svg"))
+    expect(page.locator("#submit")).to_be_enabled()
+    screenshot(page, "web-canceled.png")
+
+
+def test_a_server_with_keys_asks_for_one_and_works_with_it(
+    page: Any, tmp_path: Path
+) -> None:
+    keyed = Server(tmp_path, WORKERS="1", FLOORPLAN_API_KEYS=API_KEY).start()
+    try:
+        page.goto(keyed.url)
+        expect(page.locator("#key-note")).to_have_text(re.compile("requires an API key"))
+        expect(page.locator("#api-key")).to_be_focused()
+        pick_example(page, "apartment-5", time_limit="3")
+        page.click("#submit")
+        expect(page.locator("#messages")).to_contain_text("(401)")
+
+        page.fill("#api-key", API_KEY)
+        page.click("#submit")
+        expect(page.locator("#status")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
+        expect(page.locator("#plan .room")).to_have_count(5)
+        # The link needs the key too: the page fetches the file with it and saves that.
+        name, geojson = download(page, "#download-geojson")
+        assert name == "apartment-5.geojson"
+        assert json.loads(geojson)["type"] == "FeatureCollection"
+
+        # A reload follows the same job again, with the key kept for the tab.
+        page.reload()
+        expect(page.locator("#status")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
+        expect(page.locator("#summary-list [data-term='valid']")).to_have_text("yes")
+        expect(page.locator("#plan .room")).to_have_count(5)
+    finally:
+        keyed.stop()
