@@ -16,8 +16,10 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import httpx2 as httpx
 import pytest
 
+from models import Problem
 from tests.servers import Server
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -110,6 +112,38 @@ def download(tab: Any, link: str) -> tuple[str, str]:
         tab.click(link)
     saved = started.value
     return saved.suggested_filename, Path(saved.path()).read_text(encoding="utf-8")
+
+
+def test_the_examples_are_listed_smallest_first_and_served_as_written(server: Server) -> None:
+    listed = httpx.get(f"{server.url}/v1/examples", timeout=10).json()["data"]
+    assert [e["name"] for e in listed][:2] == ["apartment-5", "house-13"]
+    assert [e["rooms"] for e in listed] == sorted(e["rooms"] for e in listed)
+    repository = Path(__file__).resolve().parents[1] / "examples"
+    for example in listed:
+        served = httpx.get(f"{server.url}{example['href']}", timeout=10)
+        assert served.headers["content-type"] == "application/json"
+        assert served.text == (repository / f"{example['name']}.json").read_text()
+        assert len(Problem.model_validate_json(served.text).rooms) == example["rooms"]
+    unknown = httpx.get(f"{server.url}/v1/examples/no-such-plan", timeout=10)
+    assert unknown.status_code == 404
+    assert unknown.headers["content-type"] == "application/problem+json"
+    assert unknown.json()["type"] == "/docs/problems/example-not-found"
+    layout = httpx.get(f"{server.url}/v1/examples/apartment-5.layout", timeout=10)
+    assert layout.status_code == 422  # not a name: results are not offered as problems
+
+
+def test_the_page_and_its_files_are_served_with_a_strict_policy(server: Server) -> None:
+    page = httpx.get(f"{server.url}/", timeout=10)
+    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+    assert "default-src 'self'" in page.headers["content-security-policy"]
+    assert 'src="static/app.js"' in page.text and 'href="static/style.css"' in page.text
+    for asset, kind in (("app.js", "javascript"), ("events.js", "javascript"),
+                        ("plan.js", "javascript"), ("style.css", "text/css")):
+        served = httpx.get(f"{server.url}/static/{asset}", timeout=10)
+        assert served.status_code == 200 and kind in served.headers["content-type"]
+    missing = httpx.get(f"{server.url}/static/nothing.js", timeout=10)
+    assert missing.status_code == 404
+    assert missing.headers["content-type"] == "application/problem+json"
 
 
 def test_an_example_redraws_live_then_reports_and_downloads(page: Any, server: Server) -> None:
