@@ -10,6 +10,11 @@ const TERMINAL = new Set(["succeeded", "failed", "canceled"]);
 const KEY_STORAGE = "floorplan.api-key";
 const JOB_STORAGE = "floorplan.job"; // the job on screen, followed again after a reload
 const CLOCK_MS = 200;
+// The solver's phases (solver/solve.py Phase) in words.
+const PHASES = {
+  relaxation: "size window tried", level: "level started", subdomain: "sub-domain solved",
+  incumbent: "better layout found", done: "done",
+};
 
 const state = {
   job: null,          // {id, problem}: the job on screen
@@ -44,7 +49,7 @@ async function problemOf(response) {
            detail: (await response.text().catch(() => "")).slice(0, 300) };
 }
 
-async function api(path, { method = "GET", body, as = "json" } = {}) {
+async function api(path, { method = "GET", body } = {}) {
   const headers = { ...authHeaders() };
   if (body !== undefined) headers["Content-Type"] = "application/json";
   let response;
@@ -54,7 +59,7 @@ async function api(path, { method = "GET", body, as = "json" } = {}) {
     throw new ApiProblem({ title: "The server did not answer", detail: String(err) });
   }
   if (!response.ok) throw new ApiProblem(await problemOf(response));
-  return as === "text" ? response.text() : response.json();
+  return response.json();
 }
 
 // Messages: errors as problem documents, with every field path listed.
@@ -123,11 +128,37 @@ async function loadExamples() {
   }
 }
 
+/** JSON on as few lines as stay readable: short arrays and objects (points, sizes,
+ * whole rooms) on one line, longer ones broken over lines. */
+const TEXT_WIDTH = 60; // about the text box's width
+
+function inline(value) {
+  if (Array.isArray(value)) return `[${value.map(inline).join(", ")}]`;
+  if (value && typeof value === "object") {
+    const members = Object.entries(value).map(([k, v]) => `${JSON.stringify(k)}: ${inline(v)}`);
+    return `{${members.join(", ")}}`;
+  }
+  return JSON.stringify(value);
+}
+
+function prettyJson(value, indent = "") {
+  const line = inline(value);
+  if (value === null || typeof value !== "object" || indent.length + line.length <= TEXT_WIDTH) {
+    return line;
+  }
+  const inner = `${indent}  `;
+  const parts = Array.isArray(value)
+    ? value.map((v) => inner + prettyJson(v, inner))
+    : Object.entries(value).map(([k, v]) => `${inner}${JSON.stringify(k)}: ${prettyJson(v, inner)}`);
+  const [open, close] = Array.isArray(value) ? ["[", "]"] : ["{", "}"];
+  return `${open}\n${parts.join(",\n")}\n${indent}${close}`;
+}
+
 async function pickExample() {
   const name = $("example").value;
   if (!name) return;
   try {
-    $("problem").value = await api(`v1/examples/${encodeURIComponent(name)}`, { as: "text" });
+    $("problem").value = prettyJson(await api(`v1/examples/${encodeURIComponent(name)}`));
     clearMessage();
     previewProblem();
   } catch (err) {
@@ -206,7 +237,7 @@ function showProgress(p) {
     state.elapsed = { seconds: p.elapsed, at: performance.now() };
     showElapsed();
   }
-  $("phase").textContent = [p.phase, p.detail].filter(Boolean).join(": ");
+  $("phase").textContent = [PHASES[p.phase] ?? p.phase, p.detail].filter(Boolean).join(": ");
 }
 
 /** The solver's elapsed time, running on between events while the job runs. */
@@ -449,7 +480,7 @@ function start() {
   const saved = sessionStorage.getItem(JOB_STORAGE);
   if (saved) {
     const job = JSON.parse(saved);
-    $("problem").value = JSON.stringify(job.problem, null, 2);
+    $("problem").value = prettyJson(job.problem);
     follow(job); // replays its events from the start, or shows how it ended
   }
 }
