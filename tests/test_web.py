@@ -8,10 +8,13 @@ fail instead, so that a missing install cannot pass for a green run.
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import json
 import os
 import re
+import socket
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -23,7 +26,9 @@ from models import Problem
 from tests.servers import Server
 
 CHROMIUM = Path("/usr/bin/chromium")
-SCREENSHOTS = Path(__file__).resolve().parents[1] / "build" / "screenshots"
+ROOT = Path(__file__).resolve().parents[1]
+SCREENSHOTS = ROOT / "build" / "screenshots"
+EXAMPLES = ROOT / "examples"
 VIEWPORT = {"width": 1280, "height": 860}
 #: Milliseconds to wait for a job to end; apartment-5 takes about a second.
 JOB_TIMEOUT_MS = 30_000
@@ -118,11 +123,10 @@ def test_the_examples_are_listed_smallest_first_and_served_as_written(server: Se
     listed = httpx.get(f"{server.url}/v1/examples", timeout=10).json()["data"]
     assert [e["name"] for e in listed][:2] == ["apartment-5", "house-13"]
     assert [e["rooms"] for e in listed] == sorted(e["rooms"] for e in listed)
-    repository = Path(__file__).resolve().parents[1] / "examples"
     for example in listed:
         served = httpx.get(f"{server.url}{example['href']}", timeout=10)
         assert served.headers["content-type"] == "application/json"
-        assert served.text == (repository / f"{example['name']}.json").read_text()
+        assert served.text == (EXAMPLES / f"{example['name']}.json").read_text()
         assert len(Problem.model_validate_json(served.text).rooms) == example["rooms"]
     unknown = httpx.get(f"{server.url}/v1/examples/no-such-plan", timeout=10)
     assert unknown.status_code == 404
@@ -211,25 +215,96 @@ def test_bad_input_shows_every_field_path_and_the_findings(page: Any, server: Se
     page.click("#validate")
     expect(messages).to_contain_text("No layout can exist")
     expect(messages.locator("li")).not_to_have_count(0)
+    page.click("#submit")  # solved anyway: the job fails, and the page says why
+    expect(page.locator("#status")).to_have_text("failed", timeout=JOB_TIMEOUT_MS)
+    expect(page.locator("#summary-list [data-term='termination']")).to_have_text("infeasible")
+    expect(messages).to_contain_text("No layout: infeasible")
+    expect(messages.locator("li")).not_to_have_count(0)
 
 
-def test_cancel_keeps_the_best_layout_so_far(page: Any, server: Server) -> None:
-    page.goto(server.url)
-    pick_example(page, "house-13", time_limit="60")
-    page.click("#submit")
-    expect(page.locator("#plan")).to_have_attribute("data-source", "incumbent",
-                                                     timeout=JOB_TIMEOUT_MS)
-    expect(page.locator("#cancel")).to_be_enabled()
-    screenshot(page, "web-live.png")
-    page.click("#cancel")
-    expect(page.locator("#status")).to_have_text("canceled", timeout=JOB_TIMEOUT_MS)
-    summary = page.locator("#summary-list")
-    expect(summary.locator("[data-term='termination']")).to_have_text("interrupted")
-    expect(summary.locator("[data-term='rooms placed']")).to_have_text(re.compile(r" of 13$"))
-    expect(page.locator("#plan")).to_have_attribute("data-source", "result")
-    expect(page.locator("#download-svg")).to_have_attribute("href", re.compile("format=svg"))
-    expect(page.locator("#submit")).to_be_enabled()
-    screenshot(page, "web-canceled.png")
+class Relay:
+    """A TCP relay in front of a server that can cut every connection through it at
+    once, as a dropped network would: the page must resume its event stream."""
+
+    def __init__(self, target_port: int) -> None:
+        self.target_port = target_port
+        self.listener = socket.create_server(("127.0.0.1", 0))
+        self.url = f"http://127.0.0.1:{self.listener.getsockname()[1]}"
+        self._open: list[socket.socket] = []
+        self._lock = threading.Lock()
+        threading.Thread(target=self._accept, daemon=True).start()
+
+    def _accept(self) -> None:
+        while True:
+            try:
+                client, _ = self.listener.accept()
+            except OSError:
+                return  # closed
+            upstream = socket.create_connection(("127.0.0.1", self.target_port))
+            with self._lock:
+                self._open += [client, upstream]
+            for source, sink in ((client, upstream), (upstream, client)):
+                threading.Thread(target=self._pipe, args=(source, sink), daemon=True).start()
+
+    @staticmethod
+    def _pipe(source: socket.socket, sink: socket.socket) -> None:
+        try:
+            while data := source.recv(1 << 16):
+                sink.sendall(data)
+        except OSError:
+            pass
+        finally:
+            for end in (source, sink):
+                end.close()
+
+    def cut(self) -> None:
+        with self._lock:
+            ends, self._open = self._open, []
+        for end in ends:
+            with contextlib.suppress(OSError):  # already closed by its pipe
+                end.shutdown(socket.SHUT_RDWR)
+            end.close()
+
+    def close(self) -> None:
+        self.listener.close()
+        self.cut()
+
+
+def test_a_dropped_stream_resumes_and_cancel_keeps_the_best_layout(
+    page: Any, server: Server
+) -> None:
+    relay = Relay(server.port)
+    streams: list[str | None] = []
+    page.on("request", lambda r: streams.append(r.headers.get("last-event-id"))
+            if r.url.endswith("/events") else None)
+    try:
+        page.goto(relay.url)
+        pick_example(page, "house-13", time_limit="60")
+        page.click("#submit")
+        expect(page.locator("#plan")).to_have_attribute("data-source", "incumbent",
+                                                         timeout=JOB_TIMEOUT_MS)
+        expect(page.locator("#cancel")).to_be_enabled()
+        screenshot(page, "web-live.png")
+
+        with page.expect_request(lambda r: r.url.endswith("/events")
+                                 and "last-event-id" in r.headers):
+            relay.cut()
+        assert streams[0] is None and streams[-1] and streams[-1].isdigit(), streams
+        page.click("#cancel")
+        # The end of the job comes through the resumed stream.
+        expect(page.locator("#status")).to_have_text("canceled", timeout=JOB_TIMEOUT_MS)
+        summary = page.locator("#summary-list")
+        expect(summary.locator("[data-term='termination']")).to_have_text("interrupted")
+        expect(summary.locator("[data-term='rooms placed']")).to_have_text(
+            re.compile(r" of 13$"))
+        expect(page.locator("#plan")).to_have_attribute("data-source", "result")
+        expect(page.locator("#download-svg")).to_have_attribute("href",
+                                                                re.compile("format=svg"))
+        expect(page.locator("#submit")).to_be_enabled()
+        expect(page.locator("#messages")).to_be_hidden()
+        screenshot(page, "web-canceled.png")
+    finally:
+        relay.close()
 
 
 def test_a_server_with_keys_asks_for_one_and_works_with_it(
@@ -240,7 +315,9 @@ def test_a_server_with_keys_asks_for_one_and_works_with_it(
         page.goto(keyed.url)
         expect(page.locator("#key-note")).to_have_text(re.compile("requires an API key"))
         expect(page.locator("#api-key")).to_be_focused()
-        pick_example(page, "apartment-5", time_limit="3")
+        page.set_input_files("#file", EXAMPLES / "apartment-5.json")  # an upload this time
+        expect(page.locator("#problem")).to_have_value(re.compile('"name": "apartment-5"'))
+        page.fill("#time-limit", "3")
         page.click("#submit")
         expect(page.locator("#messages")).to_contain_text("(401)")
 
