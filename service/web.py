@@ -31,7 +31,7 @@ LAYOUT_SUFFIX = ".layout.json"
 EXAMPLE_NAME = r"^[a-z0-9][a-z0-9-]{0,99}$"
 
 #: The page loads nothing from elsewhere and runs no inline script: user strings (room
-#: ids, error messages) can never become code. Styles set from script are allowed.
+#: ids, error messages) can never become code.
 PAGE_SECURITY = {
     "Content-Security-Policy": "default-src 'self'; img-src 'self' data: blob:; "
     "object-src 'none'; base-uri 'none'; frame-ancestors 'none'; form-action 'self'",

@@ -271,7 +271,11 @@ async function follow(job) {
   const abort = new AbortController();
   state.abort = abort;
   state.job = job;
-  sessionStorage.setItem(JOB_STORAGE, JSON.stringify(job));
+  try {
+    sessionStorage.setItem(JOB_STORAGE, JSON.stringify(job));
+  } catch (err) {
+    console.warn("the job is too large to keep for a reload:", err);
+  }
   setStatus("queued");
   resetProgress();
   $("summary").hidden = true;
