@@ -22,6 +22,7 @@ from pydantic import BaseModel, Field, ValidationError
 
 from models import Layout
 from models import Problem as LayoutProblem
+from service import web
 from service.errors import ApiError, FieldError, ProblemDetails, field_errors, install
 from service.runner import Runner
 from service.settings import Settings, get_settings
@@ -418,6 +419,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     install(app)
     app.include_router(layouts)
     app.include_router(misc)
+    web.install(app)  # the page at /, its static files, the examples
     app.openapi = lambda: _openapi(app)  # type: ignore[method-assign]
     return app
 
