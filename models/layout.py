@@ -16,6 +16,9 @@ class Termination(StrEnum):
     """Every MIQP was solved to optimality (within SCIP's default gap)."""
     TIME_LIMIT = "timelimit"
     """The time limit was reached; the best layout found so far is returned."""
+    STALLED = "stalled"
+    """Ended before the time limit: the layout covers the whole floor and the search
+    stopped improving its size error (a local optimum, not a proven one)."""
     INFEASIBLE = "infeasible"
     """No layout satisfies the hard constraints (see `Report.infeasibility`)."""
     INTERRUPTED = "interrupted"
@@ -87,6 +90,15 @@ class ConstraintCheck(BaseModel):
     detail: str = ""
 
 
+class ExtraRectangles(BaseModel):
+    """A room laid out from more than one rectangle from level 1 on (an L or T shape)."""
+
+    room: str
+    rectangles: int = Field(description="rectangles the room started from")
+    reason: str = Field(description="'asked' (shape or max_rects in the problem) or why a "
+                        "single rectangle was not enough")
+
+
 class Infeasibility(BaseModel):
     """Why no layout was returned."""
 
@@ -116,6 +128,10 @@ class Report(BaseModel):
         None,
         description="the size window (fraction of each target, 0.1 = 90-110 %) in which the "
         "first layout was found (Sec. 5.4); null when the user's own bounds were needed",
+    )
+    extra_rectangles: list[ExtraRectangles] = Field(
+        default_factory=list,
+        description="rooms that started from several rectangles at level 1, and why",
     )
 
 

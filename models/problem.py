@@ -34,6 +34,8 @@ from shapely.geometry import Polygon, box
 MAX_COORDINATE = 1e5
 #: Default cap on rooms per problem; pass ``context={"max_rooms": n}`` to change it.
 DEFAULT_MAX_ROOMS = 400
+#: The most rectangles a room may ask to start from (an L, T or U, or a room with a bay).
+MAX_ROOM_RECTS = 4
 #: Geometric tolerance in metres for "on the boundary" and similar tests.
 TOLERANCE = 1e-6
 
@@ -81,6 +83,22 @@ class Room(_Strict):
         default_factory=list,
         description="exterior edges (indices or compass words); touch one, C_boundary (Eq. 9)",
     )
+    shape: Literal["rectangle", "free"] = Field(
+        "rectangle",
+        description="'free': the room may be an L or T from the start (two rectangles "
+        "sharing a wall), not only when a single rectangle cannot satisfy the constraints",
+    )
+    max_rects: Annotated[int, Field(ge=1, le=MAX_ROOM_RECTS)] | None = Field(
+        None, description="rectangles the room may start from: 1 keeps it a rectangle; "
+        "default 1, or 2 with shape 'free'",
+    )
+
+    @property
+    def rectangles(self) -> int:
+        """How many rectangles the room starts from at level 1 when it asks."""
+        if self.max_rects is not None:
+            return self.max_rects
+        return 2 if self.shape == "free" else 1
 
     @model_validator(mode="after")
     def _check_bounds(self) -> Self:
@@ -155,9 +173,9 @@ class Options(_Strict):
         "relative size error = E_size of the room / |target|^2",
     )
     require_connected: bool = Field(
-        False, description="every room must be reachable through doors from the entrance; "
-        "missing doors are added where walls allow, and the report says if any room stays "
-        "unreachable",
+        False, description="every room must be reachable through doors from the entrance: "
+        "the solver adds the adjacencies that guarantee it, then doors where walls allow; "
+        "the report says if any room stays unreachable",
     )
 
 

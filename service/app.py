@@ -23,6 +23,7 @@ from pydantic import BaseModel, Field, ValidationError
 from models import Layout
 from models import Problem as LayoutProblem
 from models.templates import TemplatedProblem
+from service import web
 from service.errors import ApiError, FieldError, ProblemDetails, field_errors, install
 from service.runner import Runner
 from service.settings import Settings, get_settings
@@ -92,8 +93,8 @@ class JobPublic(BaseModel):
 
     id: UUID
     status: JobStatus
-    termination: str | None = Field(None, description="optimal, timelimit, infeasible, "
-                                    "interrupted, no_solution; set when the job ends")
+    termination: str | None = Field(None, description="optimal, timelimit, stalled, "
+                                    "infeasible, interrupted, no_solution; set when the job ends")
     progress: Progress | None = None
     error: JobError | None = None
     attempts: int
@@ -441,6 +442,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     install(app)
     app.include_router(layouts)
     app.include_router(misc)
+    web.install(app)  # the page at /, its static files, the examples
     app.openapi = lambda: _openapi(app)  # type: ignore[method-assign]
     return app
 
