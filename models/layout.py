@@ -90,6 +90,15 @@ class ConstraintCheck(BaseModel):
     detail: str = ""
 
 
+class ExtraRectangles(BaseModel):
+    """A room laid out from more than one rectangle from level 1 on (an L or T shape)."""
+
+    room: str
+    rectangles: int = Field(description="rectangles the room started from")
+    reason: str = Field(description="'asked' (shape or max_rects in the problem) or why a "
+                        "single rectangle was not enough")
+
+
 class ConflictItem(BaseModel):
     """One of the user's constraints in a conflict (see `ConflictSet`)."""
 
@@ -154,6 +163,10 @@ class Report(BaseModel):
         None,
         description="the size window (fraction of each target, 0.1 = 90-110 %) in which the "
         "first layout was found (Sec. 5.4); null when the user's own bounds were needed",
+    )
+    extra_rectangles: list[ExtraRectangles] = Field(
+        default_factory=list,
+        description="rooms that started from several rectangles at level 1, and why",
     )
 
 

@@ -23,6 +23,8 @@ from pydantic import BaseModel, Field, ValidationError
 
 from models import ConflictSet, Layout
 from models import Problem as LayoutProblem
+from models.templates import TemplatedProblem
+from service import web
 from service.errors import ApiError, FieldError, ProblemDetails, field_errors, install
 from service.runner import Runner
 from service.settings import Settings, get_settings
@@ -61,6 +63,15 @@ EXAMPLE_PROBLEM: dict[str, Any] = {
          "target_size": [2, 2]},
     ],
     "adjacency": [{"a": "living", "b": "bed"}, {"a": "bed", "b": "bath"}],
+    "options": {"time_limit": 5, "seed": 0},
+}
+#: The same flat from its room types alone: the residential template fills in the rest.
+EXAMPLE_TEMPLATED: dict[str, Any] = {
+    "name": "studio",
+    "boundary": [[0, 0], [8, 0], [8, 6], [0, 6]],
+    "entrance": [4, 0],
+    "template": "residential",
+    "rooms": ["living", "bedroom", "bathroom"],
     "options": {"time_limit": 5, "seed": 0},
 }
 
@@ -128,6 +139,10 @@ class Validation(BaseModel):
     errors: list[FieldError] = Field(default_factory=list)
     findings: list[str] = Field(default_factory=list,
                                 description="reasons no layout can exist")
+    problem: LayoutProblem | None = Field(
+        None, description="the problem as it would be solved, a template expanded: the "
+        "fields given or filled in (defaults left out); edit it and send it as is. "
+        "Absent when the problem is not well formed")
     feasible: bool | None = Field(
         None, description="with explain: true when SCIP found a layout meeting every hard "
         "constraint, false when it proved there is none, null when neither in the time "
@@ -229,8 +244,14 @@ PROBLEM_BODY_DOC: dict[str, Any] = {
     "requestBody": {
         "required": True,
         "content": {"application/json": {
-            "schema": {"$ref": "#/components/schemas/Problem"},
-            "example": EXAMPLE_PROBLEM,
+            # A plain problem, or one a template fills in from its room types.
+            "schema": {"anyOf": [{"$ref": "#/components/schemas/Problem"},
+                                 {"$ref": "#/components/schemas/TemplatedProblem"}]},
+            "examples": {
+                "plain": {"summary": "every constraint stated", "value": EXAMPLE_PROBLEM},
+                "templated": {"summary": "room types only (residential template)",
+                              "value": EXAMPLE_TEMPLATED},
+            },
         }},
     }
 }
@@ -384,7 +405,8 @@ async def validate_problem(
     """Check a problem without solving it: the schema, then the cheap impossibilities
     (total area, sizes that fit nowhere, contradictory ratios, ...). With `explain`,
     a short SCIP check of the whole problem follows, and a conflict search when no
-    layout can exist."""
+    layout can exist. A well-formed problem comes back as it would be solved, a
+    template expanded."""
     try:
         problem, _raw = await problem_body(request, settings)
     except ApiError as err:
@@ -393,11 +415,12 @@ async def validate_problem(
         return Validation(valid=False, errors=err.errors or [], findings=[])
     if not explain:
         findings = await asyncio.to_thread(find_impossibilities, problem, make_domain(problem))
-        return Validation(valid=not findings, errors=[], findings=findings)
+        # exclude_unset on the answer: the problem shows what was given or filled in.
+        return Validation(valid=not findings, errors=[], findings=findings, problem=problem)
     seconds = min(time_limit, settings.max_time_limit)
     found = await asyncio.to_thread(_diagnose, problem, seconds)
     return Validation(valid=not found.findings and found.feasible is not False, errors=[],
-                      findings=found.findings, feasible=found.feasible,
+                      findings=found.findings, problem=problem, feasible=found.feasible,
                       conflict=found.conflict)
 
 
@@ -460,6 +483,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     install(app)
     app.include_router(layouts)
     app.include_router(misc)
+    web.install(app)  # the page at /, its static files, the examples
     app.openapi = lambda: _openapi(app)  # type: ignore[method-assign]
     return app
 
@@ -471,7 +495,8 @@ def _openapi(app: FastAPI) -> dict[str, Any]:
     schema = get_openapi(title=app.title, version=app.version, description=app.description,
                          routes=app.routes)
     components = schema.setdefault("components", {}).setdefault("schemas", {})
-    for model, name in ((LayoutProblem, "Problem"), (ProblemDetails, "ProblemDetails")):
+    for model, name in ((LayoutProblem, "Problem"), (TemplatedProblem, "TemplatedProblem"),
+                        (ProblemDetails, "ProblemDetails")):
         model_schema = model.model_json_schema(ref_template="#/components/schemas/{model}")
         components.update(model_schema.pop("$defs", {}))
         components[name] = model_schema

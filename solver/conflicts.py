@@ -37,7 +37,7 @@ from typing import TypeVar
 from models import ConflictItem, ConflictSet, Problem
 from solver.formulation import build_level
 from solver.geometry import EPS, Domain, Edge, edges_named, make_domain
-from solver.level_one import level_one_spec
+from solver.level_one import level_one_spec, wings_wanted
 from solver.openings import connection_demands
 from solver.precheck import find_impossibilities
 from solver.scip_run import LevelStatus, run_level
@@ -202,7 +202,9 @@ def level_one_verdict(
         return Verdict.INFEASIBLE
     if not scip_may_decide(sub, time_limit):
         return Verdict.UNDECIDED
-    lm = build_level(level_one_spec(sub, domain, window=None), feasibility=True)
+    # The rooms that ask for more than one rectangle get them, as in solve's level 1.
+    spec = level_one_spec(sub, domain, window=None, wings=wings_wanted(sub))
+    lm = build_level(spec, feasibility=True)
     result = run_level(lm, time_limit=time_limit, should_stop=should_stop)
     if result.status is LevelStatus.INFEASIBLE:
         return Verdict.INFEASIBLE
@@ -328,7 +330,8 @@ def find_conflict(
     if checker.checks == 0:
         return None
     items = describe_all(kept, solved, domain)
-    return ConflictSet(explanation=explanation(items, domain, minimal=minimal),
+    shaped = bool(wings_wanted(restricted(solved, kept)))
+    return ConflictSet(explanation=explanation(items, domain, minimal=minimal, shaped=shaped),
                        constraints=items, minimal=minimal)
 
 
@@ -485,12 +488,16 @@ def _m(value: float) -> str:
     return "0" if text == "-0" else text
 
 
-def explanation(items: Sequence[ConflictItem], domain: Domain, *, minimal: bool) -> str:
-    """The conflict in one sentence, with the outline's dimensions."""
+def explanation(items: Sequence[ConflictItem], domain: Domain, *, minimal: bool,
+                shaped: bool = False) -> str:
+    """The conflict in one sentence, with the outline's dimensions. It is judged on
+    level 1, where a room is one rectangle unless it asks for more (`shaped`)."""
     box = domain.bbox
     where = f"the {_m(box.width)} x {_m(box.depth)} m outline"
     if domain.area < box.area - EPS:
         where += f" ({domain.area:.4g} m² free)"
+    where += (" with each room one rectangle or the ones it asks for" if shaped
+              else " with each room one rectangle")
     head = ("This constraint cannot hold" if len(items) == 1
             else f"These {len(items)} constraints cannot all hold")
     sentence = f"{head} in {where}: {'; '.join(item.phrase for item in items)}."

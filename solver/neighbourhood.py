@@ -134,6 +134,10 @@ def neighbourhood_spec(
     held as a fixed rectangle where a contact of a free room names it."""
     partners = {n for c in spec.contacts if c.members & free
                 for n in c.members} - free
+    # A room of several rectangles keeps its envelope while any of them moves, with its
+    # other rectangles held where they are.
+    envelopes = tuple(e for e in spec.envelopes if set(e.rects) & free)
+    partners |= {n for e in envelopes for n in e.rects} - free
     kept = []
     for r in spec.rects:
         if r.name in free:
@@ -149,7 +153,7 @@ def neighbourhood_spec(
     smallest = min(min(r.min_size) for r in spec.rects if r.name in free)
     blocked = unusable_space(region, inside, smallest)
     return replace(spec, name=f"{spec.name}/lns", region=region, rects=tuple(kept),
-                   contacts=contacts, blocked=blocked)
+                   contacts=contacts, envelopes=envelopes, blocked=blocked)
 
 
 def _clip(b: Box, region: Box) -> Box:

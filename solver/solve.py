@@ -16,6 +16,7 @@ import shapely
 
 from models import (
     ConstraintCheck,
+    ExtraRectangles,
     Infeasibility,
     Layout,
     Problem,
@@ -48,7 +49,13 @@ from solver.hierarchy import (
     room_boxes,
     select_subdomains,
 )
-from solver.level_one import level_one_spec, windows_to_try
+from solver.level_one import (
+    demand_order,
+    level_one_spec,
+    windows_to_try,
+    wing_names,
+    wings_wanted,
+)
 from solver.neighbourhood import (
     GAP_AREA,
     NEIGHBOURHOOD_SIZE,
@@ -142,6 +149,22 @@ class _Run:
     stalled: bool = False
     #: The problem as the user sent it, before require_connected added to it.
     asked: Problem | None = None
+    #: Extra level-1 rectangles per room (issue 8), and the report's account of them.
+    wings: dict[str, int] = field(default_factory=dict)
+    extra: list[ExtraRectangles] = field(default_factory=list)
+
+    def room_of(self, rect: str) -> str:
+        """The room a level-1 rectangle belongs to."""
+        for room_id, count in self.wings.items():
+            if rect in wing_names(room_id, count):
+                return room_id
+        return rect
+
+    def by_room(self, rects: dict[str, Box]) -> dict[str, list[Box]]:
+        rooms: dict[str, list[Box]] = {}
+        for name, b in rects.items():
+            rooms.setdefault(self.room_of(name), []).append(b)
+        return rooms
 
     def remaining(self) -> float:
         return self.deadline - time.monotonic()
@@ -265,7 +288,12 @@ def _level_one(
     first: LevelResult | None = None
     proven_infeasible = False
     large = len(problem.rooms) > CONSTRUCT_ABOVE
-    if slicing_applies(problem):
+    run.wings = wings_wanted(problem)
+    run.extra = [ExtraRectangles(room=room_id, rectangles=count + 1, reason="asked")
+                 for room_id, count in run.wings.items()]
+    # Keep time for extra rectangles when one rectangle per room is not enough.
+    may_widen = len(run.wings) < len(problem.rooms)
+    if slicing_applies(problem) and not run.wings:
         first = _slice(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
     if large and first is None:
         first = _construct(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
@@ -273,9 +301,9 @@ def _level_one(
         left = deadline - time.monotonic()
         if left <= 0.05 or run.stopped():
             break
-        spec = level_one_spec(problem, domain, window=window)
+        spec = level_one_spec(problem, domain, window=window, wings=run.wings)
         lm = build_level(spec, feasibility=True)
-        share = left if window is None else left * ATTEMPT_SHARE
+        share = left * (ATTEMPT_SHARE if window is not None or may_widen else 1.0)
         result = run.run(lm, share)
         label = "user bounds" if window is None else f"target ±{window:.0%}"
         run.relaxations.append(f"{label}: {result.status}")
@@ -285,9 +313,15 @@ def _level_one(
             break
         proven_infeasible = window is None and result.status is LevelStatus.INFEASIBLE
     if first is None and not proven_infeasible and not large:
-        first = _construct(run, domain, deadline)
+        first = _construct(run, domain, deadline - (deadline - time.monotonic()) * (
+            ATTEMPT_SHARE if may_widen else 0.0))
+    if first is None and may_widen:
+        first = _with_wings(run, domain, deadline, why=(
+            "one rectangle per room is infeasible (proved by SCIP)" if proven_infeasible
+            else "no one-rectangle-per-room layout was found in its share of the time"))
+        proven_infeasible = proven_infeasible and first is None
     if first is None:
-        spec = level_one_spec(problem, domain, window=None)
+        spec = level_one_spec(problem, domain, window=None, wings=run.wings)
         if proven_infeasible:
             why = Infeasibility(
                 reason="SCIP proved that no single-rectangle layout satisfies the constraints",
@@ -303,9 +337,39 @@ def _level_one(
             reason=reason, active_families=active_families(spec),
             relaxations_tried=run.relaxations))
     assert first.rects is not None
-    run.incumbent(domain, {k: [b] for k, b in first.rects.items()})
+    run.incumbent(domain, run.by_room(first.rects))
     boxes = _improve_level_one(run, domain, first.rects, deadline)
-    return [_piece(problem, domain, room_id, box) for room_id, box in boxes.items()], None
+    return [_piece(problem, domain, run.room_of(name), name, box)
+            for name, box in boxes.items()], None
+
+
+def _with_wings(run: _Run, domain: Domain, deadline: float, why: str) -> LevelResult | None:
+    """Issue 8: when one rectangle per room fails, let the rooms with the most demands
+    start as two rectangles (an L or T), one more room at each attempt, doubling."""
+    problem = run.problem
+    order = [r for r in demand_order(problem) if r not in run.wings]
+    count = 1
+    while order and not run.stopped():
+        left = deadline - time.monotonic()
+        if left <= 0.05:
+            return None
+        chosen = order[:count]
+        last = count >= len(order)
+        wings = run.wings | dict.fromkeys(chosen, 1)
+        spec = level_one_spec(problem, domain, window=None, wings=wings)
+        result = run.run(build_level(spec, feasibility=True),
+                         left if last else left * ATTEMPT_SHARE)
+        label = f"user bounds, {', '.join(chosen)} as two rectangles"
+        run.relaxations.append(f"{label}: {result.status}")
+        run.emit(Phase.RELAXATION, detail=f"size bounds {label}: {result.status}")
+        if result.rects is not None:
+            run.wings = wings
+            run.extra += [ExtraRectangles(room=r, rectangles=2, reason=why) for r in chosen]
+            return result
+        if last:
+            return None
+        count *= 2
+    return None
 
 
 def _slice(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
@@ -324,7 +388,7 @@ def _slice(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
 
 def _construct(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
     """A first layout built a batch of rooms at a time (solver/construct.py)."""
-    if deadline - time.monotonic() <= 0.1 or run.stopped():
+    if deadline - time.monotonic() <= 0.1 or run.stopped() or run.wings:
         return None
     spec = level_one_spec(run.problem, domain, window=None)
     rects = construct(spec, deadline=deadline, rng=random.Random(run.problem.options.seed),
@@ -344,7 +408,7 @@ def _improve_level_one(
     neighbourhood search on the level-1 MIQP."""
     if deadline - time.monotonic() <= 0.1 or run.stopped():
         return first
-    lm = build_level(level_one_spec(run.problem, domain, window=None))
+    lm = build_level(level_one_spec(run.problem, domain, window=None, wings=run.wings))
     start = complete_start(lm, first, time_limit=deadline - time.monotonic())
     if start.values is None:
         return first
@@ -352,12 +416,12 @@ def _improve_level_one(
     if len(run.problem.rooms) <= NEIGHBOURHOOD_SIZE:
         # One neighbourhood would be the whole model: solve it outright.
         def announce(inc: Incumbent) -> None:
-            run.incumbent(domain, {k: [b] for k, b in inc.rects.items()}, inc.dual_bound)
+            run.incumbent(domain, run.by_room(inc.rects), inc.dual_bound)
 
         direct = run.run(lm, deadline - time.monotonic(), on_incumbent=announce)
         return direct.rects if direct.rects is not None else start.rects
     def improved(rects: dict[str, Box]) -> None:
-        run.incumbent(domain, {k: [b] for k, b in rects.items()})
+        run.incumbent(domain, run.by_room(rects))
 
     # Coverage first (what users judge a plan by), then the user's own weights without
     # giving coverage back. A start that covers everything skips the first phase, and
@@ -386,8 +450,10 @@ def _improve_level_one(
     return best.rects
 
 
-def _piece(problem: Problem, domain: Domain, room_id: str, box: Box) -> Piece:
+def _piece(problem: Problem, domain: Domain, room_id: str, name: str, box: Box) -> Piece:
     room = problem.room(room_id)
+    if name != room_id:
+        return Piece(name, room_id, box)  # an extra rectangle answers for nothing alone
     # Only the candidate edges the room actually lies on carry over to refinement.
     edges = tuple(e for e in edges_named(problem, domain.edges, room.boundary) if on_edge(box, e))
     return Piece(room_id, room_id, box, tuple(room.positions), edges)
@@ -436,7 +502,7 @@ def _layout(run: _Run, domain: Domain, pieces: list[Piece], levels: int) -> Layo
         constraints=constraints, size_error=check.size_error,
         objective=objective, levels=levels, solve_time=run.elapsed(),
         termination=_termination(run), valid=valid, circulation=openings.circulation,
-        relaxation=run.window,
+        relaxation=run.window, extra_rectangles=run.extra,
     )
     run.emit(Phase.DONE, objective=objective, detail=f"coverage {check.coverage:.1%}")
     return Layout(name=problem.name, rooms=out, doors=openings.doors, windows=openings.windows,

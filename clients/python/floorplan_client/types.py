@@ -174,6 +174,9 @@ class Validation(_Model):
     errors: list[FieldError] = Field(default_factory=list)
     findings: list[str] = Field(default_factory=list,
                                 description="reasons no layout can exist")
+    problem: Problem | None = Field(
+        None, description="the problem as the service would solve it (a template "
+        "expanded); None when it is not well formed, or from an older service")
     feasible: bool | None = Field(
         default=None, description="asked with explain: SCIP found a layout (True), proved "
         "there is none (False), or neither in the time given (None)")
