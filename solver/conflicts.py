@@ -193,8 +193,9 @@ def level_one_verdict(
     problem: Problem, domain: Domain, groups: Collection[Group], *, time_limit: float,
     should_stop: Callable[[], bool] | None = None,
 ) -> Verdict:
-    """Can every constraint in `groups` hold at once, each room one rectangle? The
-    prechecks, then SCIP within `time_limit` (0: the prechecks alone)."""
+    """Can every constraint in `groups` hold at once, each room one rectangle (or the
+    ones it asks for)? The prechecks, then SCIP within `time_limit` (0: the prechecks
+    alone)."""
     if not groups:
         return Verdict.FEASIBLE
     sub = restricted(problem, groups)
