@@ -26,6 +26,9 @@ CORNER_CLEARANCE = 0.1
 CIRCULATION_TYPES = frozenset({"corridor", "hall", "foyer", "living", "dining", "lobby"})
 #: Lengths below this count as zero.
 EPS = 1e-6
+#: A wall this much shorter than a door still takes it: SCIP meets a minimum contact
+#: only within its tolerance (the checker's).
+WALL_TOLERANCE = 1e-4
 #: The room types that receive the front door under `require_connected`, first found wins.
 ENTRANCE_TYPES = ("foyer", "hall", "lobby", "corridor", "living")
 #: How far inside the outline the front-door room's position point sits (metres).
@@ -223,7 +226,7 @@ def connecting_doors(
                 if not may_connect(problem, room_id, other):
                     continue
                 wall = longest_shared_wall(rooms[room_id], rooms[other])
-                if wall is None or wall.length < width + EPS:
+                if wall is None or wall.length < width - WALL_TOLERANCE:
                     continue
                 # A door onto a corridor or living space beats a longer wall onto a
                 # bedroom: nobody wants to cross a bedroom to get anywhere.
@@ -318,10 +321,17 @@ def door_segment(
     ((0.1, 0.0), (1.0, 0.0))
     >>> door_segment(LineString([(0, 0), (0.8, 0)]), 0.9) is None
     True
+
+    A wall exactly a door wide (an adjacency's minimum contact) takes the door, without
+    clearance, within the checker's tolerance:
+
+    >>> door_segment(LineString([(0, 0), (0.89999, 0)]), 0.9)
+    ((0.0, 0.0), (0.89999, 0.0))
     """
     length = wall.length
-    if length < width + EPS:
+    if length < width - WALL_TOLERANCE:
         return None
+    width = min(width, length)
     clearance = min(CORNER_CLEARANCE, (length - width) / 2)
     at = length / 2 if centre is None else wall.project(centre)
     at = min(max(at, clearance + width / 2), length - clearance - width / 2)
