@@ -28,12 +28,14 @@ thread that watches it keeps the worker light.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import os
 import socket
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from typing import Any
 
 import redis
@@ -71,6 +73,8 @@ class Keys:
         #: Present while Redis still has what it was sent: missing means a fresh or
         #: restarted Redis, whose queue must be filled again from the store.
         self.broker_epoch = f"{namespace}:broker-epoch"
+        #: One key per live worker process, expiring unless renewed (for /readyz).
+        self.workers = f"{namespace}:worker:"
 
 
 def celery_config(settings: Settings) -> dict[str, Any]:
@@ -151,11 +155,12 @@ class Reconciler:
     every node at once: each change is a conditional update that one node wins."""
 
     def __init__(self, settings: Settings, store: JobStore, dispatcher: Dispatcher,
-                 identity: str) -> None:
+                 identity: str, also: Callable[[], None] | None = None) -> None:
         self.settings = settings
         self.store = store
         self.dispatcher = dispatcher
         self.identity = identity
+        self.also = also  # run on every pass too (a worker says it is alive)
         self._last_purge = 0.0
         self.thread: threading.Thread | None = None
 
@@ -171,6 +176,8 @@ class Reconciler:
     def _loop(self, stopping: threading.Event) -> None:
         while not stopping.is_set():
             try:
+                if self.also is not None:
+                    self.also()
                 self.reconcile()
             except Exception as err:  # the store or Redis is away: try again next time
                 log.warning("reconciler: %s", err)
@@ -294,7 +301,11 @@ class CeleryBackend(JobBackend):
             broker = "down"
         # Accepting jobs needs only the store: with the broker down they wait in it.
         ready = self.store.ping() and self.reconciler.alive
-        return {"ready": ready, "backend": self.name, "broker": broker,
+        workers = 0
+        if broker == "ok":
+            pattern = f"{self.dispatcher.keys.workers}*"
+            workers = sum(1 for _ in self.dispatcher.redis.scan_iter(pattern, count=500))
+        return {"ready": ready, "backend": self.name, "broker": broker, "workers": workers,
                 "running": self.store.count(JobStatus.RUNNING),
                 "queued": self.store.count(JobStatus.QUEUED)}
 
@@ -317,7 +328,8 @@ class WorkerRuntime:
         self.store = JobStore(settings.store_url)
         self.dispatcher = Dispatcher(settings, celery, self.store)
         self.identity = f"{socket.gethostname()}:{os.getpid()}"
-        self.reconciler = Reconciler(settings, self.store, self.dispatcher, self.identity)
+        self.reconciler = Reconciler(settings, self.store, self.dispatcher, self.identity,
+                                     also=self._say_alive)
         self.processes = SolveProcesses()
         self.stopping = threading.Event()
         self._active: dict[str, Child] = {}
@@ -334,6 +346,15 @@ class WorkerRuntime:
         (the task threads do that as their watch ends)."""
         self.stopping.set()
         self.processes.close()
+        with contextlib.suppress(redis.RedisError):  # else it expires
+            self.dispatcher.redis.delete(self.dispatcher.keys.workers + self.identity)
+
+    def _say_alive(self) -> None:
+        with self._lock:
+            busy = len(self._active)
+        ttl = max(self.settings.lease_seconds, 3 * self.settings.reconcile_seconds)
+        self.dispatcher.redis.set(self.dispatcher.keys.workers + self.identity,
+                                  f"{busy}/{self.settings.workers}", ex=max(1, round(ttl)))
 
     def run(self, job_id: str) -> str:
         """The task: claim `job_id` and solve it. Returns what happened, for the log."""
