@@ -235,6 +235,8 @@ def _kill_session(process: subprocess.Popen[bytes]) -> None:
 
 
 BACKENDS = ["embedded", "celery"]
+#: The service in either mode.
+AnyServer = Server | Cluster
 
 
 def service(backend: str, data_dir: Path, **env: str) -> Server | Cluster:

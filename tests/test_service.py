@@ -17,7 +17,7 @@ from typing import Any
 import httpx2 as httpx
 import pytest
 
-from tests.servers import BACKENDS, Cluster, Server, service
+from tests.servers import BACKENDS, AnyServer, service
 
 TERMINAL = {"succeeded", "failed", "canceled"}
 
@@ -50,14 +50,14 @@ def backend(request: pytest.FixtureRequest) -> str:
 
 
 @pytest.fixture(scope="module")
-def server(backend: str, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server | Cluster]:
+def server(backend: str, tmp_path_factory: pytest.TempPathFactory) -> Iterator[AnyServer]:
     s = service(backend, tmp_path_factory.mktemp("data")).start()
     yield s
     s.stop()
 
 
 @pytest.fixture
-def client(server: Server | Cluster) -> Iterator[httpx.Client]:
+def client(server: AnyServer) -> Iterator[httpx.Client]:
     with httpx.Client(base_url=server.url, timeout=30) as c:
         yield c
 
