@@ -37,6 +37,9 @@ def add_worker(commands: Any) -> None:
     p.add_argument("--hostname", help="the worker's Celery node name (default celery@HOST); "
                    "give each worker on one machine its own")
     p.add_argument("--log-level", default="info", help="Celery log level")
+    p.add_argument("--health", action="store_true",
+                   help="do not run a worker: exit 0 if one of this host is alive, else 1 "
+                   "(a container health check)")
     p.set_defaults(func=cmd_worker, own_signals=True)
 
 
@@ -44,13 +47,15 @@ def cmd_worker(args: argparse.Namespace) -> int:
     from service.settings import Settings
 
     try:
-        from service.distributed import run_worker
+        from service.distributed import run_worker, worker_alive
     except ModuleNotFoundError as err:
         raise SystemExit(f"floorplan worker needs the distributed extra "
                          f"(pip install 'floorplan[distributed]'): {err}") from err
     overrides = {"workers": args.workers} if args.workers is not None else {}
-    return run_worker(Settings(**overrides), hostname=args.hostname,
-                      loglevel=args.log_level.upper())
+    settings = Settings(**overrides)
+    if args.health:
+        return 0 if worker_alive(settings) else 1
+    return run_worker(settings, hostname=args.hostname, loglevel=args.log_level.upper())
 
 
 def cmd_serve(args: argparse.Namespace) -> int:

@@ -454,6 +454,20 @@ def _on_worker_shutting_down(**_: Any) -> None:
         _runtime.shutdown()
 
 
+def worker_alive(settings: Settings, host: str | None = None) -> bool:
+    """Whether a worker process of `host` (this one by default) said lately that it is
+    alive: the key it renews on every reconciler pass exists."""
+    keys = Keys(settings.namespace)
+    client = redis_client(settings)
+    try:
+        pattern = f"{keys.workers}{host or socket.gethostname()}:*"
+        return next(iter(client.scan_iter(pattern, count=500)), None) is not None
+    except redis.RedisError:
+        return False
+    finally:
+        client.close()
+
+
 def run_worker(settings: Settings, *, hostname: str | None = None,
                loglevel: str = "INFO") -> int:
     """`floorplan worker`: a Celery worker of this application."""

@@ -5,6 +5,7 @@ the job, a Redis restart, the store's claims and leases, and the schema migratio
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import time
@@ -111,6 +112,11 @@ def test_a_cancel_reaches_the_worker_holding_the_job_and_keeps_its_incumbent(
             assert result["report"]["valid"] and len(result["rooms"]) == 12
             # The worker carries on with the next job.
             assert wait(client, submit(client, SMALL)["id"])["status"] == "succeeded"
+        # The container health check of a worker: one of this host is alive.
+        health = [sys.executable, "-m", "service", "worker", "--health"]
+        env = {**os.environ, **cluster.env}
+        assert subprocess.run(health, env=env).returncode == 0
+        assert subprocess.run(health, env={**env, "FLOORPLAN_NAMESPACE": "none"}).returncode == 1
     finally:
         cluster.stop()
 
