@@ -126,11 +126,19 @@ class Dispatcher:
         self.celery = celery
         self.store = store
         self.redis = redis_client(settings)
+        self.pause = settings.reconcile_seconds
+        self._failed_at = -float("inf")
+
+    @property
+    def broker_failing(self) -> bool:
+        """A send failed within the last reconciler period."""
+        return time.monotonic() - self._failed_at < self.pause
 
     def send(self, job_id: str) -> bool:
         try:
             self.celery.send_task(TASK_NAME, args=[job_id], queue=self.keys.queue)
         except Exception as err:  # the broker is down: the reconciler sends it later
+            self._failed_at = time.monotonic()
             log.warning("job %s not sent to the broker (%s); it will be sent later", job_id, err)
             self.store.mark_dispatched(job_id, False)
             return False
@@ -287,7 +295,10 @@ class CeleryBackend(JobBackend):
         self.dispatcher.redis.close()
 
     def submitted(self, job: Job) -> None:
-        self.dispatcher.send(job.id)
+        # While the broker is failing, a submission does not wait on it: the job stays
+        # undispatched in the store and the reconciler sends it once Redis answers.
+        if not self.dispatcher.broker_failing:
+            self.dispatcher.send(job.id)
 
     def cancel(self, job_id: str) -> None:
         self.store.request_cancel(job_id)
@@ -332,14 +343,17 @@ class WorkerRuntime:
                                      also=self._say_alive)
         self.processes = SolveProcesses()
         self.stopping = threading.Event()
+        #: Solves at once: Celery's concurrency (FLOORPLAN_WORKERS unless `-c` says).
+        self.slots = settings.workers
         self._active: dict[str, Child] = {}
         self._lock = threading.Lock()
 
-    def start(self) -> None:
-        self.processes.refill(self.settings.workers)
+    def start(self, slots: int | None = None) -> None:
+        self.slots = slots or self.slots
+        self.processes.refill(self.slots)
         threading.Thread(target=self._listen_for_cancels, name="cancels", daemon=True).start()
         self.reconciler.start(self.stopping)
-        log.info("worker %s ready: %d solves at once", self.identity, self.settings.workers)
+        log.info("worker %s ready: %d solves at once", self.identity, self.slots)
 
     def shutdown(self) -> None:
         """A graceful stop: the running solves are killed and their jobs handed back
@@ -354,7 +368,7 @@ class WorkerRuntime:
             busy = len(self._active)
         ttl = max(self.settings.lease_seconds, 3 * self.settings.reconcile_seconds)
         self.dispatcher.redis.set(self.dispatcher.keys.workers + self.identity,
-                                  f"{busy}/{self.settings.workers}", ex=max(1, round(ttl)))
+                                  f"{busy}/{self.slots}", ex=max(1, round(ttl)))
 
     def run(self, job_id: str) -> str:
         """The task: claim `job_id` and solve it. Returns what happened, for the log."""
@@ -395,7 +409,7 @@ class WorkerRuntime:
                 self._active.pop(job_id, None)
                 busy = len(self._active)
             if not self.stopping.is_set():
-                self.processes.refill(self.settings.workers - busy)
+                self.processes.refill(self.slots - busy)
 
     def _listen_for_cancels(self) -> None:
         channel = self.dispatcher.keys.cancel
@@ -444,8 +458,9 @@ def solve_job(job_id: str) -> str:
 
 
 @signals.worker_ready.connect
-def _on_worker_ready(**_: Any) -> None:
-    runtime().start()
+def _on_worker_ready(sender: Any = None, **_: Any) -> None:
+    concurrency = getattr(getattr(sender, "controller", None), "concurrency", None)
+    runtime().start(concurrency if isinstance(concurrency, int) else None)
 
 
 @signals.worker_shutting_down.connect
