@@ -341,7 +341,7 @@ class WorkerRuntime:
         self.identity = f"{socket.gethostname()}:{os.getpid()}"
         self.reconciler = Reconciler(settings, self.store, self.dispatcher, self.identity,
                                      also=self._say_alive)
-        self.processes = SolveProcesses()
+        self.processes = SolveProcesses(settings.subdomain_processes_per_solve)
         self.stopping = threading.Event()
         #: Solves at once: Celery's concurrency (FLOORPLAN_WORKERS unless `-c` says).
         self.slots = settings.workers

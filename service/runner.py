@@ -59,7 +59,8 @@ class SolveProcesses:
     """Spawned solve processes, one warmed up ahead per idle slot: a job then starts
     without waiting about a second for the imports of SCIP and shapely."""
 
-    def __init__(self) -> None:
+    def __init__(self, subdomain_processes: int = 1) -> None:
+        self.subdomain_processes = subdomain_processes
         self._ctx = multiprocessing.get_context("spawn")
         self._ready: list[Child] = []
         self._lock = threading.Lock()
@@ -92,7 +93,8 @@ class SolveProcesses:
         messages = self._ctx.Queue()
         stop = self._ctx.Event()
         process = self._ctx.Process(target=standby,
-                                    args=(receive, messages, stop, os.getpid()),
+                                    args=(receive, messages, stop, os.getpid(),
+                                          self.subdomain_processes),
                                     name="solve", daemon=True)
         process.start()
         receive.close()
@@ -250,7 +252,7 @@ class Runner:
     def __init__(self, store: JobStore, settings: Settings) -> None:
         self.store = store
         self.settings = settings
-        self._processes = SolveProcesses()
+        self._processes = SolveProcesses(settings.subdomain_processes_per_solve)
         self._active: dict[str, _Active] = {}
         self._lock = threading.Lock()
         self._wake = threading.Event()

@@ -61,6 +61,11 @@ class Settings(BaseSettings):
     retention_hours: float = Field(
         168.0, gt=0, description="finished jobs older than this are deleted"
     )
+    subdomain_processes: int | None = Field(
+        None, ge=1, description="processes solving the sub-domains of one refinement level "
+        "at once, per solve (1: one after the other); default: the cores left idle by "
+        "`workers` solves, at least 1",
+    )
     api_keys: Annotated[list[str], NoDecode] = Field(
         default_factory=list,
         description="comma-separated keys; when set, every request needs one and sees only "
@@ -85,6 +90,12 @@ class Settings(BaseSettings):
             return self.database_url
         self.data_dir.mkdir(parents=True, exist_ok=True)
         return f"sqlite:///{self.database_path}"
+
+    @property
+    def subdomain_processes_per_solve(self) -> int:
+        if self.subdomain_processes is not None:
+            return self.subdomain_processes
+        return max(1, (os.cpu_count() or 1) // self.workers)
 
     @property
     def heartbeat_seconds(self) -> float:
