@@ -101,3 +101,11 @@ def test_the_service_with_a_sub_domain_pool_per_solve(tmp_path: Path) -> None:
             assert result["report"]["valid"] and len(result["rooms"]) == 4
     finally:
         s.stop()
+
+
+def test_the_benchmark_runs_ours_with_a_sub_domain_pool() -> None:
+    from bench.solvers import run_ours
+
+    trace = run_ours(Problem.model_validate(TWO_WINGS), seed=1, subdomain_processes=2)
+    assert trace.solver == "ours-parallel" and trace.final is not None
+    assert trace.extra["subdomains_solved"] >= 2 and trace.extra["refine_seconds"] > 0
