@@ -37,6 +37,9 @@ def add_worker(commands: Any) -> None:
     p.add_argument("--hostname", help="the worker's Celery node name (default celery@HOST); "
                    "give each worker on one machine its own")
     p.add_argument("--log-level", default="info", help="Celery log level")
+    p.add_argument("--subdomains", action="store_true",
+                   help="solve the sub-domains that solves send out (FLOORPLAN_SUBDOMAINS="
+                   "celery) rather than jobs; --workers of them at once")
     p.add_argument("--health", action="store_true",
                    help="do not run a worker: exit 0 if one of this host is alive, else 1 "
                    "(a container health check)")
@@ -54,8 +57,9 @@ def cmd_worker(args: argparse.Namespace) -> int:
     overrides = {"workers": args.workers} if args.workers is not None else {}
     settings = Settings(**overrides)
     if args.health:
-        return 0 if worker_alive(settings) else 1
-    return run_worker(settings, hostname=args.hostname, loglevel=args.log_level.upper())
+        return 0 if worker_alive(settings, subdomains=args.subdomains) else 1
+    return run_worker(settings, hostname=args.hostname, loglevel=args.log_level.upper(),
+                      subdomains=args.subdomains)
 
 
 def cmd_serve(args: argparse.Namespace) -> int:

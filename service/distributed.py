@@ -23,19 +23,28 @@ A job's life here:
 
 Workers use Celery's `threads` pool: the solve runs in its own process anyway, and a
 thread that watches it keeps the worker light.
+
+With FLOORPLAN_SUBDOMAINS=celery, the independent sub-domains of a refinement level go
+out as Celery tasks (`CelerySubdomains`, a `concurrent.futures.Executor` the solver
+takes) to sub-domain workers (`floorplan worker --subdomains`), which consume a queue of
+their own with Celery's prefork pool: each sub-domain is solved in a pool process under
+Celery's hard time limit. Their results come back through Celery's Redis result backend.
 """
 
 from __future__ import annotations
 
 import asyncio
+import base64
 import contextlib
 import logging
 import os
+import pickle
 import socket
 import threading
 import time
 import uuid
 from collections.abc import Callable
+from concurrent.futures import Executor, Future
 from typing import Any
 
 import redis
@@ -51,6 +60,11 @@ from service.store import Job, JobStatus, JobStore
 log = logging.getLogger("floorplan.distributed")
 
 TASK_NAME = "floorplan.solve"
+SUBDOMAIN_TASK = "floorplan.subdomain"
+#: Seconds a sub-domain task may run past its budget before Celery kills its process.
+SUBDOMAIN_GRACE = 5.0
+#: How often the executor looks for finished sub-domain tasks (seconds).
+SUBDOMAIN_POLL = 0.05
 #: Seconds a Redis connection attempt may take before the broker counts as down.
 REDIS_CONNECT_TIMEOUT = 3.0
 #: Seconds an event stream waits for an announcement before looking at the store anyway.
@@ -75,6 +89,10 @@ class Keys:
         self.broker_epoch = f"{namespace}:broker-epoch"
         #: One key per live worker process, expiring unless renewed (for /readyz).
         self.workers = f"{namespace}:worker:"
+        #: The queue of sub-domain tasks, and the keys of the workers consuming it
+        #: (each holds the worker's concurrency: the solver plans waves by it).
+        self.subdomains = f"{namespace}.subdomains"
+        self.subdomain_workers = f"{namespace}:subworker:"
 
 
 def celery_config(settings: Settings) -> dict[str, Any]:
@@ -103,6 +121,11 @@ def celery_config(settings: Settings) -> dict[str, Any]:
         # reconciler sends it once Redis answers again.
         "task_publish_retry_policy": {"max_retries": 2, "interval_start": 0,
                                       "interval_step": 0.2, "interval_max": 0.5},
+        # Only sub-domain tasks keep results (jobs keep theirs in the store).
+        "result_backend": settings.redis_url,
+        "result_backend_transport_options": {"global_keyprefix": f"{settings.namespace}:"},
+        "result_expires": 3600,
+        "task_routes": {SUBDOMAIN_TASK: {"queue": Keys(settings.namespace).subdomains}},
     }
 
 
@@ -341,7 +364,8 @@ class WorkerRuntime:
         self.identity = f"{socket.gethostname()}:{os.getpid()}"
         self.reconciler = Reconciler(settings, self.store, self.dispatcher, self.identity,
                                      also=self._say_alive)
-        self.processes = SolveProcesses(settings.subdomain_processes_per_solve)
+        self.processes = SolveProcesses(settings.subdomain_processes_per_solve,
+                                        subdomain_tasks=settings.subdomains == "celery")
         self.stopping = threading.Event()
         #: Solves at once: Celery's concurrency (FLOORPLAN_WORKERS unless `-c` says).
         self.slots = settings.workers
@@ -430,12 +454,132 @@ class WorkerRuntime:
                 self.stopping.wait(1.0)
 
 
+# Sub-domains as Celery tasks.
+
+
+def pack(value: Any) -> str:
+    """Pickled for a task argument or result: sub-domain specs are plain dataclasses, and
+    the broker is as trusted as the database."""
+    return base64.b64encode(pickle.dumps(value)).decode()
+
+
+def unpack(text: str) -> Any:
+    return pickle.loads(base64.b64decode(text))
+
+
+class CelerySubdomains(Executor):
+    """The solver's sub-domains as Celery tasks on the sub-domain workers. `slots` is
+    how many they solve at once, summed over the live ones when this was made."""
+
+    def __init__(self, settings: Settings) -> None:
+        self.celery = make_celery(settings)
+        self.keys = Keys(settings.namespace)
+        client = redis_client(settings)
+        try:
+            pattern = f"{self.keys.subdomain_workers}*"
+            self.slots = sum(int(value or 0) for value in (
+                client.get(key) for key in client.scan_iter(pattern, count=500)))
+        finally:
+            client.close()
+        self._pending: dict[str, tuple[Any, Future[Any]]] = {}
+        self._lock = threading.Lock()
+        self._closed = threading.Event()
+        self._poller: threading.Thread | None = None
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        from solver.parallel import SubdomainTask, solve_subdomain
+
+        (task,) = args
+        if fn is not solve_subdomain or kwargs or not isinstance(task, SubdomainTask):
+            raise ValueError("only solver.parallel.solve_subdomain(task) runs remotely")
+        future: Future[Any] = Future()
+        result = self.celery.send_task(
+            SUBDOMAIN_TASK, args=[pack(task)], queue=self.keys.subdomains,
+            time_limit=task.budget + SUBDOMAIN_GRACE,
+            expires=max(1.0, task.deadline - time.time()),  # useless once the level is over
+        )
+        with self._lock:
+            self._pending[result.id] = (result, future)
+            if self._poller is None:
+                self._poller = threading.Thread(target=self._poll, name="subdomain-results",
+                                                daemon=True)
+                self._poller.start()
+        return future
+
+    def _poll(self) -> None:
+        while not self._closed.is_set():
+            with self._lock:
+                pending = list(self._pending.items())
+            for task_id, (result, future) in pending:
+                try:
+                    if future.cancelled():
+                        done = True
+                    elif done := result.ready():
+                        future.set_result(unpack(result.get(timeout=5)))
+                except Exception as err:  # the task failed or its process was killed
+                    done = True
+                    future.set_exception(err)
+                if done:
+                    with self._lock:
+                        self._pending.pop(task_id, None)
+            self._closed.wait(SUBDOMAIN_POLL)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._closed.set()
+        self.celery.close()
+
+
+def subdomain_executor(settings: Settings) -> CelerySubdomains | None:
+    """A `CelerySubdomains` when sub-domain workers are alive, else None (the solve
+    then uses its local pool, or goes one sub-domain after the other)."""
+    try:
+        executor = CelerySubdomains(settings)
+    except redis.RedisError as err:
+        log.warning("no sub-domain workers (%s): sub-domains solved locally", err)
+        return None
+    if executor.slots < 1:
+        executor.shutdown()
+        return None
+    return executor
+
+
+class SubdomainWorkerRuntime:
+    """What a sub-domain worker holds besides Celery's pool: its liveness key."""
+
+    def __init__(self, settings: Settings, slots: int) -> None:
+        self.settings = settings
+        self.keys = Keys(settings.namespace)
+        self.redis = redis_client(settings)
+        self.key = f"{self.keys.subdomain_workers}{socket.gethostname()}:{os.getpid()}"
+        self.slots = slots
+        self.stopping = threading.Event()
+
+    def start(self) -> None:
+        threading.Thread(target=self._say_alive, name="alive", daemon=True).start()
+        log.info("sub-domain worker %s ready: %d at once", self.key, self.slots)
+
+    def shutdown(self) -> None:
+        self.stopping.set()
+        with contextlib.suppress(redis.RedisError):
+            self.redis.delete(self.key)
+
+    def _say_alive(self) -> None:
+        ttl = max(1, round(max(self.settings.lease_seconds, 3 * self.settings.reconcile_seconds)))
+        while not self.stopping.is_set():
+            try:
+                self.redis.set(self.key, self.slots, ex=ttl)
+            except redis.RedisError as err:
+                log.debug("liveness not renewed: %s", err)
+            self.stopping.wait(self.settings.reconcile_seconds)
+
+
 # The Celery application that `celery -A service.distributed worker` and
 # `floorplan worker` run; settings from the environment, or from `configure`.
 
 app = make_celery(get_settings())
 _worker_settings: Settings = get_settings()
 _runtime: WorkerRuntime | None = None
+_subdomain_runtime: SubdomainWorkerRuntime | None = None
 
 
 def configure(settings: Settings) -> None:
@@ -457,25 +601,47 @@ def solve_job(job_id: str) -> str:
     return runtime().run(job_id)
 
 
+@app.task(name=SUBDOMAIN_TASK, ignore_result=False, acks_late=False)
+def solve_subdomain_task(payload: str) -> str:
+    """One sub-domain, in a process of a sub-domain worker's prefork pool. Not acked
+    late: a sub-domain whose worker died is not worth solving after its level ended."""
+    from solver.parallel import solve_subdomain
+
+    return pack(solve_subdomain(unpack(payload)))
+
+
 @signals.worker_ready.connect
 def _on_worker_ready(sender: Any = None, **_: Any) -> None:
+    global _subdomain_runtime
     concurrency = getattr(getattr(sender, "controller", None), "concurrency", None)
-    runtime().start(concurrency if isinstance(concurrency, int) else None)
+    slots = concurrency if isinstance(concurrency, int) else None
+    consumed = getattr(getattr(sender, "app", app).amqp.queues, "consume_from", None) or {}
+    keys = Keys(_worker_settings.namespace)
+    if keys.subdomains in consumed and keys.queue not in consumed:
+        _subdomain_runtime = SubdomainWorkerRuntime(_worker_settings,
+                                                    slots or _worker_settings.workers)
+        _subdomain_runtime.start()
+        return
+    runtime().start(slots)
 
 
 @signals.worker_shutting_down.connect
 def _on_worker_shutting_down(**_: Any) -> None:
     if _runtime is not None:
         _runtime.shutdown()
+    if _subdomain_runtime is not None:
+        _subdomain_runtime.shutdown()
 
 
-def worker_alive(settings: Settings, host: str | None = None) -> bool:
-    """Whether a worker process of `host` (this one by default) said lately that it is
-    alive: the key it renews on every reconciler pass exists."""
+def worker_alive(settings: Settings, host: str | None = None, *,
+                 subdomains: bool = False) -> bool:
+    """Whether a worker process (a sub-domain worker with `subdomains`) of `host` (this
+    one by default) said lately that it is alive: the key it renews exists."""
     keys = Keys(settings.namespace)
     client = redis_client(settings)
     try:
-        pattern = f"{keys.workers}{host or socket.gethostname()}:*"
+        prefix = keys.subdomain_workers if subdomains else keys.workers
+        pattern = f"{prefix}{host or socket.gethostname()}:*"
         return next(iter(client.scan_iter(pattern, count=500)), None) is not None
     except redis.RedisError:
         return False
@@ -484,15 +650,19 @@ def worker_alive(settings: Settings, host: str | None = None) -> bool:
 
 
 def run_worker(settings: Settings, *, hostname: str | None = None,
-               loglevel: str = "INFO") -> int:
-    """`floorplan worker`: a Celery worker of this application."""
+               loglevel: str = "INFO", subdomains: bool = False) -> int:
+    """`floorplan worker`: a Celery worker of this application; with `subdomains`, one
+    that solves sub-domains (prefork: each in a pool process, under a hard time limit)."""
     configure(settings)
-    argv = ["worker", f"--loglevel={loglevel}", f"--queues={settings.namespace}",
+    queue = Keys(settings.namespace).subdomains if subdomains else settings.namespace
+    argv = ["worker", f"--loglevel={loglevel}", f"--queues={queue}",
             # Gossip, mingle and Celery's own heartbeats serve remote control and
             # monitoring; the store's leases do that job here, and startup is faster.
             "--without-gossip", "--without-mingle", "--without-heartbeat"]
     if hostname:
         argv.append(f"--hostname={hostname}")
+    if subdomains:
+        argv.append("--pool=prefork")
     app.worker_main(argv)
     return 0
 

@@ -59,8 +59,9 @@ class SolveProcesses:
     """Spawned solve processes, one warmed up ahead per idle slot: a job then starts
     without waiting about a second for the imports of SCIP and shapely."""
 
-    def __init__(self, subdomain_processes: int = 1) -> None:
+    def __init__(self, subdomain_processes: int = 1, subdomain_tasks: bool = False) -> None:
         self.subdomain_processes = subdomain_processes
+        self.subdomain_tasks = subdomain_tasks
         self._ctx = multiprocessing.get_context("spawn")
         self._ready: list[Child] = []
         self._lock = threading.Lock()
@@ -94,7 +95,7 @@ class SolveProcesses:
         stop = self._ctx.Event()
         process = self._ctx.Process(target=standby,
                                     args=(receive, messages, stop, os.getpid(),
-                                          self.subdomain_processes),
+                                          self.subdomain_processes, self.subdomain_tasks),
                                     name="solve", daemon=True)
         process.start()
         receive.close()

@@ -66,6 +66,11 @@ class Settings(BaseSettings):
         "at once, per solve (1: one after the other); default: the cores left idle by "
         "`workers` solves, at least 1",
     )
+    subdomains: Literal["local", "celery"] = Field(
+        "local", description="where a solve's parallel sub-domains run: local, its own "
+        "process pool; celery, tasks for `floorplan worker --subdomains` (celery backend; "
+        "the local pool when no such worker is alive)",
+    )
     api_keys: Annotated[list[str], NoDecode] = Field(
         default_factory=list,
         description="comma-separated keys; when set, every request needs one and sees only "

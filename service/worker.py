@@ -9,7 +9,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Executor, ProcessPoolExecutor
 from multiprocessing.connection import Connection
 from multiprocessing.queues import Queue
 from multiprocessing.synchronize import Event
@@ -53,27 +53,49 @@ def end_pool(pool: ProcessPoolExecutor | None) -> None:
         process.join(timeout=1)
 
 
+def subdomain_executor(processes: int, remote: bool) -> tuple[Executor | None, int]:
+    """Where this solve's independent sub-domains go, and how many at once: Celery tasks
+    for the sub-domain workers (`remote`, while any is alive), else a local pool of
+    `processes` (None for one: one after the other)."""
+    if remote:
+        from service.distributed import subdomain_executor as celery_executor
+        from service.settings import get_settings
+
+        executor = celery_executor(get_settings())
+        if executor is not None:
+            return executor, executor.slots
+    return subdomain_pool(processes), processes
+
+
+def end_executor(executor: Executor | None) -> None:
+    if isinstance(executor, ProcessPoolExecutor):
+        end_pool(executor)
+    elif executor is not None:
+        executor.shutdown(wait=False, cancel_futures=True)
+
+
 def run_job(
     problem_json: str, messages: Queue[tuple[str, Any]], stop: Event, parent: int,
-    subdomain_processes: int = 1,
+    subdomain_processes: int = 1, subdomain_tasks: bool = False,
 ) -> None:
     """Solve and send ("progress", dict), ("incumbent", (dict, layout_json)) and
     finally ("done", layout_json); an exception is sent as ("error", message).
     The solve stops when `stop` is set or the parent process `parent` is gone (a
-    killed service must not leave orphans running). With `subdomain_processes` > 1 the
-    sub-domains of a refinement level are solved at once in a pool of that many."""
+    killed service must not leave orphans running). The sub-domains of a refinement
+    level are solved at once as Celery tasks with `subdomain_tasks`, else in a pool of
+    `subdomain_processes` when that is more than one."""
 
     def should_stop() -> bool:
         return stop.is_set() or os.getppid() != parent
 
-    pool = None
+    pool: Executor | None = None
     try:
         from models import Problem
         from solver.parallel import SubdomainExecutor
         from solver.solve import Phase, SolveEvent, draft_layout, solve
 
         problem = Problem.model_validate_json(problem_json)
-        pool = subdomain_pool(subdomain_processes)
+        pool, slots = subdomain_executor(subdomain_processes, subdomain_tasks)
         last_incumbent = 0.0
 
         def on_event(e: SolveEvent) -> None:
@@ -93,19 +115,19 @@ def run_job(
             else:
                 messages.put(("progress", progress))
 
-        subdomains = SubdomainExecutor(pool, subdomain_processes) if pool is not None else None
+        subdomains = SubdomainExecutor(pool, slots) if pool is not None else None
         layout = solve(problem, on_event=on_event, should_stop=should_stop,
                        subdomains=subdomains)
-        end_pool(pool)
+        end_executor(pool)
         messages.put(("done", layout.model_dump_json()))
     except Exception as err:
-        end_pool(pool)
+        end_executor(pool)
         messages.put(("error", f"{type(err).__name__}: {err}"))
 
 
 def standby(
     jobs: Connection, messages: Queue[tuple[str, Any]], stop: Event, parent: int,
-    subdomain_processes: int = 1,
+    subdomain_processes: int = 1, subdomain_tasks: bool = False,
 ) -> None:
     """A solve process started ahead of its job: pay for the imports (SCIP, shapely)
     now, then wait for one problem, solve it and exit, as every solve has its own
@@ -115,4 +137,4 @@ def standby(
     while not jobs.poll(STANDBY_POLL):
         if os.getppid() != parent:
             return
-    run_job(jobs.recv(), messages, stop, parent, subdomain_processes)
+    run_job(jobs.recv(), messages, stop, parent, subdomain_processes, subdomain_tasks)

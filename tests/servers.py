@@ -175,12 +175,13 @@ class Cluster:
         self.wait_for_workers(self.worker_count)
         return self
 
-    def add_worker(self, name: str) -> subprocess.Popen[bytes]:
+    def add_worker(self, name: str, *options: str,
+                   log_level: str = "warning") -> subprocess.Popen[bytes]:
         log = (self.data_dir / f"{name}.log").open("ab")
         self._logs.append(log)
         worker = subprocess.Popen(
             [sys.executable, "-m", "service", "worker", "--hostname", f"{name}@{self.name}",
-             "--log-level", "warning"],
+             "--log-level", log_level, *options],
             env={**os.environ, **self.env}, start_new_session=True, stdout=log, stderr=log,
         )
         self.workers.append(worker)

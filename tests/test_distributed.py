@@ -6,6 +6,7 @@ the job, a Redis restart, the store's claims and leases, and the schema migratio
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import time
@@ -190,6 +191,31 @@ def test_a_redis_restart_loses_no_accepted_job(tmp_path: Path) -> None:
                 assert client.get(f"/v1/layouts/{busy['id']}").json()["attempts"] == 1
         finally:
             cluster.stop()
+
+
+def test_sub_domains_go_as_celery_tasks_to_a_sub_domain_worker(tmp_path: Path) -> None:
+    from tests.test_parallel import TWO_WINGS
+
+    cluster = Cluster(tmp_path, workers=1, WORKERS="1", FLOORPLAN_SUBDOMAINS="celery").start()
+    try:
+        cluster.add_worker("sub", "--subdomains", log_level="info")
+        client_redis = redis.Redis.from_url(cluster.redis_url)
+        deadline = time.monotonic() + 60
+        while not list(client_redis.scan_iter(f"{cluster.name}:subworker:*")):
+            assert time.monotonic() < deadline, "the sub-domain worker did not start"
+            time.sleep(0.2)
+        client_redis.close()
+        with httpx.Client(base_url=cluster.url, timeout=30) as client:
+            job = submit(client, TWO_WINGS)
+            done = wait(client, job["id"])
+            assert done["status"] == "succeeded", done
+            result = client.get(f"/v1/layouts/{job['id']}/result").json()
+            assert result["report"]["valid"] and len(result["rooms"]) == 4
+        log = (tmp_path / "sub.log").read_text()
+        solved = re.findall(r"Task floorplan\.subdomain\[[^]]+\] succeeded", log)
+        assert len(solved) >= 2, log[-2000:]  # both wings of at least one level
+    finally:
+        cluster.stop()
 
 
 # The store under several workers, on PostgreSQL.
