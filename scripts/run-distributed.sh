@@ -4,7 +4,11 @@
 # N Celery workers and one API node (uvicorn), all in the foreground. Ctrl-C or SIGTERM
 # stops the workers first (they hand their running jobs back to the queue), then the API.
 #
-#   scripts/run-distributed.sh [--workers N] [--concurrency C] [--host H] [--port P] [--logs DIR]
+#   scripts/run-distributed.sh [--workers N] [--concurrency C] [--subdomain-workers S]
+#                              [--host H] [--port P] [--logs DIR]
+#
+# --subdomain-workers S adds S workers (C at once each) for the independent sub-domains
+# of refinement levels, which the solves then send out as Celery tasks.
 #
 # Settings come from FLOORPLAN_* variables as for `floorplan serve` (see the README);
 # FLOORPLAN_BACKEND is celery here, and these defaults apply when unset:
@@ -16,15 +20,17 @@ set -euo pipefail
 
 workers=2
 concurrency=1
+subdomain_workers=0
 host=127.0.0.1
 port=8000
 logs=data/distributed-logs
 
-usage() { sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; }
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --workers) workers="$2"; shift 2 ;;
     --concurrency) concurrency="$2"; shift 2 ;;
+    --subdomain-workers) subdomain_workers="$2"; shift 2 ;;
     --host) host="$2"; shift 2 ;;
     --port) port="$2"; shift 2 ;;
     --logs) logs="$2"; shift 2 ;;
@@ -32,7 +38,7 @@ while [[ $# -gt 0 ]]; do
     *) echo "run-distributed: unknown option $1" >&2; usage >&2; exit 2 ;;
   esac
 done
-for number in "$workers" "$concurrency" "$port"; do
+for number in "$workers" "$concurrency" "$subdomain_workers" "$port"; do
   [[ "$number" =~ ^[0-9]+$ ]] || { echo "run-distributed: not a number: $number" >&2; exit 2; }
 done
 
@@ -41,6 +47,9 @@ export FLOORPLAN_DATABASE_URL="${FLOORPLAN_DATABASE_URL:-postgresql+psycopg://ro
 export FLOORPLAN_REDIS_URL="${FLOORPLAN_REDIS_URL:-redis://127.0.0.1:6379/0}"
 export FLOORPLAN_WORKERS="$concurrency"
 namespace="${FLOORPLAN_NAMESPACE:-floorplan}"
+if [[ "$subdomain_workers" -gt 0 ]]; then
+  export FLOORPLAN_SUBDOMAINS=celery
+fi
 python="${PYTHON:-$(command -v python || command -v python3)}"
 mkdir -p "$logs"
 
@@ -100,6 +109,12 @@ for k in $(seq 1 "$workers"); do
     --without-gossip --without-mingle --without-heartbeat >>"$logs/worker-$k.log" 2>&1 &
   worker_pids+=("$!")
 done
+for k in $(seq 1 "$subdomain_workers"); do
+  "$python" -m celery -A service.distributed worker --pool prefork --concurrency "$concurrency" \
+    --queues "$namespace.subdomains" --hostname "s$k@%h" --loglevel INFO \
+    --without-gossip --without-mingle --without-heartbeat >>"$logs/subdomain-worker-$k.log" 2>&1 &
+  worker_pids+=("$!")
+done
 "$python" -m uvicorn service.app:create_app --factory --host "$host" --port "$port" \
   --timeout-graceful-shutdown 5 >>"$logs/api.log" 2>&1 &
 api_pid="$!"
@@ -115,7 +130,7 @@ host, port, workers = sys.argv[1], sys.argv[2], int(sys.argv[3])
 with urllib.request.urlopen(f"http://{host}:{port}/readyz", timeout=2) as answer:
     sys.exit(0 if json.load(answer).get("workers", 0) >= workers else 1)
 PY
-    echo "run-distributed: ready at http://$host:$port with $workers workers x $concurrency solves (logs in $logs)"
+    echo "run-distributed: ready at http://$host:$port with $workers workers x $concurrency solves and $subdomain_workers sub-domain workers (logs in $logs)"
     break
   fi
   for pid in "$api_pid" "${worker_pids[@]}"; do

@@ -26,7 +26,7 @@ def compose() -> dict[str, Any]:
 def test_compose_has_the_four_services_with_health_checks_and_volumes() -> None:
     spec = compose()
     services = spec["services"]
-    assert set(services) == {"api", "worker", "redis", "postgres"}
+    assert set(services) == {"api", "worker", "subdomain-worker", "redis", "postgres"}
     for name, service in services.items():
         assert service["healthcheck"]["test"], name
     used = {mount.split(":")[0] for s in services.values() for mount in s.get("volumes", [])}
@@ -38,18 +38,22 @@ def test_compose_has_the_four_services_with_health_checks_and_volumes() -> None:
 
 
 def test_workers_scale_and_stop_gracefully() -> None:
-    worker = compose()["services"]["worker"]
-    # --scale worker=N needs no fixed name and no host port.
-    assert "container_name" not in worker and "ports" not in worker
-    assert worker["command"] == ["floorplan", "worker"]
-    assert worker["healthcheck"]["test"] == ["CMD", "floorplan", "worker", "--health"]
-    assert worker["stop_grace_period"]  # time to hand running jobs back
+    services = compose()["services"]
+    for name, command in (("worker", ["floorplan", "worker"]),
+                          ("subdomain-worker", ["floorplan", "worker", "--subdomains"])):
+        worker = services[name]
+        # --scale NAME=N needs no fixed name and no host port.
+        assert "container_name" not in worker and "ports" not in worker
+        assert worker["command"] == command
+        assert worker["healthcheck"]["test"] == ["CMD", *command, "--health"]
+        assert worker["stop_grace_period"]  # time to hand running jobs back
+    assert services["worker"]["environment"]["FLOORPLAN_SUBDOMAINS"] == "celery"
 
 
 def test_every_floorplan_variable_in_compose_is_a_setting() -> None:
     fields = {f"FLOORPLAN_{name.upper()}" for name in Settings.model_fields}
     services = compose()["services"]
-    for node in ("api", "worker"):
+    for node in ("api", "worker", "subdomain-worker"):
         env = services[node]["environment"]
         assert env["FLOORPLAN_BACKEND"] == "celery"
         assert env["FLOORPLAN_DATABASE_URL"].startswith("postgresql+psycopg://")

@@ -34,8 +34,8 @@ def test_the_start_script_runs_the_topology_and_stops_it(tmp_path: Path) -> None
            "FLOORPLAN_DATABASE_URL": schema_url(name), "FLOORPLAN_REDIS_URL": REDIS_URL,
            "FLOORPLAN_NAMESPACE": name}
     script = subprocess.Popen(
-        ["bash", str(SCRIPT), "--workers", "2", "--port", str(port), "--logs",
-         str(tmp_path / "logs")],
+        ["bash", str(SCRIPT), "--workers", "2", "--subdomain-workers", "1", "--port",
+         str(port), "--logs", str(tmp_path / "logs")],
         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
         start_new_session=True,
     )
@@ -54,7 +54,7 @@ def test_the_start_script_runs_the_topology_and_stops_it(tmp_path: Path) -> None
             assert wait(client, submit(client, SMALL)["id"])["status"] == "succeeded"
         children = subprocess.run(["ps", "-o", "pid=", "--ppid", str(script.pid)],
                                   capture_output=True, text=True).stdout.split()
-        assert len(children) == 3  # two workers and the API node
+        assert len(children) == 4  # two workers, a sub-domain worker and the API node
 
         script.send_signal(signal.SIGTERM)
         assert script.wait(timeout=60) == 0
