@@ -369,10 +369,12 @@ class JobStore:
         changes under a condition, so concurrent reconcilers never both act on one job.
         Returns the ids put back in the queue, to be dispatched again."""
         cutoff = time.time() - lease_seconds
+        # No heartbeat at all: a job an embedded runner left running in this store.
+        expired = or_(jobs.c.heartbeat_at < cutoff, jobs.c.heartbeat_at.is_(None))
         with self._tx() as conn:
             stale = conn.execute(select(
                 jobs.c.id, jobs.c.attempts, jobs.c.cancel_requested, jobs.c.worker,
-            ).where(jobs.c.status == JobStatus.RUNNING, jobs.c.heartbeat_at < cutoff)).all()
+            ).where(jobs.c.status == JobStatus.RUNNING, expired)).all()
         requeued: list[str] = []
         for row in stale:
             if row.cancel_requested:
@@ -386,8 +388,7 @@ class JobStore:
             else:
                 with self._tx() as conn:
                     back = conn.execute(update(jobs).where(
-                        jobs.c.id == row.id, jobs.c.status == JobStatus.RUNNING,
-                        jobs.c.heartbeat_at < cutoff,
+                        jobs.c.id == row.id, jobs.c.status == JobStatus.RUNNING, expired,
                     ).values(status=JobStatus.QUEUED, worker=None, dispatched_at=None,
                              updated_at=time.time()))
                 if back.rowcount:

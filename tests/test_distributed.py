@@ -262,6 +262,13 @@ def test_lost_jobs_fail_after_the_retry_limit_and_canceled_ones_end_canceled(
     assert ended is not None and ended.status is JobStatus.CANCELED
 
 
+def test_a_job_left_running_by_an_embedded_runner_is_requeued(pg_store: JobStore) -> None:
+    job, _ = pg_store.create(problem="{}", time_limit=1)
+    claimed = pg_store.claim_next()  # the embedded runner's claim: no lease
+    assert claimed is not None and claimed.heartbeat_at is None
+    assert pg_store.requeue_stale(lease_seconds=30, retry_limit=2) == [job.id]
+
+
 def test_an_undispatched_job_is_taken_by_one_reconciler_only(pg_store: JobStore) -> None:
     job, _ = pg_store.create(problem="{}", time_limit=1)
     later = time.time() + 1
