@@ -122,6 +122,26 @@ def test_a_cancel_reaches_the_worker_holding_the_job_and_keeps_its_incumbent(
         cluster.stop()
 
 
+def test_a_cancel_whose_message_is_lost_still_reaches_the_worker(tmp_path: Path) -> None:
+    # The flag in PostgreSQL alone, as when the pub/sub message is lost: the worker reads
+    # it when it renews its lease (every second with the tests' 4 s lease).
+    cluster = Cluster(tmp_path, workers=1, WORKERS="1").start()
+    store = store_of(cluster)
+    try:
+        with httpx.Client(base_url=cluster.url, timeout=30) as client:
+            job = submit(client, LONG)
+            deadline = time.monotonic() + 30
+            while client.get(f"/v1/layouts/{job['id']}/result").status_code != 200:
+                assert time.monotonic() < deadline, "no incumbent in 30 s"
+                time.sleep(0.2)
+            store.request_cancel(job["id"])  # no message on Redis
+            done = wait(client, job["id"], timeout=15)
+            assert done["status"] == "canceled" and done["termination"] == "interrupted"
+            assert client.get(f"/v1/layouts/{job['id']}/result").json()["report"]["valid"]
+    finally:
+        cluster.stop()
+
+
 class RedisServer:
     """A redis-server of this test's own on a free loopback port, with the machine's
     options (nothing kept on disk), so that stopping it disturbs nobody else."""
