@@ -408,6 +408,8 @@ class WorkerRuntime:
             raise Reject(str(err), requeue=True) from err
         if job is None:
             return "not queued"  # a duplicate delivery, a canceled or finished job
+        log.info("job %s claimed as %s (attempt %d, limit %g s)", job_id, token, job.attempts,
+                 job.time_limit)
         self.dispatcher.announce(job_id)
         child = self.processes.take()
         with self._lock:
@@ -420,6 +422,8 @@ class WorkerRuntime:
             if how == "stopping" and self.store.hand_back(job_id, worker=token):
                 self.dispatcher.announce(job_id)
                 self.dispatcher.send(job_id)
+            log.info("job %s: %s", job_id, {"finished": "ended", "stopping": "handed back",
+                                             "lost": "lost its lease"}.get(how, how))
             return how
         except Exception:
             log.exception("job %s failed in the worker", job_id)
