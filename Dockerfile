@@ -13,6 +13,8 @@ COPY pyproject.toml README.md alembic.ini ./
 COPY models ./models
 COPY solver ./solver
 COPY service ./service
+# service/examples links here: the web page serves the example problems.
+COPY examples ./examples
 RUN pip install ".[distributed]"
 
 # Not root: Celery warns against it, and a solve has no business writing outside /data.

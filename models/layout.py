@@ -16,6 +16,9 @@ class Termination(StrEnum):
     """Every MIQP was solved to optimality (within SCIP's default gap)."""
     TIME_LIMIT = "timelimit"
     """The time limit was reached; the best layout found so far is returned."""
+    STALLED = "stalled"
+    """Ended before the time limit: the layout covers the whole floor and the search
+    stopped improving its size error (a local optimum, not a proven one)."""
     INFEASIBLE = "infeasible"
     """No layout satisfies the hard constraints (see `Report.infeasibility`)."""
     INTERRUPTED = "interrupted"
@@ -87,6 +90,47 @@ class ConstraintCheck(BaseModel):
     detail: str = ""
 
 
+class ExtraRectangles(BaseModel):
+    """A room laid out from more than one rectangle from level 1 on (an L or T shape)."""
+
+    room: str
+    rectangles: int = Field(description="rectangles the room started from")
+    reason: str = Field(description="'asked' (shape or max_rects in the problem) or why a "
+                        "single rectangle was not enough")
+
+
+class ConflictItem(BaseModel):
+    """One of the user's constraints in a conflict (see `ConflictSet`)."""
+
+    path: str = Field(
+        description="where the constraint is in the problem, a dotted path as in validation "
+        "errors: rooms.2.min_size.0, rooms.2.boundary, rooms.2.positions.0, adjacency.1; "
+        "options.require_connected for a constraint that option added")
+    kind: str = Field(
+        description="min_size, max_size (one axis each), aspect_ratio, position, boundary, "
+        "adjacency; connection and entrance for what require_connected added (a wall "
+        "for a door, the front-door room covering the entrance)")
+    rooms: list[str] = Field(description="ids of the rooms the constraint names")
+    constraint: str = Field(
+        description="compact form, e.g. kitchen.width>=4, kitchen.boundary=east, "
+        "kitchen-dining>=0.9")
+    phrase: str = Field(description="the constraint in words")
+
+
+class ConflictSet(BaseModel):
+    """A small set of the user's constraints that cannot all hold together: without
+    any one of them the rest can (when `minimal`). Constraints outside the set are not
+    to blame and may stay as they are."""
+
+    explanation: str = Field(description="the conflict in one sentence, naming the rooms "
+                             "and the outline's dimensions")
+    constraints: list[ConflictItem]
+    minimal: bool = Field(
+        description="dropping any one member was shown to make the rest satisfiable; "
+        "false when some check was not settled in time (the set still cannot hold, but "
+        "a smaller one may exist)")
+
+
 class Infeasibility(BaseModel):
     """Why no layout was returned."""
 
@@ -94,6 +138,9 @@ class Infeasibility(BaseModel):
     findings: list[str] = Field(default_factory=list, description="cheap impossibilities")
     active_families: list[str] = Field(default_factory=list)
     relaxations_tried: list[str] = Field(default_factory=list)
+    conflict: ConflictSet | None = Field(
+        None, description="when the problem is infeasible: a small set of its constraints "
+        "that cannot hold together, searched in the time the solve had left")
 
 
 class Report(BaseModel):
@@ -116,6 +163,10 @@ class Report(BaseModel):
         None,
         description="the size window (fraction of each target, 0.1 = 90-110 %) in which the "
         "first layout was found (Sec. 5.4); null when the user's own bounds were needed",
+    )
+    extra_rectangles: list[ExtraRectangles] = Field(
+        default_factory=list,
+        description="rooms that started from several rectangles at level 1, and why",
     )
 
 

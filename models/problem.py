@@ -4,6 +4,10 @@ Structural checks (types, signs, finiteness) are pydantic field constraints; the
 cross-field checks (a valid outline, points inside the free area, known room ids)
 run in `Problem._check_geometry_and_references` and raise one ``ValidationError``
 whose entries name the offending field, e.g. ``("rooms", 2, "positions", 0)``.
+
+A problem with a ``template`` (see `models.templates`) is validated as a
+`TemplatedProblem` first and expanded into a plain one, so every `Problem` the
+solver, the service or the client holds is the expanded form.
 """
 
 from __future__ import annotations
@@ -30,6 +34,8 @@ from shapely.geometry import Polygon, box
 MAX_COORDINATE = 1e5
 #: Default cap on rooms per problem; pass ``context={"max_rooms": n}`` to change it.
 DEFAULT_MAX_ROOMS = 400
+#: The most rectangles a room may ask to start from (an L, T or U, or a room with a bay).
+MAX_ROOM_RECTS = 4
 #: Geometric tolerance in metres for "on the boundary" and similar tests.
 TOLERANCE = 1e-6
 
@@ -77,6 +83,22 @@ class Room(_Strict):
         default_factory=list,
         description="exterior edges (indices or compass words); touch one, C_boundary (Eq. 9)",
     )
+    shape: Literal["rectangle", "free"] = Field(
+        "rectangle",
+        description="'free': the room may be an L or T from the start (two rectangles "
+        "sharing a wall), not only when a single rectangle cannot satisfy the constraints",
+    )
+    max_rects: Annotated[int, Field(ge=1, le=MAX_ROOM_RECTS)] | None = Field(
+        None, description="rectangles the room may start from: 1 keeps it a rectangle; "
+        "default 1, or 2 with shape 'free'",
+    )
+
+    @property
+    def rectangles(self) -> int:
+        """How many rectangles the room starts from at level 1 when it asks."""
+        if self.max_rects is not None:
+            return self.max_rects
+        return 2 if self.shape == "free" else 1
 
     @model_validator(mode="after")
     def _check_bounds(self) -> Self:
@@ -151,9 +173,9 @@ class Options(_Strict):
         "relative size error = E_size of the room / |target|^2",
     )
     require_connected: bool = Field(
-        False, description="every room must be reachable through doors from the entrance; "
-        "missing doors are added where walls allow, and the report says if any room stays "
-        "unreachable",
+        False, description="every room must be reachable through doors from the entrance: "
+        "the solver adds the adjacencies that guarantee it, then doors where walls allow; "
+        "the report says if any room stays unreachable",
     )
 
 
@@ -195,14 +217,16 @@ class Openings(_Strict):
     )
 
 
-class Problem(_Strict):
-    """A layout request: the domain, the rooms and their constraints (DESIGN.md §1)."""
+class ProblemFields(_Strict):
+    """The fields every form of a problem shares. Each form (`Problem`, and
+    `models.templates.TemplatedProblem`) declares what its rooms are; `rooms` is
+    declared here only to keep its place in the field order."""
 
     name: Annotated[str, Field(max_length=200)] = "layout"
     boundary: Annotated[list[Point], Field(min_length=4, max_length=1000)]
     obstacles: Annotated[list[Obstacle], Field(max_length=1000)] = Field(default_factory=list)
     entrance: Point | None = None
-    rooms: Annotated[list[Room], Field(min_length=1)]
+    rooms: list[Any]
     adjacency: list[Adjacency] = Field(default_factory=list)
     weights: Weights = Field(default_factory=Weights)
     options: Options = Field(default_factory=Options)
@@ -216,28 +240,17 @@ class Problem(_Strict):
             return value[:-1]
         return value
 
-    @field_validator("rooms")
+    @field_validator("rooms", mode="before")
     @classmethod
-    def _room_count_within_limit(cls, rooms: list[Room], info: ValidationInfo) -> list[Room]:
+    def _room_count_within_limit(cls, rooms: Any, info: ValidationInfo) -> Any:
+        # Before the rooms are validated: a templated problem expands each of them.
         limit = (info.context or {}).get("max_rooms", DEFAULT_MAX_ROOMS)
-        if len(rooms) > limit:
+        if isinstance(rooms, list) and len(rooms) > limit:
             raise PydanticCustomError(
                 "too_many_rooms", "{count} rooms exceed the limit of {limit}",
                 {"count": len(rooms), "limit": limit},
             )
         return rooms
-
-    @model_validator(mode="after")
-    def _check_geometry_and_references(self) -> Self:
-        errors = list(_boundary_errors(self.boundary))
-        if not errors:
-            errors += _placement_errors(self)
-        errors += _reference_errors(self)
-        if errors:
-            raise ValidationError.from_exception_data(type(self).__name__, errors)
-        return self
-
-    # Derived values used by the solver and the checker.
 
     def outline(self) -> Polygon:
         """The boundary as a shapely polygon (not yet minus obstacles)."""
@@ -249,6 +262,37 @@ class Problem(_Strict):
         for obstacle in self.obstacles:
             free = free.difference(obstacle.to_box())
         return free
+
+
+class Problem(ProblemFields):
+    """A layout request: the domain, the rooms and their constraints (DESIGN.md §1).
+
+    Input with a ``template`` is a `models.templates.TemplatedProblem`; validating it
+    as a `Problem` expands the template, and the result has no ``template``."""
+
+    rooms: Annotated[list[Room], Field(min_length=1)]
+
+    @model_validator(mode="before")
+    @classmethod
+    def _expand_template(cls, data: Any, info: ValidationInfo) -> Any:
+        if not isinstance(data, dict) or "template" not in data:
+            return data
+        if data["template"] is None:  # "template": null asks for nothing
+            return {key: value for key, value in data.items() if key != "template"}
+        # Imported here: the templates module builds on this one.
+        from models.templates import TemplatedProblem, expand
+
+        return expand(TemplatedProblem.model_validate(data, context=info.context))
+
+    @model_validator(mode="after")
+    def _check_geometry_and_references(self) -> Self:
+        errors = list(_boundary_errors(self.boundary))
+        if not errors:
+            errors += _placement_errors(self)
+        errors += _reference_errors(self)
+        if errors:
+            raise ValidationError.from_exception_data(type(self).__name__, errors)
+        return self
 
     def room(self, room_id: str) -> Room:
         for room in self.rooms:

@@ -8,6 +8,7 @@ import asyncio
 import base64
 import hashlib
 import json
+import threading
 import time
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -20,12 +21,15 @@ from fastapi.openapi.utils import get_openapi
 from fastapi.responses import JSONResponse, StreamingResponse
 from pydantic import BaseModel, Field, ValidationError
 
-from models import Layout
+from models import ConflictSet, Layout
 from models import Problem as LayoutProblem
+from models.templates import TemplatedProblem
+from service import web
 from service.backends import JobBackend, make_backend
 from service.errors import ApiError, FieldError, ProblemDetails, field_errors, install
 from service.settings import Settings, get_settings
 from service.store import IdempotencyConflict, Job, JobStatus, JobStore
+from solver.conflicts import Diagnosis, diagnose
 from solver.export import MEDIA_TYPES, render
 from solver.geometry import make_domain
 from solver.precheck import find_impossibilities
@@ -38,6 +42,14 @@ STREAM_POLL = 1.0
 HEARTBEAT = 15.0
 #: Retry-After (seconds) suggested when the queue is full.
 RETRY_AFTER = 5
+#: Seconds POST /v1/validate?explain=true spends by default, and at most (never more
+#: than FLOORPLAN_MAX_TIME_LIMIT either).
+EXPLAIN_SECONDS = 3.0
+EXPLAIN_MAX_SECONDS = 30.0
+#: Explaining validations at once: their SCIP checks run in this process, so a burst
+#: of them must not take every core from the solves.
+EXPLAINS_AT_ONCE = 2
+_explaining = threading.BoundedSemaphore(EXPLAINS_AT_ONCE)
 
 EXAMPLE_PROBLEM: dict[str, Any] = {
     "name": "studio",
@@ -52,6 +64,15 @@ EXAMPLE_PROBLEM: dict[str, Any] = {
          "target_size": [2, 2]},
     ],
     "adjacency": [{"a": "living", "b": "bed"}, {"a": "bed", "b": "bath"}],
+    "options": {"time_limit": 5, "seed": 0},
+}
+#: The same flat from its room types alone: the residential template fills in the rest.
+EXAMPLE_TEMPLATED: dict[str, Any] = {
+    "name": "studio",
+    "boundary": [[0, 0], [8, 0], [8, 6], [0, 6]],
+    "entrance": [4, 0],
+    "template": "residential",
+    "rooms": ["living", "bedroom", "bathroom"],
     "options": {"time_limit": 5, "seed": 0},
 }
 
@@ -76,6 +97,9 @@ class JobError(BaseModel):
     code: str
     message: str
     findings: list[str] = Field(default_factory=list)
+    conflict: ConflictSet | None = Field(
+        None, description="for an infeasible problem: a small set of its constraints that "
+        "cannot hold together, by path and in words")
 
 
 class JobPublic(BaseModel):
@@ -83,8 +107,8 @@ class JobPublic(BaseModel):
 
     id: UUID
     status: JobStatus
-    termination: str | None = Field(None, description="optimal, timelimit, infeasible, "
-                                    "interrupted, no_solution; set when the job ends")
+    termination: str | None = Field(None, description="optimal, timelimit, stalled, "
+                                    "infeasible, interrupted, no_solution; set when the job ends")
     progress: Progress | None = None
     error: JobError | None = None
     attempts: int
@@ -116,6 +140,17 @@ class Validation(BaseModel):
     errors: list[FieldError] = Field(default_factory=list)
     findings: list[str] = Field(default_factory=list,
                                 description="reasons no layout can exist")
+    problem: LayoutProblem | None = Field(
+        None, description="the problem as it would be solved, a template expanded: the "
+        "fields given or filled in (defaults left out); edit it and send it as is. "
+        "Absent when the problem is not well formed")
+    feasible: bool | None = Field(
+        None, description="with explain: true when SCIP found a layout meeting every hard "
+        "constraint, false when it proved there is none, null when neither in the time "
+        "given; absent without explain")
+    conflict: ConflictSet | None = Field(
+        None, description="with explain, when no layout can exist: a small set of the "
+        "problem's constraints that cannot hold together, by path and in words")
 
 
 def _time(epoch: float | None) -> datetime | None:
@@ -210,8 +245,14 @@ PROBLEM_BODY_DOC: dict[str, Any] = {
     "requestBody": {
         "required": True,
         "content": {"application/json": {
-            "schema": {"$ref": "#/components/schemas/Problem"},
-            "example": EXAMPLE_PROBLEM,
+            # A plain problem, or one a template fills in from its room types.
+            "schema": {"anyOf": [{"$ref": "#/components/schemas/Problem"},
+                                 {"$ref": "#/components/schemas/TemplatedProblem"}]},
+            "examples": {
+                "plain": {"summary": "every constraint stated", "value": EXAMPLE_PROBLEM},
+                "templated": {"summary": "room types only (residential template)",
+                              "value": EXAMPLE_TEMPLATED},
+            },
         }},
     }
 }
@@ -353,18 +394,42 @@ def delete_layout(job: JobDep, store: StoreDep) -> Response:
 misc = APIRouter(tags=["service"])
 
 
-@misc.post("/v1/validate", response_model=Validation, openapi_extra=PROBLEM_BODY_DOC)
-async def validate_problem(request: Request, settings: SettingsDep) -> Validation:
+@misc.post("/v1/validate", response_model=Validation, openapi_extra=PROBLEM_BODY_DOC,
+           response_model_exclude_unset=True)
+async def validate_problem(
+    request: Request, settings: SettingsDep,
+    explain: Annotated[bool, Query(
+        description="also ask SCIP, briefly, whether a layout exists, and when none "
+        "does, which constraints cannot hold together")] = False,
+    time_limit: Annotated[float, Query(
+        gt=0, le=EXPLAIN_MAX_SECONDS, description="seconds explain may take (at most "
+        "the service's largest options.time_limit)")] = EXPLAIN_SECONDS,
+) -> Validation:
     """Check a problem without solving it: the schema, then the cheap impossibilities
-    (total area, sizes that fit nowhere, contradictory ratios, ...)."""
+    (total area, sizes that fit nowhere, contradictory ratios, ...). With `explain`,
+    a short SCIP check of the whole problem follows, and a conflict search when no
+    layout can exist. A well-formed problem comes back as it would be solved, a
+    template expanded."""
     try:
         problem, _raw = await problem_body(request, settings)
     except ApiError as err:
         if err.status != 422:
             raise
-        return Validation(valid=False, errors=err.errors or [])
-    findings = await asyncio.to_thread(find_impossibilities, problem, make_domain(problem))
-    return Validation(valid=not findings, findings=findings)
+        return Validation(valid=False, errors=err.errors or [], findings=[])
+    if not explain:
+        findings = await asyncio.to_thread(find_impossibilities, problem, make_domain(problem))
+        # exclude_unset on the answer: the problem shows what was given or filled in.
+        return Validation(valid=not findings, errors=[], findings=findings, problem=problem)
+    seconds = min(time_limit, settings.max_time_limit)
+    found = await asyncio.to_thread(_diagnose, problem, seconds)
+    return Validation(valid=not found.findings and found.feasible is not False, errors=[],
+                      findings=found.findings, problem=problem, feasible=found.feasible,
+                      conflict=found.conflict)
+
+
+def _diagnose(problem: LayoutProblem, seconds: float) -> Diagnosis:
+    with _explaining:
+        return diagnose(problem, time_limit=seconds)
 
 
 @misc.get("/healthz")
@@ -424,6 +489,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     install(app)
     app.include_router(layouts)
     app.include_router(misc)
+    web.install(app)  # the page at /, its static files, the examples
     app.openapi = lambda: _openapi(app)  # type: ignore[method-assign]
     return app
 
@@ -435,7 +501,8 @@ def _openapi(app: FastAPI) -> dict[str, Any]:
     schema = get_openapi(title=app.title, version=app.version, description=app.description,
                          routes=app.routes)
     components = schema.setdefault("components", {}).setdefault("schemas", {})
-    for model, name in ((LayoutProblem, "Problem"), (ProblemDetails, "ProblemDetails")):
+    for model, name in ((LayoutProblem, "Problem"), (TemplatedProblem, "TemplatedProblem"),
+                        (ProblemDetails, "ProblemDetails")):
         model_schema = model.model_json_schema(ref_template="#/components/schemas/{model}")
         components.update(model_schema.pop("$defs", {}))
         components[name] = model_schema

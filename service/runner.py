@@ -231,11 +231,7 @@ def _finish(
         status = JobStatus.FAILED
     else:
         status = JobStatus.SUCCEEDED
-    error = None
-    if status is JobStatus.FAILED:
-        why = report.get("infeasibility") or {}
-        error = {"code": termination, "message": why.get("reason", termination),
-                 "findings": why.get("findings", [])}
+    error = job_failure(termination, report) if status is JobStatus.FAILED else None
     store.finish(job.id, status, termination=termination, result=payload, error=error,
                  worker=worker)
 
@@ -346,3 +342,11 @@ class Runner:
             with self._lock:
                 self._active.pop(job.id, None)
             self._wake.set()
+
+
+def job_failure(termination: str, report: dict[str, Any]) -> dict[str, Any]:
+    """The error of a job that ended without a layout, from its report: the reason, the
+    cheap impossibilities and, for an infeasible problem, the conflict found."""
+    why = report.get("infeasibility") or {}
+    return {"code": termination, "message": why.get("reason", termination),
+            "findings": why.get("findings", []), "conflict": why.get("conflict")}

@@ -1,7 +1,7 @@
 """The `floorplan` command line: solve a problem file from the shell.
 
     floorplan solve PROBLEM.json -o LAYOUT.json [--svg PLAN.svg] [--time-limit S]
-                    [--seed K] [--max-levels N] [--quiet]
+                    [--seed K] [--max-levels N] [--quiet] [--expand]
 
 Progress goes to stderr (one line per solver event, new incumbents at most a few
 times a second), then a one-line summary; the layout JSON goes to ``-o`` (stdout when
@@ -58,6 +58,8 @@ INCUMBENT_INTERVAL = 0.25
 SCIP_INFINITY = 1e19
 #: `solver.solve.Phase.INCUMBENT` (a StrEnum), spelt out to keep the solver import lazy.
 INCUMBENT = "incumbent"
+#: Objects up to this many characters (with their indent) stay on one line in --expand.
+READABLE_WIDTH = 88
 #: Stands for "stdin" / "stdout" in file arguments.
 STDIO = "-"
 
@@ -114,6 +116,10 @@ def _add_solve(commands: Any) -> None:
                    help="deepest hierarchy level (overrides options.max_levels)")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress or summary on stderr; warnings and errors only")
+    p.add_argument("--expand", action="store_true",
+                   help="write the problem as it would be solved (a template expanded into "
+                   "sizes, adjacencies and exterior walls, options overridden) to -o "
+                   "instead of solving; edit it and solve that file")
     p.set_defaults(func=cmd_solve)
 
 
@@ -139,12 +145,15 @@ def main(argv: list[str] | None = None, extra: Sequence[CommandAdder] = ()) -> i
 
 
 def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
-    from models import Termination
-    from solver.solve import solve
-
     problem = load_problem(args.problem)
     problem = with_overrides(problem, time_limit=args.time_limit, seed=args.seed,
                              max_levels=args.max_levels)
+    if args.expand:
+        return write_expanded(args, problem)
+
+    from models import Termination
+    from solver.solve import solve
+
     for target in (args.output, args.svg):
         _check_writable(target)
     progress = None if args.quiet else ProgressPrinter(sys.stderr)
@@ -164,6 +173,41 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
         print(f"{PROG}: interrupted; wrote {what}", file=sys.stderr)
         return EXIT_OK if layout.rooms else EXIT_INTERRUPTED
     return EXIT_OK if layout.rooms else EXIT_NO_LAYOUT
+
+
+def write_expanded(args: argparse.Namespace, problem: Problem) -> int:
+    """``--expand``: the validated problem as JSON, only the fields that were given or
+    that a template filled in (the defaults stay implicit, as in a hand-written file)."""
+    if args.svg or (args.format or _format_of(args.output)) != "json":
+        raise UsageError("--expand writes the problem as JSON: drop --svg and --format, "
+                         "and give -o a .json name")
+    _check_writable(args.output)
+    try:
+        _write_text(args.output, readable_json(problem.model_dump(mode="json", exclude_unset=True))
+                    + "\n")
+    except OSError as err:
+        print(f"{PROG}: error: cannot write {args.output}: {err}", file=sys.stderr)
+        return EXIT_FAILURE
+    if not args.quiet:
+        print(f"{len(problem.rooms)} rooms, {len(problem.adjacency)} adjacencies; "
+              "not solved (--expand)", file=sys.stderr)
+    return EXIT_OK
+
+
+def readable_json(value: Any, indent: str = "") -> str:
+    """JSON for people to edit: an object one field a line unless it fits on one, and a
+    list of numbers or of points on one line (``"boundary": [[0, 0], [9, 0], ...]``)."""
+    inner = indent + "  "
+    flat = json.dumps(value, separators=(", ", ": "))
+    if isinstance(value, dict) and value and (
+            len(indent) + len(flat) > READABLE_WIDTH
+            or any(isinstance(v, dict) for v in value.values())):
+        fields = [f"{inner}{json.dumps(k)}: {readable_json(v, inner)}" for k, v in value.items()]
+        return "{\n" + ",\n".join(fields) + "\n" + indent + "}"
+    if isinstance(value, list) and value and any(isinstance(v, dict) for v in value):
+        items = [inner + readable_json(v, inner) for v in value]
+        return "[\n" + ",\n".join(items) + "\n" + indent + "]"
+    return flat
 
 
 def load_problem(source: str) -> Problem:
@@ -216,7 +260,8 @@ def with_overrides(problem: Problem, **overrides: Any) -> Problem:
     if not update:
         return problem
     try:
-        options = Options.model_validate(problem.options.model_copy(update=update).model_dump())
+        # Only the fields given, so that --expand shows what was stated, not every default.
+        options = Options.model_validate(problem.options.model_dump(exclude_unset=True) | update)
     except ValidationError as err:
         flags = ", ".join(f"--{k.replace('_', '-')}" for k in update)
         raise UsageError(f"invalid option ({flags})\n"
@@ -438,6 +483,10 @@ def no_layout_message(layout: Layout) -> str:
     lines = [f"{PROG}: no layout ({r.termination.value}): "
              f"{why.reason if why else 'no reason given'}"]
     if why is not None:
+        if why.conflict is not None:
+            lines.append(f"  {why.conflict.explanation}")
+            lines += _section("constraints in conflict", [
+                f"{c.path}: {c.constraint}" for c in why.conflict.constraints])
         lines += _section("findings", why.findings)
         lines += _section("relaxations tried", why.relaxations_tried)
         lines += _section("constraint families", why.active_families)

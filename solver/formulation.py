@@ -82,7 +82,9 @@ class EnvelopeSpec:
 
     room: str
     rects: tuple[str, ...]
-    previous: Box
+    #: None at level 1, for a room given several rectangles from the start: the
+    #: envelope is then made exact (binaries pick the rectangle on each side).
+    previous: Box | None
     max_size: tuple[float, float]
     aspect_ratio: tuple[float, float] | None
 
@@ -341,6 +343,9 @@ def c_envelope(lm: LevelModel) -> None:
     bounds it from inside, so the inequalities below are sufficient, never optimistic."""
     m = lm.model
     for e in lm.spec.envelopes:
+        if e.previous is None:
+            _exact_envelope(lm, e)
+            continue
         vs = [lm.rects[n] for n in e.rects]
         tag = e.room
         x0 = m.addVar(f"env_x0[{tag}]", lb=lm.spec.region.x0, ub=e.previous.x0)
@@ -365,6 +370,44 @@ def c_envelope(lm: LevelModel) -> None:
             else:
                 m.addCons(y1 - y0 <= hi * w0, name=f"env_ratio_hi[{tag}]")
                 m.addCons(lo * (x1 - x0) <= d0, name=f"env_ratio_lo[{tag}]")
+
+
+def _exact_envelope(lm: LevelModel, e: EnvelopeSpec) -> None:
+    """C_size (Eq. 5, the maximum) and C_ratio (Eq. 7) on the exact bounding box of a
+    room of several free rectangles: each side of the box is the extreme side of one
+    rectangle, picked by a binary, and a binary picks the orientation as in c_ratio."""
+    m, region = lm.model, lm.spec.region
+    vs = [lm.rects[n] for n in e.rects]
+    tag = e.room
+    mx, my = lm.big_m_x, lm.big_m_y
+    sides = {
+        "x0": ([v.x for v in vs], region.x0, region.x1, mx, -1),
+        "x1": ([v.x + v.w for v in vs], region.x0, region.x1, mx, 1),
+        "y0": ([v.y for v in vs], region.y0, region.y1, my, -1),
+        "y1": ([v.y + v.d for v in vs], region.y0, region.y1, my, 1),
+    }
+    box: dict[str, Variable] = {}
+    for side, (values, lo, hi, big, outward) in sides.items():
+        edge = box[side] = m.addVar(f"env_{side}[{tag}]", lb=lo, ub=hi)
+        picks = [m.addVar(f"env_pick[{tag},{side},{k}]", vtype="B") for k in range(len(vs))]
+        m.addCons(quicksum(picks) == 1, name=f"env_one[{tag},{side}]")
+        for k, (value, pick) in enumerate(zip(values, picks, strict=True)):
+            # outward -1: the box's low side is at or below every rectangle's, and equal
+            # to the picked one's; +1 likewise for the high side.
+            m.addCons(outward * (edge - value) >= 0, name=f"env_out[{tag},{side},{k}]")
+            m.addCons(outward * (edge - value) <= big * (1 - pick),
+                      name=f"env_at[{tag},{side},{k}]")
+    width, depth = box["x1"] - box["x0"], box["y1"] - box["y0"]
+    m.addCons(width <= e.max_size[0], name=f"env_wmax[{tag}]")
+    m.addCons(depth <= e.max_size[1], name=f"env_dmax[{tag}]")
+    if e.aspect_ratio is not None:
+        lo, hi = e.aspect_ratio
+        big = hi * max(mx, my)
+        tall = m.addVar(f"env_tall[{tag}]", vtype="B")
+        m.addCons(lo * depth <= width + big * tall, name=f"env_ratio_wide_lo[{tag}]")
+        m.addCons(hi * depth >= width - big * tall, name=f"env_ratio_wide_hi[{tag}]")
+        m.addCons(lo * width <= depth + big * (1 - tall), name=f"env_ratio_tall_lo[{tag}]")
+        m.addCons(hi * width >= depth - big * (1 - tall), name=f"env_ratio_tall_hi[{tag}]")
 
 
 def e_objective(lm: LevelModel) -> None:

@@ -4,15 +4,23 @@ size-window heuristic of Sec. 5.4 that makes SCIP find a first layout quickly.""
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 from models import Problem, Room
-from solver.formulation import ContactSpec, LevelSpec, RectSpec
+from solver.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec
 from solver.geometry import Domain, edges_named
 
 #: Sec. 5.4: with targets, start the size bounds at 90-110 % of the target ...
 WINDOW_START = 0.10
 #: ... and widen them by 10 % of the target at each failed attempt.
 WINDOW_STEP = 0.10
+#: An extra rectangle of a room shares at least this much wall with its main one
+#: (metres): wide enough to walk through, so the room stays one usable space ...
+WING_JOIN = 1.2
+#: ... and is at least this wide and deep (metres).
+WING_MIN = 1.0
+#: Separates a room's id from the number of one of its extra rectangles.
+WING_MARK = "~wing"
 
 
 def size_bounds(room: Room, domain: Domain, window: float | None) -> tuple[
@@ -53,37 +61,87 @@ def windows_to_try(problem: Problem) -> list[float | None]:
     return [*steps, None]
 
 
-def level_one_spec(problem: Problem, domain: Domain, *, window: float | None) -> LevelSpec:
-    """Level 1: every room one rectangle, every constraint of the request."""
+def level_one_spec(
+    problem: Problem, domain: Domain, *, window: float | None,
+    wings: Mapping[str, int] | None = None,
+) -> LevelSpec:
+    """Level 1: every room one rectangle, every constraint of the request; a room in
+    `wings` gets that many more rectangles (issue 8), each sharing at least
+    `WING_JOIN` metres of wall with the room's main rectangle, which answers for the
+    room's guide points, boundary and target, while its size maximum and aspect ratio
+    hold on the bounding box of all of them (an exact envelope)."""
+    wings = wings or {}
     rects = []
+    contacts: list[ContactSpec] = []
+    envelopes = []
     for room in problem.rooms:
         lo, hi = size_bounds(room, domain, window)
+        extra = wing_names(room.id, wings.get(room.id, 0))
         rects.append(RectSpec(
             name=room.id,
             room=room.id,
             min_size=lo,
             max_size=hi,
             target=room.target_size,
-            aspect_ratio=room.aspect_ratio,
+            aspect_ratio=None if extra else room.aspect_ratio,
             positions=tuple(room.positions),
             edges=tuple(edges_named(problem, domain.edges, room.boundary)),
         ))
-    contacts = tuple(
+        for name in extra:
+            rects.append(RectSpec(name=name, room=room.id, min_size=(WING_MIN, WING_MIN),
+                                  max_size=hi, target=(WING_MIN, WING_MIN)))
+            contacts.append(ContactSpec(name=f"join[{name}]", a=(name,),
+                                        partners=((room.id,),), min_contact=WING_JOIN))
+        if extra:
+            envelopes.append(EnvelopeSpec(room.id, (room.id, *extra), None, hi,
+                                          room.aspect_ratio))
+
+    def parts(room_id: str) -> tuple[str, ...]:
+        return (room_id, *wing_names(room_id, wings.get(room_id, 0)))
+
+    contacts += [
         ContactSpec(
             name=f"adj{k}",
-            a=(adj.a,),
-            partners=tuple((p,) for p in adj.partners),
+            a=parts(adj.a),
+            partners=tuple(parts(p) for p in adj.partners),
             min_contact=adj.min_contact,
         )
         for k, adj in enumerate(problem.adjacency)
-    )
+    ]
     return LevelSpec(
         name=f"{problem.name}/level1",
         region=domain.bbox,
         blocked=domain.blocked,
         free_area=domain.area,
         rects=tuple(rects),
-        contacts=contacts,
+        contacts=tuple(contacts),
+        envelopes=tuple(envelopes),
         cover_weight=problem.weights.cover,
         size_weight=problem.weights.size,
     )
+
+
+def wing_names(room_id: str, count: int) -> tuple[str, ...]:
+    """The names of a room's extra rectangles at level 1."""
+    return tuple(f"{room_id}{WING_MARK}{k + 1}" for k in range(count))
+
+
+def wings_wanted(problem: Problem) -> dict[str, int]:
+    """The extra rectangles rooms ask for up front (`shape: free`, `max_rects`)."""
+    return {room.id: room.rectangles - 1 for room in problem.rooms if room.rectangles > 1}
+
+
+def demand_order(problem: Problem) -> list[str]:
+    """Rooms by how much is asked of them, most first: adjacencies (each partner of an
+    `any_of` counts a little), boundary walls and guide points. A room pinned by many
+    demands is the one a single rectangle most often cannot satisfy."""
+    load = {room.id: float(len(room.boundary) > 0) + len(room.positions)
+            for room in problem.rooms}
+    for adj in problem.adjacency:
+        load[adj.a] += 1
+        for p in adj.partners:
+            load[p] += 1 / len(adj.partners)
+    # Larger rooms first among equals: they have the floor space for a wing.
+    area = {room.id: math.prod(room.target_size or room.max_size or (1.0, 1.0))
+            for room in problem.rooms}
+    return sorted(load, key=lambda r: (-load[r], -area[r], r))

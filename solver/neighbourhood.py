@@ -49,11 +49,13 @@ def search_neighbourhoods(
     step: Step,
     should_stop: Callable[[], bool] | None = None,
     keep_coverage: bool = False,
+    patience: int | None = None,
     on_improvement: Callable[[dict[str, Box]], None] | None = None,
 ) -> Incumbent:
     """Improve the layout `rects` of the one-rectangle-per-room level `spec` until
-    `deadline`; each accepted step lowers Eq. 12 (under `spec`'s weights) and, with
-    `keep_coverage`, covers no less of the domain."""
+    `deadline`, or until `patience` steps in a row improved nothing; each accepted step
+    lowers Eq. 12 (under `spec`'s weights) and, with `keep_coverage`, covers no less of
+    the domain."""
     best = Incumbent(dict(rects), level_objective(spec, rects))
     coverage = covered_area(domain, best.rects)
     size = NEIGHBOURHOOD_SIZE
@@ -63,7 +65,10 @@ def search_neighbourhoods(
         for name in c.members:
             partners.setdefault(name, set()).update(c.members - {name})
     tried: set[frozenset[str]] = set()  # neighbourhoods already optimal for this incumbent
+    since_improvement = 0
     while time.monotonic() < deadline - 0.05 and not (should_stop and should_stop()):
+        if patience is not None and since_improvement >= patience:
+            break
         free, gap = choose_neighbourhood(best.rects, domain, rng, size=size,
                                          around_gap=best.steps % 3 != 2, min_sizes=min_sizes,
                                          partners=partners)
@@ -91,6 +96,7 @@ def search_neighbourhoods(
         best = Incumbent(candidate if improved else best.rects,
                          objective if improved else best.objective,
                          best.steps + 1, best.improvements + int(improved))
+        since_improvement = 0 if improved else since_improvement + 1
         if improved:
             tried.clear()
             size = NEIGHBOURHOOD_SIZE
@@ -128,6 +134,10 @@ def neighbourhood_spec(
     held as a fixed rectangle where a contact of a free room names it."""
     partners = {n for c in spec.contacts if c.members & free
                 for n in c.members} - free
+    # A room of several rectangles keeps its envelope while any of them moves, with its
+    # other rectangles held where they are.
+    envelopes = tuple(e for e in spec.envelopes if set(e.rects) & free)
+    partners |= {n for e in envelopes for n in e.rects} - free
     kept = []
     for r in spec.rects:
         if r.name in free:
@@ -143,7 +153,7 @@ def neighbourhood_spec(
     smallest = min(min(r.min_size) for r in spec.rects if r.name in free)
     blocked = unusable_space(region, inside, smallest)
     return replace(spec, name=f"{spec.name}/lns", region=region, rects=tuple(kept),
-                   contacts=contacts, blocked=blocked)
+                   contacts=contacts, envelopes=envelopes, blocked=blocked)
 
 
 def _clip(b: Box, region: Box) -> Box:

@@ -18,7 +18,7 @@ import shapely
 from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
 
-from models import OUTSIDE, Circulation, Door, Problem, Window
+from models import OUTSIDE, Adjacency, Circulation, Door, Problem, Window
 
 #: A door keeps this far (metres) from the corners of the wall it is in.
 CORNER_CLEARANCE = 0.1
@@ -26,6 +26,13 @@ CORNER_CLEARANCE = 0.1
 CIRCULATION_TYPES = frozenset({"corridor", "hall", "foyer", "living", "dining", "lobby"})
 #: Lengths below this count as zero.
 EPS = 1e-6
+#: A wall this much shorter than a door still takes it: SCIP meets a minimum contact
+#: only within its tolerance (the checker's).
+WALL_TOLERANCE = 1e-4
+#: The room types that receive the front door under `require_connected`, first found wins.
+ENTRANCE_TYPES = ("foyer", "hall", "lobby", "corridor", "living")
+#: How far inside the outline the front-door room's position point sits (metres).
+ENTRANCE_INSET = 0.05
 
 
 @dataclass(frozen=True)
@@ -46,6 +53,108 @@ def add_openings(problem: Problem, rooms: Mapping[str, Polygon]) -> Openings:
     windows = place_windows(problem, rooms, doors)
     circulation = walk(problem, doors) if front is not None else None
     return Openings(doors, windows, circulation)
+
+
+def connection_demands(problem: Problem) -> Problem:
+    """`require_connected` in the MIQP, through the adjacency choices: the problem
+    with the constraints that make every layout satisfying them connected.
+
+    A door needs a wall of at least a door's width; the user's adjacencies that the
+    door policy allows are the links already demanded. Every room left outside the
+    part linked to the front-door room gets an `any_of` adjacency (Eq. 11) to the
+    rooms of that part it may open onto, preferring corridors and living spaces;
+    the front-door room gets the entrance as a position (Eq. 8) when no room has it.
+    """
+    if not problem.options.require_connected or problem.entrance is None:
+        return problem
+    ends = {r.id for r in problem.rooms if r.type in problem.openings.no_passage}
+    passable = [r.id for r in problem.rooms if r.id not in ends]
+    entry = _entrance_room(problem, passable)
+    if entry is None:
+        return problem
+    contact = problem.openings.door_width + 2 * CORNER_CLEARANCE
+    links: dict[str, set[str]] = {r.id: set() for r in problem.rooms}
+    for adj in problem.adjacency:
+        if adj.b is not None and adj.min_contact >= problem.openings.door_width - EPS \
+                and may_connect(problem, adj.a, adj.b):
+            links[adj.a].add(adj.b)
+            links[adj.b].add(adj.a)
+    demands: list[Adjacency] = []
+    reached = _linked(entry, links, ends)
+    # An `any_of` adjacency links its room in once every partner is linked in.
+    choices = [adj for adj in problem.adjacency if adj.any_of is not None]
+    while joined := [adj for adj in choices if adj.a not in reached
+                     and all(p in reached and p not in ends and may_connect(problem, adj.a, p)
+                             for p in adj.partners)
+                     and adj.min_contact >= problem.openings.door_width - EPS]:
+        for adj in joined:
+            links[adj.a].add(adj.partners[0])
+            links[adj.partners[0]].add(adj.a)
+        reached = _linked(entry, links, ends)
+    # Passable rooms first, so that the ends can open onto the rooms they bring in.
+    for room_id in sorted(set(links) - reached, key=lambda r: (r in ends, _order(problem, r))):
+        if room_id in reached:
+            continue
+        partners = [p for p in passable if p in reached and may_connect(problem, room_id, p)]
+        circulation = [p for p in partners if problem.room(p).type in CIRCULATION_TYPES]
+        if not partners:
+            continue
+        demands.append(Adjacency(a=room_id, any_of=circulation or partners,
+                                 min_contact=contact))
+        # Any one of the partners links the room in; count it as reached from here on.
+        links[room_id].add(partners[0])
+        links[partners[0]].add(room_id)
+        reached = _linked(entry, links, ends) | {room_id}
+    rooms = problem.rooms
+    if not any(_covers(room.positions, problem.entrance) for room in rooms):
+        point = _inside_entrance(problem)
+        rooms = [r.model_copy(update={"positions": [*r.positions, point]})
+                 if r.id == entry and len(r.positions) < 2 and point is not None else r
+                 for r in rooms]
+    return problem.model_copy(update={"adjacency": [*problem.adjacency, *demands],
+                                      "rooms": rooms})
+
+
+def _entrance_room(problem: Problem, passable: list[str]) -> str | None:
+    for kind in ENTRANCE_TYPES:
+        for room_id in passable:
+            if problem.room(room_id).type == kind:
+                return room_id
+    return passable[0] if passable else None
+
+
+def _order(problem: Problem, room_id: str) -> int:
+    return [r.id for r in problem.rooms].index(room_id)
+
+
+def _linked(start: str, links: Mapping[str, set[str]], ends: set[str]) -> set[str]:
+    """The rooms linked to `start`, never through an end room."""
+    seen = {start}
+    queue = deque([start])
+    while queue:
+        here = queue.popleft()
+        if here in ends and here != start:
+            continue
+        for there in links[here] - seen:
+            seen.add(there)
+            queue.append(there)
+    return seen
+
+
+def _covers(points: list[tuple[float, float]], target: tuple[float, float]) -> bool:
+    return any(Point(p).distance(Point(target)) <= 2 * ENTRANCE_INSET for p in points)
+
+
+def _inside_entrance(problem: Problem) -> tuple[float, float] | None:
+    """The entrance moved just inside the free floor, so that a room must cover it."""
+    assert problem.entrance is not None
+    x, y = problem.entrance
+    free = problem.free_area()
+    for dx, dy in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        point = (x + dx * ENTRANCE_INSET, y + dy * ENTRANCE_INSET)
+        if free.contains(Point(point)):
+            return point
+    return None
 
 
 def may_connect(problem: Problem, a: str, b: str) -> bool:
@@ -117,7 +226,7 @@ def connecting_doors(
                 if not may_connect(problem, room_id, other):
                     continue
                 wall = longest_shared_wall(rooms[room_id], rooms[other])
-                if wall is None or wall.length < width:
+                if wall is None or wall.length < width - WALL_TOLERANCE:
                     continue
                 # A door onto a corridor or living space beats a longer wall onto a
                 # bedroom: nobody wants to cross a bedroom to get anywhere.
@@ -212,10 +321,17 @@ def door_segment(
     ((0.1, 0.0), (1.0, 0.0))
     >>> door_segment(LineString([(0, 0), (0.8, 0)]), 0.9) is None
     True
+
+    A wall exactly a door wide (an adjacency's minimum contact) takes the door, without
+    clearance, within the checker's tolerance:
+
+    >>> door_segment(LineString([(0, 0), (0.89999, 0)]), 0.9)
+    ((0.0, 0.0), (0.89999, 0.0))
     """
     length = wall.length
-    if length < width + EPS:
+    if length < width - WALL_TOLERANCE:
         return None
+    width = min(width, length)
     clearance = min(CORNER_CLEARANCE, (length - width) / 2)
     at = length / 2 if centre is None else wall.project(centre)
     at = min(max(at, clearance + width / 2), length - clearance - width / 2)

@@ -3,7 +3,10 @@ can act on. An empty list proves nothing; a non-empty one proves infeasibility."
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 from shapely import affinity
+from shapely.geometry.base import BaseGeometry
 
 from models import Problem, Room
 from solver.geometry import EPS, Domain, edges_named
@@ -35,12 +38,17 @@ def _room_fits(room: Room, domain: Domain) -> list[str]:
     if not room.min_size or min(room.min_size) <= EPS:
         return []
     w, d = room.min_size
-    scaled = affinity.scale(domain.free, xfact=1 / w, yfact=1 / d, origin=(0, 0))
-    core = scaled.buffer(-0.5 + 1e-9, join_style="mitre")
-    if core.is_empty:
+    if not _fits_somewhere(domain.free, w, d):
         return [f"room '{room.id}' needs at least {w:g} x {d:g} m, which fits nowhere in the "
                 "free area"]
     return []
+
+
+# The conflict search (solver/conflicts.py) asks again and again about the same rooms.
+@lru_cache(maxsize=4096)
+def _fits_somewhere(free: BaseGeometry, w: float, d: float) -> bool:
+    scaled = affinity.scale(free, xfact=1 / w, yfact=1 / d, origin=(0, 0))
+    return not scaled.buffer(-0.5 + 1e-9, join_style="mitre").is_empty
 
 
 def _ratio_within_sizes(room: Room) -> list[str]:

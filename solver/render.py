@@ -1,5 +1,6 @@
-"""A layout as a standalone SVG drawing: walls, rooms coloured by type with their
-labels, hatched obstacles, uncovered gaps in red, the entrance, a scale bar, a title.
+"""A layout as a standalone SVG drawing: walls with thickness (facade and partitions),
+rooms coloured by type with their labels, hatched obstacles, uncovered gaps in red,
+doors and windows, the entrance, a scale bar, a north arrow and a title.
 
 The document is built with ``xml.etree`` so every user string (room ids, types,
 labels, the problem name) is escaped by the serializer rather than by hand.
@@ -58,6 +59,9 @@ MIN_LABEL_FONT = 4.0
 #: Typical glyph width / font size for sans-serif text, to estimate label widths.
 GLYPH_WIDTH = 0.6
 
+#: Drawn wall thicknesses, metres: a load-bearing facade and a light partition.
+EXTERIOR_WALL = 0.25
+INTERIOR_WALL = 0.1
 #: Door leaves and swings; window panes.
 DOOR_COLOUR = "#8a5a2b"
 WINDOW_COLOUR = "#3a7bd5"
@@ -105,6 +109,7 @@ def render_svg(problem: Problem, layout: Layout, *, scale: float = 40.0) -> str:
     for index, obstacle in enumerate(problem.obstacles):
         _add_obstacle(svg, frame, Box(obstacle.x, obstacle.y, obstacle.x + obstacle.width,
                                       obstacle.y + obstacle.depth), obstacle.label, index)
+    _add_interior_walls(svg, frame, layout.rooms, outline)
     _add_outline(svg, frame, outline)
     _add_openings(svg, frame, layout)  # over the walls: they are holes in them
     if problem.entrance is not None:
@@ -248,8 +253,29 @@ def _add_north_arrow(svg: ET.Element, x: float, y: float) -> None:
 
 
 def _wall_width(frame: _Frame) -> float:
-    """Exterior walls drawn about 12 cm thick."""
-    return max(2.0, 0.12 * frame.scale)
+    """Exterior walls drawn EXTERIOR_WALL thick, and never thinner than two units."""
+    return max(2.0, EXTERIOR_WALL * frame.scale)
+
+
+def _add_interior_walls(svg: ET.Element, frame: _Frame, rooms: Sequence[RoomLayout],
+                        outline: Polygon) -> None:
+    """The partitions: every room edge not on the outline, drawn INTERIOR_WALL thick
+    once, however many rooms share it."""
+    shapes = [shape for room in rooms if (shape := _room_shape(room)) is not None]
+    if not shapes:
+        return
+    edges = shapely.union_all([shape.boundary for shape in shapes])
+    partitions = shapely.line_merge(edges.difference(outline.exterior.buffer(1e-6)))
+    lines = [line for line in shapely.get_parts(partitions) if line.length > 1e-6]
+    if not lines:
+        return
+    path = " ".join("M " + " L ".join(_pair(frame, x, y) for x, y in line.coords)
+                    for line in lines)
+    ET.SubElement(svg, "path", {
+        "class": "interior-walls", "d": path, "fill": "none", "stroke": WALL_COLOUR,
+        "stroke-width": _num(max(1.0, INTERIOR_WALL * frame.scale)),
+        "stroke-linecap": "square", "stroke-linejoin": "miter",
+    })
 
 
 def _add_outline(svg: ET.Element, frame: _Frame, outline: Polygon) -> None:

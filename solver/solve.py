@@ -17,6 +17,7 @@ import shapely
 
 from models import (
     ConstraintCheck,
+    ExtraRectangles,
     Infeasibility,
     Layout,
     Problem,
@@ -25,6 +26,7 @@ from models import (
     Termination,
 )
 from solver.checker import check_layout
+from solver.conflicts import find_conflict
 from solver.construct import construct
 from solver.formulation import LevelModel, active_families, build_level
 from solver.geometry import (
@@ -50,9 +52,21 @@ from solver.hierarchy import (
     room_boxes,
     select_subdomains,
 )
-from solver.level_one import level_one_spec, windows_to_try
-from solver.neighbourhood import NEIGHBOURHOOD_SIZE, coverage_first, search_neighbourhoods
-from solver.openings import add_openings
+from solver.level_one import (
+    demand_order,
+    level_one_spec,
+    windows_to_try,
+    wing_names,
+    wings_wanted,
+)
+from solver.neighbourhood import (
+    GAP_AREA,
+    NEIGHBOURHOOD_SIZE,
+    coverage_first,
+    covered_area,
+    search_neighbourhoods,
+)
+from solver.openings import add_openings, connection_demands
 from solver.parallel import (
     LATE_SECONDS,
     SubdomainExecutor,
@@ -69,6 +83,7 @@ from solver.scip_run import (
     complete_start,
     run_level,
 )
+from solver.slicing import slicing_applies, slicing_layout
 
 #: Seconds per job up to `BASE_ROOMS` rooms (Sec. 5.4) ...
 BASE_TIME = 5.0
@@ -86,6 +101,8 @@ PLAN_SECONDS_PER_ROOM = 0.002
 CONSTRUCT_ABOVE = 20
 #: Share of the neighbourhood search spent with coverage weighted first.
 COVERAGE_PHASE_SHARE = 0.85
+#: A fully covering layout's polish ends after this many steps in a row without gain.
+STALL_STEPS = 8
 #: Output coordinates closer than this (metres) are made equal: SCIP's feasibility
 #: tolerance is relative, so at 60 m two walls meant to meet may lie 6e-5 m apart.
 #: The same tolerance as the checker's.
@@ -101,6 +118,7 @@ class Phase(StrEnum):
     RELAXATION = "relaxation"  # a feasibility attempt of the size-window schedule ended
     LEVEL = "level"  # a level starts
     SUBDOMAIN = "subdomain"  # a sub-domain solve ended
+    CONFLICT = "conflict"  # the search for constraints that cannot hold together ended
     INCUMBENT = "incumbent"  # SCIP found a better solution of the current MIQP
     DONE = "done"
 
@@ -138,6 +156,26 @@ class _Run:
     #: The size window of the first layout (None: the user's own bounds).
     window: float | None = None
     level: int = 1
+    #: The level-1 search ended early, fully covering and no longer improving.
+    stalled: bool = False
+    #: The problem as the user sent it, before require_connected added to it.
+    asked: Problem | None = None
+    #: Extra level-1 rectangles per room (issue 8), and the report's account of them.
+    wings: dict[str, int] = field(default_factory=dict)
+    extra: list[ExtraRectangles] = field(default_factory=list)
+
+    def room_of(self, rect: str) -> str:
+        """The room a level-1 rectangle belongs to."""
+        for room_id, count in self.wings.items():
+            if rect in wing_names(room_id, count):
+                return room_id
+        return rect
+
+    def by_room(self, rects: dict[str, Box]) -> dict[str, list[Box]]:
+        rooms: dict[str, list[Box]] = {}
+        for name, b in rects.items():
+            rooms.setdefault(self.room_of(name), []).append(b)
+        return rooms
 
     def remaining(self) -> float:
         return self.deadline - time.monotonic()
@@ -193,15 +231,18 @@ def solve(
     `subdomains`, the sub-domains of each refinement level are solved at the same time
     on its executor (solver/parallel.py); without, one after the other."""
     started = time.monotonic()
+    asked = problem
+    # The doors every room needs, as adjacencies the MIQP must honour.
+    problem = connection_demands(problem)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
     # The last gaps and the check run after the search: keep time for them.
     reserve = min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
-    run = _Run(problem, started + limit - reserve, started, on_event, should_stop)
+    run = _Run(problem, started + limit - reserve, started, on_event, should_stop, asked=asked)
     domain = make_domain(problem)
     findings = find_impossibilities(problem, domain)
     if findings:
-        return _no_layout(run, Termination.INFEASIBLE, Infeasibility(
-            reason="the problem is infeasible before any solving", findings=findings))
+        return _no_layout(run, Termination.INFEASIBLE, _explained(run, domain, Infeasibility(
+            reason="the problem is infeasible before any solving", findings=findings)))
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
     pieces, failure = _level_one(run, domain, started + (run.deadline - started) * LEVEL_ONE_SHARE)
     if pieces is None:
@@ -336,15 +377,22 @@ def _level_one(
     first: LevelResult | None = None
     proven_infeasible = False
     large = len(problem.rooms) > CONSTRUCT_ABOVE
-    if large:
+    run.wings = wings_wanted(problem)
+    run.extra = [ExtraRectangles(room=room_id, rectangles=count + 1, reason="asked")
+                 for room_id, count in run.wings.items()]
+    # Keep time for extra rectangles when one rectangle per room is not enough.
+    may_widen = len(run.wings) < len(problem.rooms)
+    if slicing_applies(problem) and not run.wings:
+        first = _slice(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
+    if large and first is None:
         first = _construct(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
     for window in [] if first is not None else windows_to_try(problem):
         left = deadline - time.monotonic()
         if left <= 0.05 or run.stopped():
             break
-        spec = level_one_spec(problem, domain, window=window)
+        spec = level_one_spec(problem, domain, window=window, wings=run.wings)
         lm = build_level(spec, feasibility=True)
-        share = left if window is None else left * ATTEMPT_SHARE
+        share = left * (ATTEMPT_SHARE if window is not None or may_widen else 1.0)
         result = run.run(lm, share)
         label = "user bounds" if window is None else f"target ±{window:.0%}"
         run.relaxations.append(f"{label}: {result.status}")
@@ -354,13 +402,20 @@ def _level_one(
             break
         proven_infeasible = window is None and result.status is LevelStatus.INFEASIBLE
     if first is None and not proven_infeasible and not large:
-        first = _construct(run, domain, deadline)
+        first = _construct(run, domain, deadline - (deadline - time.monotonic()) * (
+            ATTEMPT_SHARE if may_widen else 0.0))
+    if first is None and may_widen:
+        first = _with_wings(run, domain, deadline, why=(
+            "one rectangle per room is infeasible (proved by SCIP)" if proven_infeasible
+            else "no one-rectangle-per-room layout was found in its share of the time"))
+        proven_infeasible = proven_infeasible and first is None
     if first is None:
-        spec = level_one_spec(problem, domain, window=None)
+        spec = level_one_spec(problem, domain, window=None, wings=run.wings)
         if proven_infeasible:
-            return None, _no_layout(run, Termination.INFEASIBLE, Infeasibility(
+            why = Infeasibility(
                 reason="SCIP proved that no single-rectangle layout satisfies the constraints",
-                active_families=active_families(spec), relaxations_tried=run.relaxations))
+                active_families=active_families(spec), relaxations_tried=run.relaxations)
+            return None, _no_layout(run, Termination.INFEASIBLE, _explained(run, domain, why))
         if run.stopped():
             termination = Termination.INTERRUPTED
             reason = "stopped on request before any layout was found"
@@ -371,14 +426,58 @@ def _level_one(
             reason=reason, active_families=active_families(spec),
             relaxations_tried=run.relaxations))
     assert first.rects is not None
-    run.incumbent(domain, {k: [b] for k, b in first.rects.items()})
+    run.incumbent(domain, run.by_room(first.rects))
     boxes = _improve_level_one(run, domain, first.rects, deadline)
-    return [_piece(problem, domain, room_id, box) for room_id, box in boxes.items()], None
+    return [_piece(problem, domain, run.room_of(name), name, box)
+            for name, box in boxes.items()], None
+
+
+def _with_wings(run: _Run, domain: Domain, deadline: float, why: str) -> LevelResult | None:
+    """Issue 8: when one rectangle per room fails, let the rooms with the most demands
+    start as two rectangles (an L or T), one more room at each attempt, doubling."""
+    problem = run.problem
+    order = [r for r in demand_order(problem) if r not in run.wings]
+    count = 1
+    while order and not run.stopped():
+        left = deadline - time.monotonic()
+        if left <= 0.05:
+            return None
+        chosen = order[:count]
+        last = count >= len(order)
+        wings = run.wings | dict.fromkeys(chosen, 1)
+        spec = level_one_spec(problem, domain, window=None, wings=wings)
+        result = run.run(build_level(spec, feasibility=True),
+                         left if last else left * ATTEMPT_SHARE)
+        label = f"user bounds, {', '.join(chosen)} as two rectangles"
+        run.relaxations.append(f"{label}: {result.status}")
+        run.emit(Phase.RELAXATION, detail=f"size bounds {label}: {result.status}")
+        if result.rects is not None:
+            run.wings = wings
+            run.extra += [ExtraRectangles(room=r, rectangles=2, reason=why) for r in chosen]
+            return result
+        if last:
+            return None
+        count *= 2
+    return None
+
+
+def _slice(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
+    """A first layout of rows of rooms filling the floor (solver/slicing.py)."""
+    started = time.monotonic()
+    rects = slicing_layout(run.problem, domain, deadline=deadline)
+    outcome = "found" if rects is not None else "nothing found"
+    run.relaxations.append(f"user bounds, sliced into rows: {outcome}")
+    run.emit(Phase.RELAXATION, detail=f"size bounds user bounds, sliced into rows: {outcome}")
+    if rects is None:
+        return None
+    return LevelResult(LevelStatus.FEASIBLE, rects, layout_objective(
+        run.problem, domain, {k: [b] for k, b in rects.items()}), None,
+        time.monotonic() - started)
 
 
 def _construct(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
     """A first layout built a batch of rooms at a time (solver/construct.py)."""
-    if deadline - time.monotonic() <= 0.1 or run.stopped():
+    if deadline - time.monotonic() <= 0.1 or run.stopped() or run.wings:
         return None
     spec = level_one_spec(run.problem, domain, window=None)
     rects = construct(spec, deadline=deadline, rng=random.Random(run.problem.options.seed),
@@ -398,7 +497,7 @@ def _improve_level_one(
     neighbourhood search on the level-1 MIQP."""
     if deadline - time.monotonic() <= 0.1 or run.stopped():
         return first
-    lm = build_level(level_one_spec(run.problem, domain, window=None))
+    lm = build_level(level_one_spec(run.problem, domain, window=None, wings=run.wings))
     start = complete_start(lm, first, time_limit=deadline - time.monotonic())
     if start.values is None:
         return first
@@ -406,36 +505,44 @@ def _improve_level_one(
     if len(run.problem.rooms) <= NEIGHBOURHOOD_SIZE:
         # One neighbourhood would be the whole model: solve it outright.
         def announce(inc: Incumbent) -> None:
-            run.incumbent(domain, {k: [b] for k, b in inc.rects.items()}, inc.dual_bound)
+            run.incumbent(domain, run.by_room(inc.rects), inc.dual_bound)
 
         direct = run.run(lm, deadline - time.monotonic(), on_incumbent=announce)
         return direct.rects if direct.rects is not None else start.rects
     def improved(rects: dict[str, Box]) -> None:
-        run.incumbent(domain, {k: [b] for k, b in rects.items()})
+        run.incumbent(domain, run.by_room(rects))
 
     # Coverage first (what users judge a plan by), then the user's own weights without
-    # giving coverage back.
+    # giving coverage back. A start that covers everything skips the first phase, and
+    # its search stops once it stalls: only E_size is left to gain, and the user is
+    # better served by the layout now than by a few hundredths later.
     rng = random.Random(run.problem.options.seed)
+    covers = covered_area(domain, start.rects) >= domain.area - GAP_AREA
     middle = time.monotonic() + (deadline - time.monotonic()) * COVERAGE_PHASE_SHARE
-    first_pass = search_neighbourhoods(
+    first_pass = None if covers else search_neighbourhoods(
         coverage_first(lm.spec), start.rects, domain, deadline=middle, rng=rng,
         step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
         on_improvement=improved,
     )
     best = search_neighbourhoods(
-        lm.spec, first_pass.rects, domain, deadline=deadline, rng=rng,
+        lm.spec, start.rects if first_pass is None else first_pass.rects, domain,
+        deadline=deadline, rng=rng,
         step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
-        keep_coverage=True, on_improvement=improved,
+        keep_coverage=True, patience=STALL_STEPS if covers else None,
+        on_improvement=improved,
     )
-    steps = first_pass.steps + best.steps
-    improvements = first_pass.improvements + best.improvements
+    run.stalled = covers and time.monotonic() < deadline - 0.05 and not run.stopped()
+    steps = best.steps + (first_pass.steps if first_pass else 0)
+    improvements = best.improvements + (first_pass.improvements if first_pass else 0)
     run.emit(Phase.LEVEL, objective=best.objective,
              detail=f"neighbourhood search: {improvements} of {steps} steps improved")
     return best.rects
 
 
-def _piece(problem: Problem, domain: Domain, room_id: str, box: Box) -> Piece:
+def _piece(problem: Problem, domain: Domain, room_id: str, name: str, box: Box) -> Piece:
     room = problem.room(room_id)
+    if name != room_id:
+        return Piece(name, room_id, box)  # an extra rectangle answers for nothing alone
     # Only the candidate edges the room actually lies on carry over to refinement.
     edges = tuple(e for e in edges_named(problem, domain.edges, room.boundary) if on_edge(box, e))
     return Piece(room_id, room_id, box, tuple(room.positions), edges)
@@ -448,6 +555,8 @@ def _termination(run: _Run) -> Termination:
         s in (LevelStatus.OPTIMAL, LevelStatus.INFEASIBLE) for s in run.statuses
     ):
         return Termination.OPTIMAL
+    if run.stalled and run.remaining() > 0:
+        return Termination.STALLED
     return Termination.TIME_LIMIT
 
 
@@ -482,7 +591,7 @@ def _layout(run: _Run, domain: Domain, pieces: list[Piece], levels: int) -> Layo
         constraints=constraints, size_error=check.size_error,
         objective=objective, levels=levels, solve_time=run.elapsed(),
         termination=_termination(run), valid=valid, circulation=openings.circulation,
-        relaxation=run.window,
+        relaxation=run.window, extra_rectangles=run.extra,
     )
     run.emit(Phase.DONE, objective=objective, detail=f"coverage {check.coverage:.1%}")
     return Layout(name=problem.name, rooms=out, doors=openings.doors, windows=openings.windows,
@@ -522,6 +631,17 @@ def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float
                     uncovered_area=float(domain_free.area) - cover, objective=objective,
                     termination=Termination.IN_PROGRESS, valid=False)
     return Layout(name=problem.name, rooms=out, report=report)
+
+
+def _explained(run: _Run, domain: Domain, why: Infeasibility) -> Infeasibility:
+    """`why` with a small set of the user's constraints that cannot hold together,
+    searched in the time the solve has left (solver/conflicts.py)."""
+    conflict = find_conflict(run.asked or run.problem, domain, deadline=run.deadline,
+                             solved=run.problem, should_stop=run.should_stop)
+    if conflict is not None:
+        run.emit(Phase.CONFLICT, detail=f"{len(conflict.constraints)} constraints cannot "
+                 f"hold together{'' if conflict.minimal else ' (perhaps not minimal)'}")
+    return why.model_copy(update={"conflict": conflict})
 
 
 def _no_layout(run: _Run, termination: Termination, why: Infeasibility) -> Layout:

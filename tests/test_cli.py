@@ -234,3 +234,66 @@ def test_invalid_layout_warning_lists_the_failed_checks() -> None:
         "floorplan: warning: the layout fails 1 check(s):",
         "  adjacency a, b: contact 0.40 m < 0.90 m",
     ]
+
+
+# Templates (paper Sec. 5.4): a bare list of room types is a problem.
+
+TEMPLATED: dict[str, Any] = {
+    "name": "templated-flat",
+    "boundary": [[0, 0], [9, 0], [9, 7], [0, 7]],
+    "entrance": [4.5, 0],
+    "template": "residential",
+    "rooms": ["living", "kitchen", "bedroom", "bedroom", "bathroom"],
+}
+
+
+def test_a_templated_problem_solves_from_the_command_line(tmp_path: Path) -> None:
+    problem = write_problem(tmp_path, TEMPLATED)
+    done = floorplan("solve", problem, "-o", "layout.json", "--time-limit", "2",
+                     "--seed", "1", cwd=tmp_path)
+    assert done.returncode == EXIT_OK, done.stderr
+    layout = Layout.model_validate_json((tmp_path / "layout.json").read_text())
+    assert {r.id for r in layout.rooms} == {"living", "kitchen", "bedroom-1", "bedroom-2",
+                                            "bathroom"}
+    assert layout.report.valid
+
+
+def test_expand_writes_the_problem_as_it_would_be_solved_and_it_solves_as_is(
+    tmp_path: Path,
+) -> None:
+    problem = write_problem(tmp_path, TEMPLATED)
+    done = floorplan("solve", problem, "--expand", "--seed", "4", "-o", "expanded.json",
+                     cwd=tmp_path)
+    assert done.returncode == EXIT_OK, done.stderr
+    text = (tmp_path / "expanded.json").read_text()
+    assert '"boundary": [[0.0, 0.0], [9.0, 0.0], [9.0, 7.0], [0.0, 7.0]]' in text
+    expanded = json.loads(text)
+    assert "template" not in expanded and "openings" not in expanded  # defaults stay implicit
+    assert expanded["options"] == {"seed": 4}
+    assert all({"id", "min_size", "max_size", "target_size"} <= set(r) for r in expanded["rooms"])
+    assert expanded["adjacency"]
+    # The file is a plain problem: edit it (here: drop the adjacencies) and solve it.
+    expanded["adjacency"] = []
+    solved = floorplan("solve", write_problem(tmp_path, expanded, "edited.json"),
+                       "--time-limit", "1", "-q", cwd=tmp_path)
+    assert solved.returncode == EXIT_OK, solved.stderr
+    assert not [c for c in Layout.model_validate_json(solved.stdout).report.constraints
+                if c.kind == "adjacency"]
+
+
+def test_expand_refuses_a_plan_format(tmp_path: Path) -> None:
+    done = floorplan("solve", write_problem(tmp_path, TEMPLATED), "--expand", "--svg", "p.svg",
+                     cwd=tmp_path)
+    assert done.returncode == EXIT_INVALID
+    assert "--expand" in done.stderr
+
+
+def test_unknown_template_and_room_type_exit_2_naming_each_field(tmp_path: Path) -> None:
+    bad = {**TEMPLATED, "template": "castle", "rooms": ["living", "ballroom"]}
+    done = floorplan("solve", write_problem(tmp_path, bad), cwd=tmp_path)
+    assert done.returncode == EXIT_INVALID
+    assert re.search(r"^\s*rooms\.1: unknown room type 'ballroom'", done.stderr,
+                     re.MULTILINE), done.stderr
+    bad = {**TEMPLATED, "template": "castle"}
+    done = floorplan("solve", write_problem(tmp_path, bad), cwd=tmp_path)
+    assert re.search(r"^\s*template: .*'residential'", done.stderr, re.MULTILINE), done.stderr

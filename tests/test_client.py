@@ -159,6 +159,15 @@ def test_validate_gives_a_verdict_without_solving(fp: Client) -> None:
     assert not crowded.valid and "minimum sizes need" in crowded.findings[0]
 
 
+def test_validate_hands_back_a_templated_problem_expanded(fp: Client) -> None:
+    verdict = fp.validate({**SMALL, "adjacency": [], "template": "residential",
+                           "rooms": ["living", "bedroom"]})
+    assert verdict.valid and isinstance(verdict.problem, Problem)
+    assert [r.id for r in verdict.problem.rooms] == ["living", "bedroom"]
+    assert all(r.target_size for r in verdict.problem.rooms)
+    assert fp.validate(verdict.problem).problem == verdict.problem
+
+
 def test_list_pages_through_the_jobs_newest_first(fp: Client) -> None:
     ids = [fp.submit({**SMALL, "name": f"page-{k}"}).id for k in range(3)]
     page = fp.list(limit=2)

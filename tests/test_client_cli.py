@@ -93,6 +93,7 @@ def test_refused_and_infeasible_problems(server: Server, tmp_path: Path) -> None
     assert infeasible.returncode == EXIT_NO_LAYOUT
     assert "no layout (infeasible)" in infeasible.stderr and "minimum sizes need" \
         in infeasible.stderr
+    assert "constraints in conflict:\n    - rooms.0.min_size: " in infeasible.stderr
     report = Layout.model_validate_json((tmp_path / "report.json").read_text())
     assert report.rooms == [] and report.report.termination is Termination.INFEASIBLE
 

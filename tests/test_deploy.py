@@ -77,4 +77,9 @@ def test_the_dockerfile_copies_files_that_exist_and_installs_the_distributed_ext
         "optional-dependencies"]
     assert 'pip install ".[distributed]"' in dockerfile and "distributed" in extras
     ignored = (ROOT / ".dockerignore").read_text().split()
-    assert not {"models", "solver", "service"} & set(ignored)
+    assert not {"models", "solver", "service", "examples"} & set(ignored)
+    # Every link in the copied packages points at something copied too.
+    copied = {Path(line.split()[1]).name for line in re.findall(r"^COPY (.+)$", dockerfile,
+                                                                   re.MULTILINE)}
+    for link in (p for p in (ROOT / "service").rglob("*") if p.is_symlink()):
+        assert link.resolve().relative_to(ROOT).parts[0] in copied, link

@@ -8,7 +8,7 @@ import pytest
 from shapely.geometry import LineString, Polygon, box
 
 from models import OUTSIDE, Problem
-from solver.openings import add_openings, walk
+from solver.openings import add_openings, connection_demands, walk
 
 #   +----------+------+
 #   |  bed     | bath |   y 4..8
@@ -118,3 +118,39 @@ def test_require_connected_adds_the_missing_doors() -> None:
 
 def test_without_an_entrance_there_is_no_circulation_report() -> None:
     assert add_openings(problem(entrance=None), ROOMS).circulation is None
+
+
+def test_connection_demands_link_every_room_to_the_front_door_room() -> None:
+    # living-hall is asked for; bed and bath are not linked to anything passable.
+    p = problem(adjacency=[{"a": "living", "b": "hall"}, {"a": "bed", "b": "bath"}],
+                options={"require_connected": True})
+    strict = problem(adjacency=[{"a": "living", "b": "hall"}, {"a": "bed", "b": "bath"}],
+                     options={"require_connected": True},
+                     openings={"door_policy": {"bathroom": ["corridor"]}})
+    # Allowed onto corridors only, the bathroom needs its own door to the hall.
+    assert [(a.a, a.partners) for a in connection_demands(strict).adjacency[2:]] == [
+        ("bed", ["hall", "living"]), ("bath", ["hall"])]
+    demanded = connection_demands(p)
+    added = demanded.adjacency[len(p.adjacency):]
+    # The bedroom must open onto the hall or the living room; the bathroom is then
+    # reached through it (the default policy lets a bathroom open onto a bedroom).
+    assert {a.a: sorted(a.partners) for a in added} == {"bed": ["hall", "living"]}
+    assert all(a.min_contact >= p.openings.door_width for a in added)
+    # No foyer: the corridor receives the front door, at the entrance point.
+    hall = demanded.room("hall")
+    assert hall.positions and abs(hall.positions[-1][0] - 6) < 1e-9
+
+
+def test_connection_demands_leave_a_linked_problem_alone() -> None:
+    # bed touches one of two linked rooms: linked whichever it is.
+    p = problem(adjacency=[{"a": "living", "b": "hall"}, {"a": "bed", "any_of": ["hall", "living"]},
+                           {"a": "bath", "b": "hall"}],
+                options={"require_connected": True},
+                rooms=[{"id": k, "type": t, **({"positions": [[6, 0.05]]} if k == "hall" else {})}
+                       for k, t in TYPES.items()])
+    demanded = connection_demands(p)
+    assert demanded.adjacency == p.adjacency
+    assert demanded.rooms == p.rooms
+    # Without the option nothing changes at all.
+    loose = problem(adjacency=[])
+    assert connection_demands(loose) is loose

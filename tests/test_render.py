@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 
 import pytest
@@ -203,3 +204,20 @@ def test_doors_swing_into_their_room_windows_sit_in_walls_and_north_is_marked() 
     assert len(root.findall(".//svg:line[@class='window-pane']", ns)) == len(layout.windows)
     arrow = root.find(".//svg:g[@class='north-arrow']", ns)
     assert arrow is not None and "N" in "".join(arrow.itertext())
+
+
+def test_partitions_are_drawn_once_with_thickness_and_the_facade_thicker(svg: ET.Element) -> None:
+    walls = svg.findall(".//svg:path[@class='interior-walls']", NS)
+    assert len(walls) == 1
+    outline = svg.find(".//svg:path[@class='outline']", NS)
+    assert outline is not None
+    assert float(walls[0].get("stroke-width", 0)) < float(outline.get("stroke-width", 0))
+    # At 40 units a metre: the x = 6 wall between living and bedroom (y 0..4 -> page y
+    # 412..252 with the frame's margins) and the room edges along the gap, none on the
+    # outline, whose x = 0 and x = 10 sides are at page x 24 and 424.
+    d = walls[0].get("d", "")
+    xs = {float(pair.split(",")[0]) for pair in re.findall(r"[\d.]+,[\d.]+", d)}
+    assert 24 + 6 * 40 in xs
+    segments = [s.strip() for s in d.split("M ") if s.strip()]
+    assert not any(all(float(p.split(",")[0]) in (24, 424) for p in s.split(" L "))
+                   for s in segments)

@@ -252,7 +252,7 @@ def test_unknown_routes_and_jobs_are_problem_documents(client: httpx.Client) -> 
 
 def test_validate_reports_schema_errors_and_cheap_impossibilities(client: httpx.Client) -> None:
     assert client.post("/v1/validate", json=SMALL).json() == {
-        "valid": True, "errors": [], "findings": []}
+        "valid": True, "errors": [], "findings": [], "problem": SMALL}
     bad = client.post("/v1/validate", json={**SMALL, "rooms": [{"id": "a", "min_size": [3, 2],
                                                                 "max_size": [2, 2]}]}).json()
     assert not bad["valid"] and bad["errors"][0]["field"] == "rooms.0.min_size.0"
@@ -265,8 +265,10 @@ def test_validate_reports_schema_errors_and_cheap_impossibilities(client: httpx.
 def test_openapi_and_docs_are_served_with_examples(client: httpx.Client) -> None:
     schema = client.get("/openapi.json").json()
     body = schema["paths"]["/v1/layouts"]["post"]["requestBody"]["content"]["application/json"]
-    assert body["schema"] == {"$ref": "#/components/schemas/Problem"} and body["example"]
-    assert "Room" in schema["components"]["schemas"]
+    assert body["schema"] == {"anyOf": [{"$ref": "#/components/schemas/Problem"},
+                                        {"$ref": "#/components/schemas/TemplatedProblem"}]}
+    assert set(body["examples"]) == {"plain", "templated"}
+    assert {"Room", "RoomSketch"} <= set(schema["components"]["schemas"])
     assert client.get("/docs").status_code == 200
 
 
@@ -397,3 +399,61 @@ def test_a_crashed_solve_fails_its_own_job_and_the_service_carries_on(
             assert wait(c, submit(c, SMALL)["id"])["status"] == "succeeded"
     finally:
         s.stop()
+
+
+# Templates (paper Sec. 5.4): room types alone make a problem.
+
+TEMPLATED: dict[str, Any] = {
+    "name": "templated-flat",
+    "boundary": [[0, 0], [10, 0], [10, 8], [0, 8]],
+    "entrance": [2, 0],
+    "template": "residential",
+    "rooms": ["foyer", "living", "kitchen", {"type": "bedroom", "boundary": ["north"]},
+              "bedroom", "bathroom"],
+    "options": {"time_limit": 3, "seed": 0},
+}
+
+
+def test_a_templated_problem_is_queued_and_solved_to_a_valid_layout(
+    client: httpx.Client,
+) -> None:
+    job = submit(client, TEMPLATED)
+    assert wait(client, job["id"])["status"] == "succeeded"
+    layout = client.get(f"/v1/layouts/{job['id']}/result").json()
+    assert {r["id"] for r in layout["rooms"]} == {
+        "foyer", "living", "kitchen", "bedroom-1", "bedroom-2", "bathroom"}
+    assert layout["report"]["valid"]
+    # The report checks what the template filled in, and what the user stated.
+    checks = {(c["kind"], tuple(c["rooms"])) for c in layout["report"]["constraints"]}
+    assert ("size", ("bedroom-2",)) in checks and ("boundary", ("bedroom-1",)) in checks
+    assert client.get(f"/v1/layouts/{job['id']}/result?format=svg").status_code == 200
+
+
+def test_validate_returns_the_expanded_problem_ready_to_edit_and_resend(
+    client: httpx.Client,
+) -> None:
+    verdict = client.post("/v1/validate", json=TEMPLATED).json()
+    assert verdict["valid"] and verdict["errors"] == [] and verdict["findings"] == []
+    expanded = verdict["problem"]
+    assert "template" not in expanded and "openings" not in expanded
+    rooms = {r["id"]: r for r in expanded["rooms"]}
+    assert rooms["bedroom-1"]["boundary"] == ["north"]  # stated, kept
+    assert rooms["bedroom-2"]["boundary"] == ["north", "south", "east", "west"]
+    assert all("target_size" in r for r in rooms.values()) and expanded["adjacency"]
+    again = client.post("/v1/validate", json=expanded).json()
+    assert again["valid"] and again["problem"] == expanded
+
+
+def test_unknown_templates_and_room_types_are_422_naming_the_field(
+    client: httpx.Client,
+) -> None:
+    response = client.post("/v1/layouts", json={**TEMPLATED, "template": "castle"})
+    assert response.status_code == 422
+    assert [e["field"] for e in response.json()["errors"]] == ["template"]
+    response = client.post("/v1/layouts", json={**TEMPLATED, "rooms": ["living", "moat"]})
+    assert response.status_code == 422
+    error = response.json()["errors"][0]
+    assert error["field"] == "rooms.1" and "moat" in error["message"]
+    crowded = client.post("/v1/validate", json={**TEMPLATED, "rooms": ["bedroom"] * 14}).json()
+    assert not crowded["valid"] and crowded["errors"][0]["field"] == "rooms"
+    assert "problem" not in crowded

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import itertools
+import json
 import random
 import time
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -15,6 +17,8 @@ from models import Problem, Termination
 from solver.checker import check_layout
 from solver.geometry import Box, shared_wall_length
 from solver.solve import Phase, SolveEvent, solve
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 def problem(**fields: Any) -> Problem:
@@ -241,3 +245,17 @@ def test_rectangles_that_do_not_join_fail_a_check_instead_of_raising() -> None:
     checks = check_layout(p, {"a": [Box(0, 0, 2, 2), Box(2.001, 0, 4, 1)]})
     assert not checks.valid
     assert any(c.kind == "connected" and not c.satisfied for c in checks.constraints)
+
+
+def test_require_connected_returns_a_plan_where_every_room_is_reachable() -> None:
+    # Left to itself the storage room ends up with no wall its door policy allows
+    # (its one adjacency is to a bedroom); the demands put it next to the hall or foyer.
+    data = json.loads((EXAMPLES / "apartment-15-obstacles.json").read_text())
+    # A generous limit: on a loaded machine 5 s may end before the layout settles.
+    data["options"] = {"require_connected": True, "time_limit": 10}
+    layout = solve(Problem.model_validate(data))
+    assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
+    assert layout.report.circulation is not None
+    assert layout.report.circulation.reachable
+    assert not any(c.kind == "circulation" and not c.satisfied
+                   for c in layout.report.constraints)

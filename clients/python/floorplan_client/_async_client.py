@@ -91,10 +91,12 @@ class AsyncClient(BaseClient):
         return AsyncPage(self, [AsyncJob(self, info) for info in page.data],
                          page.next_cursor, status, limit)
 
-    async def validate(self, problem: ProblemInput, *,
+    async def validate(self, problem: ProblemInput, *, explain: bool = False,
+                       time_limit: float | None = None,
                        timeout: Timeout | NotGiven = NOT_GIVEN) -> Validation:
         """Check a problem without solving it: see `Client.validate`."""
         options = RequestOptions("POST", "/v1/validate", json=problem_body(problem),
+                                 params=self._validate_params(explain, time_limit),
                                  timeout=timeout)
         return self._parse(await self._send(options), Validation)
 

@@ -110,12 +110,17 @@ class Client(BaseClient):
         return Page(self, [Job(self, info) for info in page.data], page.next_cursor,
                     status, limit)
 
-    def validate(self, problem: ProblemInput, *,
+    def validate(self, problem: ProblemInput, *, explain: bool = False,
+                 time_limit: float | None = None,
                  timeout: Timeout | NotGiven = NOT_GIVEN) -> Validation:
         """Check a problem without solving it. An ill-formed problem is not an error
         here: the verdict has ``valid`` False and its `errors`; `findings` list the
-        cheap impossibilities (total area, sizes that fit nowhere, ...)."""
+        cheap impossibilities (total area, sizes that fit nowhere, ...). With
+        `explain`, the service also asks SCIP for up to `time_limit` seconds (its
+        default: 3) whether a layout exists (`feasible`) and, when none does, which
+        constraints cannot hold together (`conflict`)."""
         options = RequestOptions("POST", "/v1/validate", json=problem_body(problem),
+                                 params=self._validate_params(explain, time_limit),
                                  timeout=timeout)
         return self._parse(self._send(options), Validation)
 

@@ -171,6 +171,16 @@ class BaseClient:
             params["cursor"] = cursor
         return params
 
+    @staticmethod
+    def _validate_params(explain: bool, time_limit: float | None) -> dict[str, Any] | None:
+        """None without `explain`: the cheap check is the plain POST it always was."""
+        if not explain:
+            return None
+        params: dict[str, Any] = {"explain": "true"}
+        if time_limit is not None:
+            params["time_limit"] = time_limit
+        return params
+
     def _events_options(self, job_id: str, last_event_id: int | None,
                         deadline: float | None) -> RequestOptions:
         headers = {"Accept": "text/event-stream", "Cache-Control": "no-store"}

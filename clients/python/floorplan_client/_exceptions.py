@@ -16,7 +16,7 @@
     │   ├── RateLimited                  429 the queue is full (.retry_after)
     │   └── ServerError                  5xx the service (or a proxy) failed
     ├── JobFailed                        `Job.wait`: the job ended without a layout (.job)
-    │   └── Infeasible                       ... because no layout can exist (.findings)
+    │   └── Infeasible                       ... because no layout can exist (.findings, .conflict)
     ├── JobCanceled                      `Job.wait`: the job was canceled (.job)
     └── WaitTimeout (also TimeoutError)  `Job.wait` or `Job.events` ran out of time (.job)
 
@@ -32,6 +32,7 @@ import httpx2 as httpx
 
 if TYPE_CHECKING:
     from floorplan_client.types import FieldError, JobInfo, ProblemDocument
+    from models import ConflictSet
 
 
 class FloorplanError(Exception):
@@ -152,6 +153,13 @@ class Infeasible(JobFailed):
     def findings(self) -> list[str]:
         """The cheap impossibilities found (total area, sizes that fit nowhere, ...)."""
         return list(self.job.error.findings) if self.job.error else []
+
+    @property
+    def conflict(self) -> ConflictSet | None:
+        """A small set of the problem's constraints that cannot hold together: its
+        ``explanation`` in words and each constraint's ``path``; None when the service
+        had no time to look for one."""
+        return self.job.error.conflict if self.job.error else None
 
 
 class JobCanceled(FloorplanError):

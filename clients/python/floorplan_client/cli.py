@@ -317,6 +317,10 @@ def summary_line(job: Job, layout: Layout) -> str:
 def no_layout_message(err: Any) -> str:
     """Why a job ended without a layout, with the findings, one per line."""
     lines = [f"{PROG}: no layout ({err.code}): {err.message}"]
+    conflict = err.job.error.conflict if err.job.error else None
+    if conflict is not None:
+        lines += [f"  {conflict.explanation}", "  constraints in conflict:",
+                  *(f"    - {c.path}: {c.constraint}" for c in conflict.constraints)]
     findings = list(err.job.error.findings) if err.job.error else []
     if findings:
         lines += ["  findings:", *(f"    - {f}" for f in findings)]

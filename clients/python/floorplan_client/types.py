@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 try:
-    from models import Layout, Problem, Termination
+    from models import ConflictSet, Layout, Problem, Termination
 except ImportError as err:  # pragma: no cover - depends on how it was installed
     raise ImportError(
         "floorplan_client needs the floorplan project's `models` package. Install the "
@@ -100,11 +100,14 @@ class Progress(_Model):
 class ErrorInfo(_Model):
     """Why a job failed: a code (``infeasible``, ``no_solution``, ``worker_died``,
     ``solver_error``, ``retries_exhausted``, ...), a message and, for an infeasible
-    problem, the impossibilities found."""
+    problem, the impossibilities found and the constraints that cannot hold together."""
 
     code: str
     message: str
     findings: list[str] = Field(default_factory=list)
+    conflict: ConflictSet | None = Field(
+        default=None, description="a small set of the problem's constraints that cannot "
+        "hold together, by path and in words (`models.ConflictSet`)")
 
 
 class JobInfo(_Model):
@@ -171,6 +174,15 @@ class Validation(_Model):
     errors: list[FieldError] = Field(default_factory=list)
     findings: list[str] = Field(default_factory=list,
                                 description="reasons no layout can exist")
+    problem: Problem | None = Field(
+        None, description="the problem as the service would solve it (a template "
+        "expanded); None when it is not well formed, or from an older service")
+    feasible: bool | None = Field(
+        default=None, description="asked with explain: SCIP found a layout (True), proved "
+        "there is none (False), or neither in the time given (None)")
+    conflict: ConflictSet | None = Field(
+        default=None, description="asked with explain, when no layout can exist: the "
+        "constraints that cannot hold together")
 
 
 # Events of a job, from its event stream (or made from polling where there is none).

@@ -1,0 +1,127 @@
+// Draws a problem's outline and a layout's rooms into an <svg>, from the polygons the
+// API returns: no geometry is computed here beyond bounding boxes and label sizes.
+// Drawing units are metres with y negated (SVG's y grows downwards, the plan's north).
+
+const SVG_NS = "http://www.w3.org/2000/svg";
+
+// The fills of the server's SVG plans (solver/render.py), so both drawings agree.
+const PALETTE = {
+  living: "#f6e2b3", kitchen: "#f9c784", bedroom: "#b9d7f0", bathroom: "#a8e0df",
+  dining: "#f7e3a1", foyer: "#d9cbe8", corridor: "#e4e4e4", study: "#c7e3b5",
+  storage: "#d6ccc2", balcony: "#cfe8c8", office: "#c3cdea", stairs: "#cfcfcf",
+  laundry: "#bfe3f2", shop: "#f3c6dc",
+};
+const UNCOVERED = "#ff9d9d";
+const EMPTY = "#f4f4f2";
+const LABEL_MAX_M = 0.5; // label height in metres at most, and at least a tenth of that
+const GLYPH_WIDTH = 0.6; // typical glyph width / font size of a sans-serif face
+
+/** A stable pastel for room types outside the palette (not the server's exact hue). */
+export function roomFill(type) {
+  const key = String(type ?? "").trim().toLowerCase();
+  if (key in PALETTE) return PALETTE[key];
+  let hash = 2166136261; // FNV-1a: stable across page loads
+  for (const ch of key) hash = Math.imul(hash ^ ch.codePointAt(0), 16777619) >>> 0;
+  return `hsl(${hash % 360} 60% 85%)`;
+}
+
+function el(name, attributes = {}, parent = null) {
+  const node = document.createElementNS(SVG_NS, name);
+  for (const [key, value] of Object.entries(attributes)) node.setAttribute(key, value);
+  if (parent) parent.appendChild(node);
+  return node;
+}
+
+const pointsOf = (polygon) => polygon.map(([x, y]) => `${x},${-y}`).join(" ");
+
+function extent(points) {
+  const xs = points.map((p) => p[0]);
+  const ys = points.map((p) => p[1]);
+  return { minX: Math.min(...xs), maxX: Math.max(...xs),
+           minY: Math.min(...ys), maxY: Math.max(...ys) };
+}
+
+/** The largest rectangle of a room: its label goes there, where there is most room. */
+function labelBox(room) {
+  const rects = room.rectangles ?? [];
+  if (rects.length) {
+    return rects.reduce((a, b) => (b.width * b.depth > a.width * a.depth ? b : a));
+  }
+  const e = extent(room.polygon);
+  return { x: e.minX, y: e.minY, width: e.maxX - e.minX, depth: e.maxY - e.minY };
+}
+
+function addLabel(group, room) {
+  const box = labelBox(room);
+  const lines = [room.id, `${Number(room.area).toFixed(1)} m²`];
+  const longest = Math.max(...lines.map((l) => l.length));
+  const size = Math.max(LABEL_MAX_M / 10, Math.min(LABEL_MAX_M,
+    (0.9 * box.width) / (GLYPH_WIDTH * longest), (0.8 * box.depth) / (1.2 * lines.length)));
+  const text = el("text", {
+    x: box.x + box.width / 2, y: -(box.y + box.depth / 2), "font-size": size,
+    "text-anchor": "middle", "dominant-baseline": "middle", class: "label",
+  }, group);
+  lines.forEach((line, k) => {
+    const span = el("tspan", { x: box.x + box.width / 2,
+                               dy: k === 0 ? `${-0.6 * (lines.length - 1)}em` : "1.2em" }, text);
+    span.textContent = line; // text, never markup: ids are user input
+    if (k > 0) span.setAttribute("class", "area");
+  });
+}
+
+function addSegments(parent, segments, className) {
+  for (const [[x1, y1], [x2, y2]] of segments) {
+    el("line", { x1, y1: -y1, x2, y2: -y2, class: className }, parent);
+  }
+}
+
+/**
+ * Draws `problem` (outline, obstacles, entrance) and, when given, `layout` (rooms with
+ * labels; doors and windows once final). `source` ("incumbent" or "result") is kept
+ * on the svg as data-source; data-drawn counts the drawings made.
+ */
+export function drawPlan(svg, problem, layout = null, source = "problem") {
+  svg.replaceChildren();
+  const outline = problem?.boundary ?? [];
+  if (outline.length < 3) return;
+  const e = extent(outline);
+  const pad = 0.04 * Math.max(e.maxX - e.minX, e.maxY - e.minY, 1);
+  svg.setAttribute("viewBox", [e.minX - pad, -e.maxY - pad, e.maxX - e.minX + 2 * pad,
+                               e.maxY - e.minY + 2 * pad].join(" "));
+
+  const defs = el("defs", {}, svg);
+  const hatch = el("pattern", { id: "hatch", width: 0.3, height: 0.3,
+                                patternUnits: "userSpaceOnUse",
+                                patternTransform: "rotate(45)" }, defs);
+  el("line", { x1: 0, y1: 0, x2: 0, y2: 0.3, class: "hatch-line" }, hatch);
+
+  // Under the rooms the free area shows red: whatever stays red is uncovered.
+  el("polygon", { points: pointsOf(outline), fill: layout ? UNCOVERED : EMPTY,
+                  class: "free" }, svg);
+  for (const o of problem.obstacles ?? []) {
+    const g = el("g", { class: "obstacle" }, svg);
+    el("rect", { x: o.x, y: -(o.y + o.depth), width: o.width, height: o.depth,
+                 fill: "url(#hatch)" }, g);
+    el("title", {}, g).textContent = o.label ?? "obstacle";
+  }
+
+  const rooms = el("g", { class: "rooms" }, svg);
+  for (const room of layout?.rooms ?? []) {
+    const g = el("g", { class: "room", "data-room": room.id }, rooms);
+    el("polygon", { points: pointsOf(room.polygon), fill: roomFill(room.type) }, g);
+    el("title", {}, g).textContent = `${room.id} (${room.type}), ${room.area} m²`;
+    addLabel(g, room);
+  }
+  el("polygon", { points: pointsOf(outline), class: "outline" }, svg);
+  // Openings after the walls: they are drawn in the wall they pierce.
+  addSegments(svg, (layout?.windows ?? []).map((w) => w.segment), "window");
+  addSegments(svg, (layout?.doors ?? []).map((d) => d.segment), "door");
+  if (problem.entrance) {
+    const [x, y] = problem.entrance;
+    const g = el("g", { class: "entrance" }, svg);
+    el("circle", { cx: x, cy: -y, r: pad / 3 }, g);
+    el("title", {}, g).textContent = "entrance";
+  }
+  svg.dataset.source = source;
+  svg.dataset.drawn = String(Number(svg.dataset.drawn ?? 0) + 1);
+}

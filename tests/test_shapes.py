@@ -1,0 +1,63 @@
+"""Rooms of several rectangles from level 1 (issue 8): plans a single rectangle per
+room cannot give still come back, and the report says which rooms changed shape."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+from pydantic import ValidationError
+
+from models import Problem
+from solver.formulation import build_level
+from solver.geometry import make_domain
+from solver.level_one import demand_order, level_one_spec
+from solver.scip_run import LevelStatus, run_level
+from solver.solve import solve
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def example(name: str, **options: Any) -> Problem:
+    data = json.loads((EXAMPLES / f"{name}.json").read_text())
+    data["options"] = {**data.get("options", {}), **options}
+    return Problem.model_validate(data)
+
+
+def test_an_l_shaped_flat_needs_an_l_shaped_living_room_and_gets_one() -> None:
+    # The living room must touch a bedroom at the end of each arm of the L; neither
+    # bedroom reaches the corner square, so no rectangle can touch both.
+    p = example("l-flat", time_limit=4)
+    domain = make_domain(p)
+    single = run_level(build_level(level_one_spec(p, domain, window=None), feasibility=True),
+                       time_limit=10)
+    assert single.status is LevelStatus.INFEASIBLE
+    layout = solve(p)
+    assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
+    assert [(e.room, e.rectangles) for e in layout.report.extra_rectangles] == [("living", 2)]
+    assert "infeasible" in layout.report.extra_rectangles[0].reason
+    living = next(r for r in layout.rooms if r.id == "living")
+    assert len(living.polygon) > 4  # not a rectangle
+
+
+def test_a_room_may_ask_to_be_free_from_the_start() -> None:
+    layout = solve(example("corridor-flat", time_limit=4))
+    assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
+    assert [(e.room, e.reason) for e in layout.report.extra_rectangles] == [("hall", "asked")]
+    assert layout.report.circulation is not None and layout.report.circulation.reachable
+
+
+def test_the_rooms_with_the_most_demands_get_extra_rectangles_first() -> None:
+    p = example("l-flat")
+    # living: four adjacencies and a share of the bathroom's any_of.
+    assert demand_order(p)[0] == "living"
+
+
+@pytest.mark.parametrize("fields", [{"max_rects": 0}, {"max_rects": 5}, {"shape": "round"}])
+def test_shape_requests_are_validated_with_their_field(fields: dict[str, Any]) -> None:
+    with pytest.raises(ValidationError) as err:
+        Problem.model_validate({"boundary": [[0, 0], [4, 0], [4, 4], [0, 4]],
+                                "rooms": [{"id": "a", **fields}]})
+    assert err.value.errors()[0]["loc"][:3] == ("rooms", 0, next(iter(fields)))

@@ -1,0 +1,340 @@
+"""The web page at `/`, in real headless Chromium (Debian's /usr/bin/chromium, driven by
+Playwright) against a real `floorplan serve` process on loopback. Screenshots go to
+build/screenshots/.
+
+Without the browser the tests skip, saying why; under CI (the CI variable set) they
+fail instead, so that a missing install cannot pass for a green run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import json
+import os
+import re
+import socket
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx2 as httpx
+import pytest
+
+from models import Problem
+from tests.servers import Server
+
+CHROMIUM = Path("/usr/bin/chromium")
+ROOT = Path(__file__).resolve().parents[1]
+SCREENSHOTS = ROOT / "build" / "screenshots"
+EXAMPLES = ROOT / "examples"
+VIEWPORT = {"width": 1280, "height": 860}
+#: Milliseconds to wait for a job to end; apartment-5 takes about a second.
+JOB_TIMEOUT_MS = 30_000
+APARTMENT_ROOMS = ["foyer", "living", "kitchen", "bedroom", "bathroom"]
+API_KEY = "web-test-key"
+
+# Records every drawing of the plan as [source, rooms drawn], from the page's own
+# data-drawn counter, so the test sees the incumbents go by however fast they come.
+RECORD_DRAWINGS = """() => {
+  window.drawings = [];
+  const plan = document.getElementById("plan");
+  new MutationObserver(() => window.drawings.push(
+      [plan.dataset.source, plan.querySelectorAll(".room").length]))
+    .observe(plan, { attributes: true, attributeFilter: ["data-drawn"] });
+}"""
+
+
+def _browser_missing() -> str | None:
+    if importlib.util.find_spec("playwright") is None:
+        return "the playwright package is not installed (it is in the dev extra)"
+    if not CHROMIUM.exists():
+        return f"{CHROMIUM} is missing: apt-get install -y chromium chromium-driver"
+    return None
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Any]:
+    missing = _browser_missing()
+    if missing:
+        if os.environ.get("CI"):
+            pytest.fail(f"the browser tests must run in CI: {missing}")
+        pytest.skip(missing)
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        # Debian's Chromium, never a downloaded build.
+        chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), headless=True)
+        yield chromium
+        chromium.close()
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    s = Server(tmp_path_factory.mktemp("web"), WORKERS="1").start()
+    yield s
+    s.stop()
+
+
+@pytest.fixture
+def page(browser: Any) -> Iterator[Any]:
+    """A fresh browser context (no stored key or job); fails the test on any script
+    error or Content-Security-Policy violation the page logs."""
+    context = browser.new_context(viewport=VIEWPORT, accept_downloads=True)
+    tab = context.new_page()
+    errors: list[str] = []
+    tab.on("pageerror", lambda err: errors.append(f"uncaught: {err}"))
+    # Answers of 4xx are part of the tests; the browser logs each as a failed load.
+    tab.on("console", lambda msg: errors.append(msg.text) if msg.type == "error"
+           and "Failed to load resource" not in msg.text else None)
+    yield tab
+    context.close()
+    assert not errors, errors
+
+
+def expect(locator: Any) -> Any:
+    from playwright.sync_api import expect as playwright_expect
+
+    return playwright_expect(locator)
+
+
+def screenshot(tab: Any, name: str) -> None:
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    tab.screenshot(path=str(SCREENSHOTS / name), full_page=True)
+
+
+def pick_example(tab: Any, name: str, *, time_limit: str) -> None:
+    expect(tab.locator(f"#example option[value='{name}']")).to_be_attached()
+    tab.select_option("#example", name)
+    expect(tab.locator("#problem")).to_have_value(re.compile(f'"name": "{name}"'))
+    tab.fill("#time-limit", time_limit)
+
+
+def download(tab: Any, link: str) -> tuple[str, str]:
+    """Clicks a download link; returns the file's suggested name and its text."""
+    with tab.expect_download() as started:
+        tab.click(link)
+    saved = started.value
+    return saved.suggested_filename, Path(saved.path()).read_text(encoding="utf-8")
+
+
+def test_the_examples_are_listed_smallest_first_and_served_as_written(server: Server) -> None:
+    listed = httpx.get(f"{server.url}/v1/examples", timeout=10).json()["data"]
+    names = [e["name"] for e in listed]
+    assert names[0] == "apartment-5" and "house-13" in names
+    assert [e["rooms"] for e in listed] == sorted(e["rooms"] for e in listed)
+    for example in listed:
+        served = httpx.get(f"{server.url}{example['href']}", timeout=10)
+        assert served.headers["content-type"] == "application/json"
+        assert served.text == (EXAMPLES / f"{example['name']}.json").read_text()
+        assert len(Problem.model_validate_json(served.text).rooms) == example["rooms"]
+    unknown = httpx.get(f"{server.url}/v1/examples/no-such-plan", timeout=10)
+    assert unknown.status_code == 404
+    assert unknown.headers["content-type"] == "application/problem+json"
+    assert unknown.json()["type"] == "/docs/problems/example-not-found"
+    layout = httpx.get(f"{server.url}/v1/examples/apartment-5.layout", timeout=10)
+    assert layout.status_code == 422  # not a name: results are not offered as problems
+
+
+def test_the_page_and_its_files_are_served_with_a_strict_policy(server: Server) -> None:
+    page = httpx.get(f"{server.url}/", timeout=10)
+    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+    assert "default-src 'self'" in page.headers["content-security-policy"]
+    assert 'src="static/app.js"' in page.text and 'href="static/style.css"' in page.text
+    for asset, kind in (("app.js", "javascript"), ("events.js", "javascript"),
+                        ("plan.js", "javascript"), ("style.css", "text/css")):
+        served = httpx.get(f"{server.url}/static/{asset}", timeout=10)
+        assert served.status_code == 200 and kind in served.headers["content-type"]
+    missing = httpx.get(f"{server.url}/static/nothing.js", timeout=10)
+    assert missing.status_code == 404
+    assert missing.headers["content-type"] == "application/problem+json"
+
+
+def test_an_example_redraws_live_then_reports_and_downloads(page: Any, server: Server) -> None:
+    page.goto(server.url)
+    expect(page.locator("#status")).to_have_text("idle")
+    pick_example(page, "apartment-5", time_limit="3")
+    page.evaluate(RECORD_DRAWINGS)
+    page.click("#submit")
+
+    expect(page.locator("#status")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
+    expect(page.locator("#summary")).to_be_visible()
+    drawings = page.evaluate("window.drawings")
+    live = [rooms for source, rooms in drawings if source == "incumbent"]
+    assert live and max(live) > 0, drawings  # the incumbent was drawn while solving
+    assert drawings[-1] == ["result", 5], drawings
+    for room in APARTMENT_ROOMS:
+        expect(page.locator(f"#plan .room[data-room='{room}'] .label")).to_contain_text(room)
+    assert page.locator("#plan .door").count() > 0
+    for field in ("level", "objective", "elapsed"):
+        expect(page.locator(f"#{field}")).not_to_have_text("–")
+    expect(page.locator("#elapsed")).to_have_text(re.compile(r"^\d+\.\d s$"))
+
+    term = page.locator("#summary-list dd")
+    expect(term.and_(page.locator("[data-term='coverage']"))).to_have_text(
+        re.compile(r"^\d+\.\d %$"))
+    expect(term.and_(page.locator("[data-term='valid']"))).to_have_text("yes")
+    expect(term.and_(page.locator("[data-term='termination']"))).to_have_text(
+        re.compile("^(optimal|timelimit)$"))
+    expect(term.and_(page.locator("[data-term='rooms placed']"))).to_have_text("5 of 5")
+    expect(page.locator("#messages")).to_be_hidden()
+    screenshot(page, "web-page.png")
+
+    name, svg = download(page, "#download-svg")
+    assert name == "apartment-5.svg" and "<svg" in svg and "bedroom" in svg
+    name, dxf = download(page, "#download-dxf")
+    assert name == "apartment-5.dxf" and "ENTITIES" in dxf
+    name, geojson = download(page, "#download-geojson")
+    features = json.loads(geojson)["features"]
+    assert name == "apartment-5.geojson"
+    assert {f["properties"].get("id") for f in features} >= set(APARTMENT_ROOMS)
+    name, layout = download(page, "#download-json")
+    assert name == "apartment-5.layout.json" and json.loads(layout)["report"]["valid"]
+
+
+def test_bad_input_shows_every_field_path_and_the_findings(page: Any, server: Server) -> None:
+    page.goto(server.url)
+    page.fill("#problem", '{"boundary": [[0, 0], [6, 0], [6, 4]')
+    page.click("#submit")
+    expect(page.locator("#messages")).to_contain_text("not valid JSON")
+
+    bad = {"boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],
+           "rooms": [{"id": "a", "min_size": [-1, 2]}, {"id": "", "type": "bedroom"}]}
+    page.fill("#problem", json.dumps(bad))
+    page.click("#submit")
+    messages = page.locator("#messages")
+    expect(messages).to_contain_text("(422)")
+    expect(messages.locator("code", has_text="rooms.0.min_size")).to_have_count(1)
+    expect(messages.locator("code", has_text="rooms.1.id")).to_have_count(1)
+    expect(page.locator("#submit")).to_be_enabled()
+    expect(page.locator("#status")).to_have_text("idle")  # nothing was queued
+
+    too_small = {"boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],
+                 "rooms": [{"id": r, "min_size": [4, 4]} for r in "ab"]}
+    page.fill("#problem", json.dumps(too_small))
+    page.click("#validate")
+    expect(messages).to_contain_text("No layout can exist")
+    expect(messages.locator("li")).not_to_have_count(0)
+    page.click("#submit")  # solved anyway: the job fails, and the page says why
+    expect(page.locator("#status")).to_have_text("failed", timeout=JOB_TIMEOUT_MS)
+    expect(page.locator("#summary-list [data-term='termination']")).to_have_text("infeasible")
+    expect(messages).to_contain_text("No layout: infeasible")
+    expect(messages.locator("li")).not_to_have_count(0)
+
+
+class Relay:
+    """A TCP relay in front of a server that can cut every connection through it at
+    once, as a dropped network would: the page must resume its event stream."""
+
+    def __init__(self, target_port: int) -> None:
+        self.target_port = target_port
+        self.listener = socket.create_server(("127.0.0.1", 0))
+        self.url = f"http://127.0.0.1:{self.listener.getsockname()[1]}"
+        self._open: list[socket.socket] = []
+        self._lock = threading.Lock()
+        threading.Thread(target=self._accept, daemon=True).start()
+
+    def _accept(self) -> None:
+        while True:
+            try:
+                client, _ = self.listener.accept()
+            except OSError:
+                return  # closed
+            upstream = socket.create_connection(("127.0.0.1", self.target_port))
+            with self._lock:
+                self._open += [client, upstream]
+            for source, sink in ((client, upstream), (upstream, client)):
+                threading.Thread(target=self._pipe, args=(source, sink), daemon=True).start()
+
+    @staticmethod
+    def _pipe(source: socket.socket, sink: socket.socket) -> None:
+        try:
+            while data := source.recv(1 << 16):
+                sink.sendall(data)
+        except OSError:
+            pass
+        finally:
+            for end in (source, sink):
+                end.close()
+
+    def cut(self) -> None:
+        with self._lock:
+            ends, self._open = self._open, []
+        for end in ends:
+            with contextlib.suppress(OSError):  # already closed by its pipe
+                end.shutdown(socket.SHUT_RDWR)
+            end.close()
+
+    def close(self) -> None:
+        self.listener.close()
+        self.cut()
+
+
+def test_a_dropped_stream_resumes_and_cancel_keeps_the_best_layout(
+    page: Any, server: Server
+) -> None:
+    relay = Relay(server.port)
+    streams: list[str | None] = []
+    page.on("request", lambda r: streams.append(r.headers.get("last-event-id"))
+            if r.url.endswith("/events") else None)
+    try:
+        page.goto(relay.url)
+        pick_example(page, "house-13", time_limit="60")
+        page.click("#submit")
+        expect(page.locator("#plan")).to_have_attribute("data-source", "incumbent",
+                                                         timeout=JOB_TIMEOUT_MS)
+        expect(page.locator("#cancel")).to_be_enabled()
+        screenshot(page, "web-live.png")
+
+        with page.expect_request(lambda r: r.url.endswith("/events")
+                                 and "last-event-id" in r.headers):
+            relay.cut()
+        assert streams[0] is None and streams[-1] and streams[-1].isdigit(), streams
+        page.click("#cancel")
+        # The end of the job comes through the resumed stream.
+        expect(page.locator("#status")).to_have_text("canceled", timeout=JOB_TIMEOUT_MS)
+        summary = page.locator("#summary-list")
+        expect(summary.locator("[data-term='termination']")).to_have_text("interrupted")
+        expect(summary.locator("[data-term='rooms placed']")).to_have_text(
+            re.compile(r" of 13$"))
+        expect(page.locator("#plan")).to_have_attribute("data-source", "result")
+        expect(page.locator("#download-svg")).to_have_attribute("href",
+                                                                re.compile("format=svg"))
+        expect(page.locator("#submit")).to_be_enabled()
+        expect(page.locator("#messages")).to_be_hidden()
+        screenshot(page, "web-canceled.png")
+    finally:
+        relay.close()
+
+
+def test_a_server_with_keys_asks_for_one_and_works_with_it(
+    page: Any, tmp_path: Path
+) -> None:
+    keyed = Server(tmp_path, WORKERS="1", FLOORPLAN_API_KEYS=API_KEY).start()
+    try:
+        page.goto(keyed.url)
+        expect(page.locator("#key-note")).to_have_text(re.compile("requires an API key"))
+        expect(page.locator("#api-key")).to_be_focused()
+        page.set_input_files("#file", EXAMPLES / "apartment-5.json")  # an upload this time
+        expect(page.locator("#problem")).to_have_value(re.compile('"name": "apartment-5"'))
+        page.fill("#time-limit", "3")
+        page.click("#submit")
+        expect(page.locator("#messages")).to_contain_text("(401)")
+
+        page.fill("#api-key", API_KEY)
+        page.click("#submit")
+        expect(page.locator("#status")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
+        expect(page.locator("#plan .room")).to_have_count(5)
+        # The link needs the key too: the page fetches the file with it and saves that.
+        name, geojson = download(page, "#download-geojson")
+        assert name == "apartment-5.geojson"
+        assert json.loads(geojson)["type"] == "FeatureCollection"
+
+        # A reload follows the same job again, with the key kept for the tab.
+        page.reload()
+        expect(page.locator("#status")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
+        expect(page.locator("#summary-list [data-term='valid']")).to_have_text("yes")
+        expect(page.locator("#plan .room")).to_have_count(5)
+    finally:
+        keyed.stop()
