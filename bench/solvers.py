@@ -9,8 +9,12 @@ included). Nothing is checked while a solver runs: the checker would slow it dow
 
 from __future__ import annotations
 
+import multiprocessing
+import os
+import re
 import time
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 from pyscipopt import SCIP_EVENTTYPE, Model
@@ -20,6 +24,7 @@ from models import Problem
 from solver.formulation import LevelModel, build_level
 from solver.geometry import Box, make_domain
 from solver.level_one import level_one_spec
+from solver.parallel import SubdomainExecutor, warm_up
 from solver.scip_run import MEMORY_LIMIT_MB
 from solver.solve import Phase, SolveEvent, default_time_limit, solve
 
@@ -29,6 +34,8 @@ Rooms = dict[str, list[Box]]
 BASELINE_FACTOR = 10.0
 #: ... capped by the `--flat-limit` option, by default at this many seconds.
 BASELINE_CAP = 60.0
+#: How a sub-domain solved in a pool reports its own wall time.
+SOLVED_IN = re.compile(r" in ([0-9.]+) s$")
 #: Seconds between the annealer's snapshots of its best layout.
 ANNEAL_SNAPSHOT_EVERY = 0.1
 
@@ -58,25 +65,63 @@ def baseline_limit(problem: Problem, cap: float = BASELINE_CAP) -> float:
     return min(BASELINE_FACTOR * our_limit(problem), cap)
 
 
-def run_ours(problem: Problem, *, seed: int, cap: float = BASELINE_CAP) -> Trace:
-    """`solver.solve.solve` at the problem's default time limit."""
+def run_ours(problem: Problem, *, seed: int, cap: float = BASELINE_CAP,
+             subdomain_processes: int = 1) -> Trace:
+    """`solver.solve.solve` at the problem's default time limit; with
+    `subdomain_processes` > 1, each refinement level's sub-domains solved at once in a
+    process pool of that many (started and warmed up before the clock starts, as the
+    service starts it while level 1 runs)."""
     problem = problem.model_copy(update={"options": problem.options.model_copy(
         update={"seed": seed})})
-    trace = Trace("ours", our_limit(problem))
+    name = "ours" if subdomain_processes <= 1 else "ours-parallel"
+    trace = Trace(name, our_limit(problem))
+    pool = None
+    if subdomain_processes > 1:
+        pool = ProcessPoolExecutor(subdomain_processes,
+                                   mp_context=multiprocessing.get_context("spawn"))
+        for ready in [pool.submit(warm_up) for _ in range(subdomain_processes)]:
+            ready.result()
+    levels: list[float] = []  # when each refinement level started
+    ends: list[float] = []  # when each sub-domain's result was applied
+    solved: list[str] = []
     started = time.monotonic()
 
     def on_event(event: SolveEvent) -> None:
         if event.phase is Phase.INCUMBENT and event.rooms is not None:
             trace.layouts.append((time.monotonic() - started, event.rooms))
+        elif event.phase is Phase.LEVEL and event.level >= 2:
+            levels.append(event.elapsed)
+        elif event.phase is Phase.SUBDOMAIN:
+            ends.append(event.elapsed)
+            solved.append(event.detail)
 
-    layout = solve(problem, on_event=on_event)
-    trace.seconds = time.monotonic() - started
+    try:
+        layout = solve(problem, on_event=on_event, subdomains=SubdomainExecutor(
+            pool, subdomain_processes) if pool is not None else None)
+        trace.seconds = time.monotonic() - started
+    finally:
+        if pool is not None:  # after the clock: tasks past their level's end finish first
+            pool.shutdown(cancel_futures=True)
     trace.status = str(layout.report.termination)
     if layout.rooms:
         trace.final = {r.id: [Box.of(rect) for rect in r.rectangles] for r in layout.rooms}
         trace.layouts.append((trace.seconds, trace.final))
     trace.extra["levels"] = layout.report.levels
+    # The hierarchy's share: sub-domains solved, and the wall time of the levels.
+    trace.extra["subdomains_solved"] = sum(
+        1 for d in solved if ": optimal" in d or ": feasible" in d)
+    trace.extra["subdomains_tried"] = len(solved)
+    trace.extra["refine_seconds"] = round(ends[-1] - levels[0], 3) if levels and ends else 0.0
+    if pool is not None:  # solve seconds of the sub-domains, as their reports give them
+        trace.extra["subdomain_seconds"] = round(sum(
+            float(m.group(1)) for d in solved if (m := SOLVED_IN.search(d))), 3)
     return trace
+
+
+def run_ours_parallel(problem: Problem, *, seed: int, cap: float = BASELINE_CAP) -> Trace:
+    """`run_ours` with a pool of one process per core for the sub-domains."""
+    return run_ours(problem, seed=seed, cap=cap,
+                    subdomain_processes=max(2, os.cpu_count() or 1))
 
 
 def flat_model(problem: Problem) -> LevelModel:
@@ -145,4 +190,5 @@ def run_anneal(problem: Problem, *, seed: int, cap: float = BASELINE_CAP) -> Tra
 
 
 Runner = Callable[..., Trace]
-SOLVERS: dict[str, Runner] = {"ours": run_ours, "flat": run_flat, "anneal": run_anneal}
+SOLVERS: dict[str, Runner] = {"ours": run_ours, "ours-parallel": run_ours_parallel,
+                               "flat": run_flat, "anneal": run_anneal}

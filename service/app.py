@@ -1,6 +1,6 @@
 """The HTTP API: asynchronous layout jobs (submit, follow, fetch, cancel, delete, list),
 validation without solving, health. Routes validate, delegate and reply; solving is
-the runner's, geometry the solver's."""
+the job backend's (embedded or Celery, service/backends.py), geometry the solver's."""
 
 from __future__ import annotations
 
@@ -25,8 +25,8 @@ from models import ConflictSet, Layout
 from models import Problem as LayoutProblem
 from models.templates import TemplatedProblem
 from service import web
+from service.backends import JobBackend, make_backend
 from service.errors import ApiError, FieldError, ProblemDetails, field_errors, install
-from service.runner import Runner
 from service.settings import Settings, get_settings
 from service.store import IdempotencyConflict, Job, JobStatus, JobStore
 from solver.conflicts import Diagnosis, diagnose
@@ -35,8 +35,9 @@ from solver.geometry import make_domain
 from solver.precheck import find_impossibilities
 from solver.solve import default_time_limit
 
-#: Seconds between two looks at the store while streaming events.
-STREAM_POLL = 0.25
+#: Longest wait between two looks at the store while streaming events (the backend
+#: wakes the stream sooner when it knows of new events).
+STREAM_POLL = 1.0
 #: Seconds between keep-alive comments on a quiet event stream.
 HEARTBEAT = 15.0
 #: Retry-After (seconds) suggested when the queue is full.
@@ -163,17 +164,17 @@ def settings_dep(request: Request) -> Settings:
     return request.app.state.settings
 
 
+def backend_dep(request: Request) -> JobBackend:
+    return request.app.state.backend
+
+
 def store_dep(request: Request) -> JobStore:
-    return request.app.state.store
-
-
-def runner_dep(request: Request) -> Runner:
-    return request.app.state.runner
+    return request.app.state.backend.store
 
 
 SettingsDep = Annotated[Settings, Depends(settings_dep)]
 StoreDep = Annotated[JobStore, Depends(store_dep)]
-RunnerDep = Annotated[Runner, Depends(runner_dep)]
+BackendDep = Annotated[JobBackend, Depends(backend_dep)]
 
 
 def owner_dep(
@@ -268,7 +269,7 @@ layouts = APIRouter(prefix="/v1/layouts", tags=["layouts"])
                          422: {"description": "invalid problem"},
                          429: {"description": "queue full"}})
 def submit_layout(
-    body: ProblemBody, response: Response, store: StoreDep, runner: RunnerDep,
+    body: ProblemBody, response: Response, store: StoreDep, backend: BackendDep,
     settings: SettingsDep, owner: OwnerDep,
     idempotency_key: Annotated[str | None, Header(max_length=200)] = None,
 ) -> JobPublic:
@@ -283,12 +284,13 @@ def submit_layout(
         json.dumps(json.loads(raw), sort_keys=True, separators=(",", ":")).encode()
     ).hexdigest()
     try:
-        job, _new = store.create(problem=problem.model_dump_json(), time_limit=time_limit,
+        job, new = store.create(problem=problem.model_dump_json(), time_limit=time_limit,
                                  owner=owner, idempotency_key=idempotency_key, body_hash=digest)
     except IdempotencyConflict as err:
         raise ApiError(409, "this Idempotency-Key was used with another body",
                        kind="idempotency-conflict") from err
-    runner.notify()
+    if new:
+        backend.submitted(job)
     response.headers["Location"] = f"/v1/layouts/{job.id}"
     return JobPublic.of(job)
 
@@ -338,18 +340,19 @@ def get_result(
 
 @layouts.get("/{job_id}/events", responses={200: {"content": {"text/event-stream": {}}}})
 async def stream_events(
-    job: JobDep, store: StoreDep,
+    job: JobDep, backend: BackendDep,
     last_event_id: Annotated[str | None, Header()] = None,
 ) -> StreamingResponse:
     """Server-Sent Events: `status`, `progress`, `incumbent` (with the incumbent layout).
     Each event's id works as Last-Event-ID to resume; progress and incumbents come at
     most twice a second, always the newest. The stream ends with the job."""
     after = int(last_event_id) if last_event_id and last_event_id.isdigit() else 0
-    return StreamingResponse(_events(store, job.id, after), media_type="text/event-stream",
+    return StreamingResponse(_events(backend, job.id, after), media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
 
 
-async def _events(store: JobStore, job_id: str, after: int) -> AsyncIterator[str]:
+async def _events(backend: JobBackend, job_id: str, after: int) -> AsyncIterator[str]:
+    store = backend.store
     quiet_since = time.monotonic()
     while True:
         batch = await asyncio.to_thread(store.events_after, job_id, after)
@@ -364,15 +367,15 @@ async def _events(store: JobStore, job_id: str, after: int) -> AsyncIterator[str
         if time.monotonic() - quiet_since > HEARTBEAT:
             quiet_since = time.monotonic()
             yield ": keep-alive\n\n"
-        await asyncio.sleep(STREAM_POLL)
+        await backend.wait_for_events(job_id, STREAM_POLL)
 
 
 @layouts.post("/{job_id}/cancel", response_model=JobPublic)
-def cancel_layout(job: JobDep, runner: RunnerDep, store: StoreDep) -> JobPublic:
+def cancel_layout(job: JobDep, backend: BackendDep, store: StoreDep) -> JobPublic:
     """Stop the solve gracefully; the best layout so far becomes the result. Cancelling
     a finished job changes nothing."""
     if not job.status.terminal:
-        runner.cancel(job.id)
+        backend.cancel(job.id)
     current = store.get(job.id)
     assert current is not None
     return JobPublic.of(current)
@@ -436,12 +439,15 @@ def healthz() -> dict[str, str]:
 
 
 @misc.get("/readyz")
-def readyz(store: StoreDep, runner: RunnerDep) -> JSONResponse:
-    """The store answers and the runner dispatches."""
-    ok = store.ping() and runner.alive
-    return JSONResponse({"status": "ready" if ok else "not ready",
-                         "running": runner.running,
-                         "queued": store.count(JobStatus.QUEUED)},
+def readyz(backend: BackendDep) -> JSONResponse:
+    """The store answers and jobs are dispatched (with the Celery backend, `broker`
+    says whether Redis answers; jobs accepted meanwhile wait in the store)."""
+    try:
+        health = backend.health()
+    except Exception as err:  # the store is away
+        health = {"ready": False, "error": type(err).__name__}
+    ok = bool(health.pop("ready"))
+    return JSONResponse({"status": "ready" if ok else "not ready", **health},
                         status_code=200 if ok else 503)
 
 
@@ -466,14 +472,14 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        store = JobStore.sqlite(settings.database_path)
-        runner = Runner(store, settings)
-        app.state.settings, app.state.store, app.state.runner = settings, store, runner
-        runner.start()
+        backend = await asyncio.to_thread(make_backend, settings)
+        app.state.settings, app.state.backend = settings, backend
+        backend.start()
         try:
             yield
         finally:
-            await asyncio.to_thread(runner.stop)
+            await backend.aclose()
+            await asyncio.to_thread(backend.stop)
 
     app = FastAPI(
         title="floorplan", version="0.1.0", lifespan=lifespan,

@@ -12,7 +12,8 @@ from solver import cli as solver_cli
 def add_serve(commands: Any) -> None:
     p = commands.add_parser(
         "serve",
-        help="run the HTTP service (jobs kept in SQLite; no other server needed)",
+        help="run the HTTP service (by default jobs in SQLite, solved here; no other server "
+        "needed)",
         description="Serve the layout API. Settings come from FLOORPLAN_* environment "
         "variables or .env (see the README); these options override them.",
     )
@@ -22,6 +23,43 @@ def add_serve(commands: Any) -> None:
     p.add_argument("--data-dir", help="where the job store lives (default ./data)")
     p.add_argument("--log-level", default="info", help="uvicorn log level")
     p.set_defaults(func=cmd_serve, own_signals=True)
+
+
+def add_worker(commands: Any) -> None:
+    p = commands.add_parser(
+        "worker",
+        help="run a Celery worker of the distributed mode (needs the `distributed` extra)",
+        description="Solve jobs queued by `floorplan serve` nodes running with "
+        "FLOORPLAN_BACKEND=celery: a Celery worker (threads pool) whose every solve runs in "
+        "its own process. Settings come from FLOORPLAN_* variables or .env, as for serve.",
+    )
+    p.add_argument("--workers", type=int, help="solves at once (default: the number of cores)")
+    p.add_argument("--hostname", help="the worker's Celery node name (default celery@HOST); "
+                   "give each worker on one machine its own")
+    p.add_argument("--log-level", default="info", help="Celery log level")
+    p.add_argument("--subdomains", action="store_true",
+                   help="solve the sub-domains that solves send out (FLOORPLAN_SUBDOMAINS="
+                   "celery) rather than jobs; --workers of them at once")
+    p.add_argument("--health", action="store_true",
+                   help="do not run a worker: exit 0 if one of this host is alive, else 1 "
+                   "(a container health check)")
+    p.set_defaults(func=cmd_worker, own_signals=True)
+
+
+def cmd_worker(args: argparse.Namespace) -> int:
+    from service.settings import Settings
+
+    try:
+        from service.distributed import run_worker, worker_alive
+    except ModuleNotFoundError as err:
+        raise SystemExit(f"floorplan worker needs the distributed extra "
+                         f"(pip install 'floorplan[distributed]'): {err}") from err
+    overrides = {"workers": args.workers} if args.workers is not None else {}
+    settings = Settings(**overrides)
+    if args.health:
+        return 0 if worker_alive(settings, subdomains=args.subdomains) else 1
+    return run_worker(settings, hostname=args.hostname, loglevel=args.log_level.upper(),
+                      subdomains=args.subdomains)
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
@@ -40,7 +78,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    extra: list[solver_cli.CommandAdder] = [add_serve]
+    extra: list[solver_cli.CommandAdder] = [add_serve, add_worker]
     try:  # `floorplan submit` comes with the Python client (clients/python), when installed
         from floorplan_client.cli import add_submit
     except ModuleNotFoundError as err:

@@ -5,16 +5,40 @@ from __future__ import annotations
 import os
 from functools import lru_cache
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 
 class Settings(BaseSettings):
-    """Every knob of `floorplan serve`; each is documented in the README."""
+    """Every knob of `floorplan serve` and `floorplan worker`; each is documented in the
+    README."""
 
     model_config = SettingsConfigDict(env_prefix="FLOORPLAN_", env_file=".env", extra="ignore")
+
+    backend: Literal["embedded", "celery"] = Field(
+        "embedded", description="embedded: solves run in this process's children; celery: "
+        "API nodes queue jobs for `floorplan worker` nodes through Redis",
+    )
+    database_url: str | None = Field(
+        None, description="SQLAlchemy URL of the job store (e.g. postgresql+psycopg://...); "
+        "default: SQLite in data_dir",
+    )
+    redis_url: str = Field(
+        "redis://127.0.0.1:6379/0", description="the broker and pub/sub (celery backend)"
+    )
+    namespace: str = Field(
+        "floorplan", pattern=r"^[A-Za-z0-9_.-]{1,64}$",
+        description="the Celery queue and the prefix of every Redis key and channel",
+    )
+    lease_seconds: float = Field(
+        30.0, gt=0, description="a running job whose worker has not renewed its lease for "
+        "this long is run again elsewhere (celery backend)",
+    )
+    reconcile_seconds: float = Field(
+        10.0, gt=0, description="how often API nodes and workers look for lost jobs",
+    )
 
     host: str = Field("127.0.0.1", description="address to listen on")
     port: int = Field(8000, ge=0, le=65535, description="port to listen on (0: any free one)")
@@ -37,6 +61,16 @@ class Settings(BaseSettings):
     retention_hours: float = Field(
         168.0, gt=0, description="finished jobs older than this are deleted"
     )
+    subdomain_processes: int | None = Field(
+        None, ge=1, description="processes solving the sub-domains of one refinement level "
+        "at once, per solve (1: one after the other); default: the cores left idle by "
+        "`workers` solves, at least 1",
+    )
+    subdomains: Literal["local", "celery"] = Field(
+        "local", description="where a solve's parallel sub-domains run: local, its own "
+        "process pool; celery, tasks for `floorplan worker --subdomains` (celery backend; "
+        "the local pool when no such worker is alive)",
+    )
     api_keys: Annotated[list[str], NoDecode] = Field(
         default_factory=list,
         description="comma-separated keys; when set, every request needs one and sees only "
@@ -53,6 +87,26 @@ class Settings(BaseSettings):
     @property
     def database_path(self) -> Path:
         return self.data_dir / "jobs.sqlite3"
+
+    @property
+    def store_url(self) -> str:
+        """The job store: FLOORPLAN_DATABASE_URL, else the SQLite file in data_dir."""
+        if self.database_url:
+            return self.database_url
+        self.data_dir.mkdir(parents=True, exist_ok=True)
+        return f"sqlite:///{self.database_path}"
+
+    @property
+    def subdomain_processes_per_solve(self) -> int:
+        if self.subdomain_processes is not None:
+            return self.subdomain_processes
+        return max(1, (os.cpu_count() or 1) // self.workers)
+
+    @property
+    def heartbeat_seconds(self) -> float:
+        """How often a worker renews its lease and looks for a cancel: a few times per
+        lease, so one slow write does not cost a job."""
+        return min(self.lease_seconds / 4, 5.0)
 
 
 @lru_cache

@@ -1,8 +1,14 @@
-"""Durable job records: SQLAlchemy Core over SQLite in WAL mode (the embedded default).
+"""Durable job records: SQLAlchemy Core over SQLite in WAL mode (the embedded default)
+or PostgreSQL (the distributed mode), one schema for both, kept by Alembic migrations.
 
-A job answered with 202 is a row before the answer leaves; everything the runner
-learns (status, progress, incumbents, the result) is written here, and the event
+A job answered with 202 is a row before the answer leaves; everything a runner or a
+worker learns (status, progress, incumbents, the result) is written here, and the event
 stream reads it back, so a restart loses nothing but the work in flight.
+
+In the distributed mode several workers write here: a job is claimed by one worker at
+a time (`claim`), which renews its lease (`heartbeat`) while it solves; every write of
+a claimed job names that worker, so a worker that lost its lease can no longer touch
+the job. The reconciler (`requeue_stale`, `undispatched`) finds what was left behind.
 """
 
 from __future__ import annotations
@@ -80,6 +86,11 @@ jobs = Table(
     Column("started_at", Float),
     Column("finished_at", Float),
     Column("updated_at", Float, nullable=False),
+    # The distributed mode: who holds the job, when it last said so, when it was sent to
+    # the broker (NULL: not yet, or the broker lost it).
+    Column("worker", String(200)),
+    Column("heartbeat_at", Float),
+    Column("dispatched_at", Float),
 )
 
 events = Table(
@@ -112,6 +123,8 @@ class Job:
     started_at: float | None
     finished_at: float | None
     updated_at: float
+    worker: str | None = None
+    heartbeat_at: float | None = None
 
 
 @dataclass(frozen=True)
@@ -129,11 +142,14 @@ class IdempotencyConflict(Exception):
 class JobStore:
     """Job records and their events."""
 
-    def __init__(self, url: str) -> None:
-        self.engine: Engine = create_engine(url)
+    def __init__(self, url: str, *, migrate: bool = True) -> None:
+        self.engine: Engine = create_engine(url, pool_pre_ping=True)
         if url.startswith("sqlite"):
             event.listen(self.engine, "connect", _sqlite_pragmas)
-        metadata.create_all(self.engine)
+        if migrate:
+            from service.migrations import upgrade
+
+            upgrade(self.engine)
 
     @classmethod
     def sqlite(cls, path: Path) -> JobStore:
@@ -223,43 +239,83 @@ class JobStore:
         self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
         return job
 
-    def set_progress(self, job_id: str, progress: dict[str, Any]) -> None:
+    def claim(self, job_id: str, worker: str) -> Job | None:
+        """Take a queued job for `worker` (the distributed mode): it is then running, and
+        its lease starts. None when the job is not queued (another worker holds it, it
+        ended, or it was canceled): a duplicate delivery of its task is then a no-op."""
+        now = time.time()
         with self._tx() as conn:
-            conn.execute(update(jobs).where(jobs.c.id == job_id).values(
+            claimed = conn.execute(update(jobs).where(
+                jobs.c.id == job_id, jobs.c.status == JobStatus.QUEUED
+            ).values(status=JobStatus.RUNNING, started_at=now, updated_at=now,
+                     heartbeat_at=now, worker=worker, attempts=jobs.c.attempts + 1))
+            if claimed.rowcount != 1:
+                return None
+            job = _job(conn.execute(select(jobs).where(jobs.c.id == job_id)).one())
+        self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
+        return job
+
+    def heartbeat(self, job_id: str, worker: str) -> bool | None:
+        """Renew `worker`'s lease on a running job. Returns whether a cancel was asked
+        for, or None when the job is no longer this worker's to run."""
+        with self._tx() as conn:
+            renewed = conn.execute(update(jobs).where(
+                jobs.c.id == job_id, jobs.c.worker == worker,
+                jobs.c.status == JobStatus.RUNNING,
+            ).values(heartbeat_at=time.time()))
+            if renewed.rowcount != 1:
+                return None
+            return bool(conn.execute(select(jobs.c.cancel_requested)
+                                     .where(jobs.c.id == job_id)).scalar_one())
+
+    def set_progress(
+        self, job_id: str, progress: dict[str, Any], *, worker: str | None = None
+    ) -> None:
+        with self._tx() as conn:
+            conn.execute(update(jobs).where(*_held(job_id, worker)).values(
                 progress=json.dumps(progress), updated_at=time.time()))
 
-    def set_incumbent(self, job_id: str, layout_json: str) -> None:
+    def set_incumbent(self, job_id: str, layout_json: str, *, worker: str | None = None) -> None:
         with self._tx() as conn:
-            conn.execute(update(jobs).where(jobs.c.id == job_id).values(
+            conn.execute(update(jobs).where(*_held(job_id, worker)).values(
                 incumbent=layout_json, updated_at=time.time()))
 
     def finish(
         self, job_id: str, status: JobStatus, *, termination: str | None = None,
         result: str | None = None, error: dict[str, Any] | None = None,
-    ) -> None:
-        """Record the end of a job (idempotent: a finished job stays as it ended)."""
+        worker: str | None = None,
+    ) -> bool:
+        """Record the end of a job (idempotent: a finished job stays as it ended). With
+        `worker`, only while that worker holds the job. Returns whether it was recorded."""
         now = time.time()
         with self._tx() as conn:
             done = conn.execute(update(jobs).where(
-                jobs.c.id == job_id, jobs.c.status.in_([JobStatus.QUEUED, JobStatus.RUNNING])
+                *_held(job_id, worker),
+                jobs.c.status.in_([JobStatus.QUEUED, JobStatus.RUNNING]),
             ).values(status=status, termination=termination, result=result,
                      error=json.dumps(error) if error else None, finished_at=now,
                      updated_at=now))
         if done.rowcount:
             self.add_event(job_id, "status", {"status": status, "termination": termination,
                                               "error": error})
+        return bool(done.rowcount)
 
     def request_cancel(self, job_id: str) -> Job | None:
-        """Mark a job for cancelling; a queued one is canceled at once."""
+        """Mark a job for cancelling; a queued one is canceled at once (only while still
+        queued: one that a worker claimed meanwhile is stopped by that worker)."""
+        now = time.time()
         with self._tx() as conn:
             conn.execute(update(jobs).where(
                 jobs.c.id == job_id, jobs.c.status.in_([JobStatus.QUEUED, JobStatus.RUNNING])
-            ).values(cancel_requested=True, updated_at=time.time()))
-        job = self.get(job_id)
-        if job is not None and job.status is JobStatus.QUEUED:
-            self.finish(job_id, JobStatus.CANCELED, termination="interrupted")
-            job = self.get(job_id)
-        return job
+            ).values(cancel_requested=True, updated_at=now))
+            canceled = conn.execute(update(jobs).where(
+                jobs.c.id == job_id, jobs.c.status == JobStatus.QUEUED
+            ).values(status=JobStatus.CANCELED, termination="interrupted", finished_at=now,
+                     updated_at=now))
+        if canceled.rowcount:
+            self.add_event(job_id, "status", {"status": JobStatus.CANCELED,
+                                              "termination": "interrupted", "error": None})
+        return self.get(job_id)
 
     def delete(self, job_id: str) -> None:
         with self._tx() as conn:
@@ -291,14 +347,88 @@ class JobStore:
                                                   "detail": "requeued after a restart"})
         return requeued, failed
 
-    def hand_back(self, job_id: str) -> None:
+    def hand_back(self, job_id: str, *, worker: str | None = None) -> bool:
         """A running job the service stops gracefully goes back to the queue, and the
-        interrupted run does not count as an attempt."""
+        interrupted run does not count as an attempt. Returns whether it went back."""
         with self._tx() as conn:
-            conn.execute(update(jobs).where(
-                jobs.c.id == job_id, jobs.c.status == JobStatus.RUNNING
-            ).values(status=JobStatus.QUEUED, attempts=jobs.c.attempts - 1,
-                     updated_at=time.time()))
+            back = conn.execute(update(jobs).where(
+                *_held(job_id, worker), jobs.c.status == JobStatus.RUNNING
+            ).values(status=JobStatus.QUEUED, attempts=jobs.c.attempts - 1, worker=None,
+                     dispatched_at=None, updated_at=time.time()))
+        if back.rowcount:
+            self.add_event(job_id, "status", {"status": JobStatus.QUEUED,
+                                              "detail": "handed back by a stopping worker"})
+        return bool(back.rowcount)
+
+    # The reconciler's side (the distributed mode).
+
+    def requeue_stale(self, lease_seconds: float, retry_limit: int) -> list[str]:
+        """Running jobs whose worker has not renewed its lease for `lease_seconds` (it
+        died, or lost the database) go back to the queue, or fail once tried
+        `retry_limit` + 1 times, or end canceled when a cancel was asked for. Each row
+        changes under a condition, so concurrent reconcilers never both act on one job.
+        Returns the ids put back in the queue, to be dispatched again."""
+        cutoff = time.time() - lease_seconds
+        # No heartbeat at all: a job an embedded runner left running in this store.
+        expired = or_(jobs.c.heartbeat_at < cutoff, jobs.c.heartbeat_at.is_(None))
+        with self._tx() as conn:
+            stale = conn.execute(select(
+                jobs.c.id, jobs.c.attempts, jobs.c.cancel_requested, jobs.c.worker,
+            ).where(jobs.c.status == JobStatus.RUNNING, expired)).all()
+        requeued: list[str] = []
+        for row in stale:
+            if row.cancel_requested:
+                self.finish(row.id, JobStatus.CANCELED, termination="interrupted",
+                            worker=row.worker)
+            elif row.attempts > retry_limit:
+                self.finish(row.id, JobStatus.FAILED, worker=row.worker, error={
+                    "code": "retries_exhausted",
+                    "message": f"the worker running this job was lost {row.attempts} times",
+                })
+            else:
+                with self._tx() as conn:
+                    back = conn.execute(update(jobs).where(
+                        jobs.c.id == row.id, jobs.c.status == JobStatus.RUNNING, expired,
+                    ).values(status=JobStatus.QUEUED, worker=None, dispatched_at=None,
+                             updated_at=time.time()))
+                if back.rowcount:
+                    requeued.append(row.id)
+                    self.add_event(row.id, "status", {
+                        "status": JobStatus.QUEUED,
+                        "detail": f"requeued: worker {row.worker} stopped answering"})
+        return requeued
+
+    def take_undispatched(self, older_than: float) -> list[str]:
+        """Queued jobs never handed to the broker (it was down, or the API node died
+        between the commit and the send), created before `older_than`, oldest first;
+        each is marked dispatched by a conditional update, so that of several
+        reconcilers only one sends it."""
+        with self._tx() as conn:
+            found = [r.id for r in conn.execute(select(jobs.c.id).where(
+                jobs.c.status == JobStatus.QUEUED, jobs.c.dispatched_at.is_(None),
+                jobs.c.created_at < older_than,
+            ).order_by(jobs.c.created_at, jobs.c.id))]
+        taken: list[str] = []
+        for job_id in found:
+            with self._tx() as conn:
+                won = conn.execute(update(jobs).where(
+                    jobs.c.id == job_id, jobs.c.status == JobStatus.QUEUED,
+                    jobs.c.dispatched_at.is_(None),
+                ).values(dispatched_at=time.time()))
+            if won.rowcount:
+                taken.append(job_id)
+        return taken
+
+    def queued(self) -> list[str]:
+        """Every queued job, oldest first (to send again when the broker lost its queue)."""
+        with self._tx() as conn:
+            return [r.id for r in conn.execute(select(jobs.c.id).where(
+                jobs.c.status == JobStatus.QUEUED).order_by(jobs.c.created_at, jobs.c.id))]
+
+    def mark_dispatched(self, job_id: str, dispatched: bool = True) -> None:
+        with self._tx() as conn:
+            conn.execute(update(jobs).where(jobs.c.id == job_id).values(
+                dispatched_at=time.time() if dispatched else None))
 
     def purge(self, older_than: float) -> int:
         """Delete finished jobs that ended before `older_than` (epoch seconds)."""
@@ -342,6 +472,14 @@ class JobStore:
             return conn.execute(select(1)).scalar() == 1
 
 
+def _held(job_id: str, worker: str | None) -> list[Any]:
+    """The WHERE clause of a write to a job, fenced to `worker` when one is named."""
+    clause = [jobs.c.id == job_id]
+    if worker is not None:
+        clause.append(jobs.c.worker == worker)
+    return clause
+
+
 def _sqlite_pragmas(dbapi_connection: Any, _record: Any) -> None:
     cursor = dbapi_connection.cursor()
     cursor.execute("PRAGMA journal_mode=WAL")
@@ -360,4 +498,5 @@ def _job(row: Any) -> Job:
         idempotency_key=row.idempotency_key, body_hash=row.body_hash, attempts=row.attempts,
         cancel_requested=bool(row.cancel_requested), created_at=row.created_at,
         started_at=row.started_at, finished_at=row.finished_at, updated_at=row.updated_at,
+        worker=row.worker, heartbeat_at=row.heartbeat_at,
     )

@@ -6,8 +6,10 @@ module is imported afresh in the child and must stay light at import time.
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import time
+from concurrent.futures import Executor, ProcessPoolExecutor
 from multiprocessing.connection import Connection
 from multiprocessing.queues import Queue
 from multiprocessing.synchronize import Event
@@ -20,22 +22,80 @@ STANDBY_POLL = 1.0
 INCUMBENT_INTERVAL = 0.5
 
 
+def subdomain_pool(processes: int) -> ProcessPoolExecutor | None:
+    """A pool of `processes` spawned processes for the sub-domains of a refinement level
+    (None for one: they are then solved one after the other), started and warmed up now,
+    while level 1 runs."""
+    if processes <= 1:
+        return None
+    from solver.parallel import warm_up
+
+    # This solve process is a daemon (it must not outlive the service); daemons may not
+    # have children unless they say otherwise. The pool is ended explicitly below.
+    multiprocessing.current_process().daemon = False
+    pool = ProcessPoolExecutor(processes, mp_context=multiprocessing.get_context("spawn"))
+    for _ in range(processes):
+        pool.submit(warm_up)
+    return pool
+
+
+def end_pool(pool: ProcessPoolExecutor | None) -> None:
+    """Stop the pool now: a sub-domain still running after a stop must not hold up the
+    job's result (ProcessPoolExecutor has no public way to end busy workers before
+    Python 3.14's terminate_workers)."""
+    if pool is None:
+        return
+    processes = list(getattr(pool, "_processes", {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.kill()
+    for process in processes:
+        process.join(timeout=1)
+
+
+def subdomain_executor(processes: int, remote: bool) -> tuple[Executor | None, int]:
+    """Where this solve's independent sub-domains go, and how many at once: Celery tasks
+    for the sub-domain workers (`remote`, while any is alive), else a local pool of
+    `processes` (None for one: one after the other)."""
+    if remote:
+        from service.distributed import subdomain_executor as celery_executor
+        from service.settings import get_settings
+
+        executor = celery_executor(get_settings())
+        if executor is not None:
+            return executor, executor.slots
+    return subdomain_pool(processes), processes
+
+
+def end_executor(executor: Executor | None) -> None:
+    if isinstance(executor, ProcessPoolExecutor):
+        end_pool(executor)
+    elif executor is not None:
+        executor.shutdown(wait=False, cancel_futures=True)
+
+
 def run_job(
-    problem_json: str, messages: Queue[tuple[str, Any]], stop: Event, parent: int
+    problem_json: str, messages: Queue[tuple[str, Any]], stop: Event, parent: int,
+    subdomain_processes: int = 1, subdomain_tasks: bool = False,
 ) -> None:
     """Solve and send ("progress", dict), ("incumbent", (dict, layout_json)) and
     finally ("done", layout_json); an exception is sent as ("error", message).
     The solve stops when `stop` is set or the parent process `parent` is gone (a
-    killed service must not leave orphans running)."""
+    killed service must not leave orphans running). The sub-domains of a refinement
+    level are solved at once as Celery tasks with `subdomain_tasks`, else in a pool of
+    `subdomain_processes` when that is more than one."""
 
     def should_stop() -> bool:
         return stop.is_set() or os.getppid() != parent
 
+    pool: Executor | None = None
     try:
         from models import Problem
+        from solver.parallel import SubdomainExecutor
         from solver.solve import Phase, SolveEvent, draft_layout, solve
 
         problem = Problem.model_validate_json(problem_json)
+        pool, slots = subdomain_executor(subdomain_processes, subdomain_tasks)
         last_incumbent = 0.0
 
         def on_event(e: SolveEvent) -> None:
@@ -55,14 +115,19 @@ def run_job(
             else:
                 messages.put(("progress", progress))
 
-        layout = solve(problem, on_event=on_event, should_stop=should_stop)
+        subdomains = SubdomainExecutor(pool, slots) if pool is not None else None
+        layout = solve(problem, on_event=on_event, should_stop=should_stop,
+                       subdomains=subdomains)
+        end_executor(pool)
         messages.put(("done", layout.model_dump_json()))
     except Exception as err:
+        end_executor(pool)
         messages.put(("error", f"{type(err).__name__}: {err}"))
 
 
 def standby(
-    jobs: Connection, messages: Queue[tuple[str, Any]], stop: Event, parent: int
+    jobs: Connection, messages: Queue[tuple[str, Any]], stop: Event, parent: int,
+    subdomain_processes: int = 1, subdomain_tasks: bool = False,
 ) -> None:
     """A solve process started ahead of its job: pay for the imports (SCIP, shapely)
     now, then wait for one problem, solve it and exit, as every solve has its own
@@ -72,4 +137,4 @@ def standby(
     while not jobs.poll(STANDBY_POLL):
         if os.getppid() != parent:
             return
-    run_job(jobs.recv(), messages, stop, parent)
+    run_job(jobs.recv(), messages, stop, parent, subdomain_processes, subdomain_tasks)

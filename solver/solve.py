@@ -9,6 +9,7 @@ from __future__ import annotations
 import random
 import time
 from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, Future, wait
 from dataclasses import dataclass, field
 from enum import StrEnum
 
@@ -42,6 +43,8 @@ from solver.geometry import (
 )
 from solver.hierarchy import (
     Piece,
+    RefinementPlan,
+    SubDomain,
     absorb_gaps,
     apply_refinement,
     on_edge,
@@ -64,6 +67,14 @@ from solver.neighbourhood import (
     search_neighbourhoods,
 )
 from solver.openings import add_openings, connection_demands
+from solver.parallel import (
+    LATE_SECONDS,
+    SubdomainExecutor,
+    SubdomainOutcome,
+    SubdomainTask,
+    overlaps_others,
+    solve_subdomain,
+)
 from solver.precheck import find_impossibilities
 from solver.scip_run import (
     Incumbent,
@@ -214,8 +225,11 @@ def solve(
     *,
     on_event: EventSink | None = None,
     should_stop: Callable[[], bool] | None = None,
+    subdomains: SubdomainExecutor | None = None,
 ) -> Layout:
-    """Lay out `problem`: a valid layout, or a report saying why there is none."""
+    """Lay out `problem`: a valid layout, or a report saying why there is none. With
+    `subdomains`, the sub-domains of each refinement level are solved at the same time
+    on its executor (solver/parallel.py); without, one after the other."""
     started = time.monotonic()
     asked = problem
     # The doors every room needs, as adjacencies the MIQP must honour.
@@ -234,12 +248,15 @@ def solve(
     if pieces is None:
         assert failure is not None
         return failure
-    pieces, levels = _refine(run, domain, pieces)
+    pieces, levels = _refine(run, domain, pieces, subdomains)
     pieces = absorb_gaps(problem, domain, pieces)
     return _layout(run, domain, pieces, levels)
 
 
-def _refine(run: _Run, domain: Domain, pieces: list[Piece]) -> tuple[list[Piece], int]:
+def _refine(
+    run: _Run, domain: Domain, pieces: list[Piece],
+    subdomains: SubdomainExecutor | None = None,
+) -> tuple[list[Piece], int]:
     """The hierarchy (Sec. 5.3): refine sub-domains level by level while time is left;
     returns the pieces and the number of levels used."""
     problem = run.problem
@@ -258,6 +275,18 @@ def _refine(run: _Run, domain: Domain, pieces: list[Piece]) -> tuple[list[Piece]
         run.emit(Phase.LEVEL, subdomains=len(subs),
                  detail=f"level {level}: {len(subs)} sub-domain(s)")
         levels_left = problem.options.max_levels - level + 1
+        if subdomains is not None and len(subs) > 1:
+            level_seconds = run.remaining() / levels_left
+            for batch in _disjoint_batches(subs):
+                if run.remaining() <= overhead or run.stopped():
+                    break
+                # Planned from the layout as the previous batch left it.
+                plans = [(i, plan_refinement(problem, domain, pieces, sub, level=level,
+                                             index=i, rng=rng)) for i, sub in batch]
+                seconds = min(level_seconds * len(batch) / len(subs), run.remaining())
+                pieces = _refine_at_once(run, domain, pieces, plans, len(subs), seconds,
+                                         subdomains)
+            continue
         for i, sub in enumerate(subs):
             if run.remaining() <= overhead or run.stopped():
                 break
@@ -277,6 +306,66 @@ def _refine(run: _Run, domain: Domain, pieces: list[Piece]) -> tuple[list[Piece]
                      objective=result.objective,
                      detail=f"rooms {', '.join(sorted(sub.rooms))}: {result.status}")
     return pieces, levels
+
+
+def _disjoint_batches(subs: list[SubDomain]) -> list[list[tuple[int, SubDomain]]]:
+    """Consecutive runs of sub-domains sharing no room: those are independent problems.
+    (Selections too large to merge may share rooms; each such one starts a new batch.)"""
+    batches: list[list[tuple[int, SubDomain]]] = []
+    taken: set[str] = set()
+    for i, sub in enumerate(subs):
+        if not batches or taken & sub.rooms:
+            batches.append([])
+            taken = set()
+        batches[-1].append((i, sub))
+        taken |= sub.rooms
+    return batches
+
+
+def _refine_at_once(
+    run: _Run, domain: Domain, pieces: list[Piece], plans: list[tuple[int, RefinementPlan]],
+    total: int, seconds: float, subdomains: SubdomainExecutor,
+) -> list[Piece]:
+    """Independent sub-domains (`plans`, by their index among the level's `total`)
+    solved at the same time within `seconds`, in waves of the executor's slots; results
+    applied in order, unless one overlaps rooms placed by an earlier one. A stop
+    returns with what has finished."""
+    budget = subdomains.budget(seconds, len(plans))
+    deadline = time.time() + seconds
+    seed = run.problem.options.seed
+    futures: dict[Future[SubdomainOutcome], int] = {
+        subdomains.executor.submit(
+            solve_subdomain, SubdomainTask(plan.spec, plan.start, budget, deadline, seed)): i
+        for i, plan in plans}
+    outcomes: dict[int, SubdomainOutcome] = {}
+    pending = set(futures)
+    while pending and not run.stopped() and time.time() < deadline + LATE_SECONDS:
+        done, pending = wait(pending, timeout=0.1, return_when=FIRST_COMPLETED)
+        for future in done:
+            try:
+                outcomes[futures[future]] = future.result()
+            except Exception as err:  # a lost task costs its sub-domain, not the layout
+                outcomes[futures[future]] = SubdomainOutcome(f"failed: {err}", None, None, 0)
+    for future in pending:
+        future.cancel()
+    n = total
+    for i, plan in plans:
+        outcome = outcomes.get(i)
+        if outcome is None:
+            run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=n, detail="stopped")
+            continue
+        rooms = {h.room for h in plan.pieces.values()}
+        if outcome.rects is not None and overlaps_others(
+                room_boxes(pieces), rooms, outcome.rects.values()):
+            outcome = SubdomainOutcome("dropped: overlaps a neighbouring sub-domain",
+                                       None, outcome.objective, outcome.seconds)
+        if outcome.rects is not None:
+            pieces = apply_refinement(pieces, plan, outcome.rects)
+            run.incumbent(domain, room_boxes(pieces), sub=i + 1, subs=n)
+        run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=n, objective=outcome.objective,
+                 detail=f"rooms {', '.join(sorted(rooms))}: {outcome.status} "
+                        f"in {outcome.seconds:.2f} s")
+    return pieces
 
 
 def _level_one(

@@ -1,5 +1,6 @@
-"""A bounded schemathesis run over the OpenAPI schema of a live server: no 5xx, and
-every response conforms to the schema it documents. (schemathesis's pytest plugin
+"""A bounded schemathesis run over the OpenAPI schema of a live server, in both modes
+(embedded, and an API node with a Celery worker): no 5xx, and every response conforms
+to the schema it documents. (schemathesis's pytest plugin
 does not support pytest 9 yet, so its strategies are driven with hypothesis here.)"""
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import schemathesis
 from hypothesis import HealthCheck, given, settings
 from schemathesis import checks
 
-from tests.servers import Server
+from tests.servers import BACKENDS, service
 
 #: What the service promises of every response. Not "schema-valid data is accepted":
 #: cross-field rules (an axis-aligned outline, known room ids) are beyond JSON Schema,
@@ -26,11 +27,12 @@ CHECKS = [
 EXAMPLES = 15
 
 
-@pytest.fixture(scope="module")
-def api_schema(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Any]:
+@pytest.fixture(scope="module", params=BACKENDS)
+def api_schema(request: pytest.FixtureRequest,
+               tmp_path_factory: pytest.TempPathFactory) -> Iterator[Any]:
     # Short solves: generated problems that happen to be valid must not pile up.
-    server = Server(tmp_path_factory.mktemp("fuzz"), FLOORPLAN_MAX_TIME_LIMIT="1",
-                    WORKERS="1").start()
+    server = service(request.param, tmp_path_factory.mktemp("fuzz"),
+                     FLOORPLAN_MAX_TIME_LIMIT="1", WORKERS="1").start()
     try:
         yield schemathesis.openapi.from_url(f"{server.url}/openapi.json")
     finally:

@@ -1,5 +1,6 @@
-"""The Python client (clients/python) against real `floorplan serve` processes on
-loopback: every call, one error of each kind, cancel, retries and the polling fallback.
+"""The Python client (clients/python) against real service processes on loopback, in
+both modes (embedded, and an API node with Celery workers): every call, one error of
+each kind, cancel, retries and the polling fallback.
 The async client has its own file, mirroring this one; so has `floorplan submit`."""
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ from floorplan_client import (
 )
 
 from models import Layout, Problem, Termination
-from tests.servers import Server
+from tests.servers import BACKENDS, AnyServer, service
 from tests.test_service import LONG, SMALL
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -48,15 +49,20 @@ CROWDED: dict[str, Any] = {**SMALL, "name": "crowded", "adjacency": [],
                            "rooms": [{"id": k, "min_size": [4, 4]} for k in "ab"]}
 
 
+@pytest.fixture(scope="module", params=BACKENDS)
+def backend(request: pytest.FixtureRequest) -> str:
+    return str(request.param)
+
+
 @pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    s = Server(tmp_path_factory.mktemp("data"), FLOORPLAN_API_KEYS=f"{KEY}, beta").start()
+def server(backend: str, tmp_path_factory: pytest.TempPathFactory) -> Iterator[AnyServer]:
+    s = service(backend, tmp_path_factory.mktemp("data"), FLOORPLAN_API_KEYS=f"{KEY}, beta").start()
     yield s
     s.stop()
 
 
 @pytest.fixture
-def fp(server: Server) -> Iterator[Client]:
+def fp(server: AnyServer) -> Iterator[Client]:
     with Client(server.url, api_key=KEY) as c:
         yield c
 
@@ -136,7 +142,7 @@ class NoEventStream(httpx.HTTPTransport):
         return super().handle_request(request)
 
 
-def test_events_fall_back_to_polling_where_there_is_no_stream(server: Server) -> None:
+def test_events_fall_back_to_polling_where_there_is_no_stream(server: AnyServer) -> None:
     http = httpx.Client(transport=NoEventStream())
     with Client(server.url, api_key=KEY, http_client=http) as fp, http:
         job = fp.submit(SMALL)
@@ -213,7 +219,7 @@ def test_an_invalid_problem_names_its_bad_fields(fp: Client) -> None:
     assert "adjacency.0.b: unknown room id 'ghost'" in str(err)
 
 
-def test_unknown_jobs_and_other_keys_jobs_are_not_found(fp: Client, server: Server) -> None:
+def test_unknown_jobs_and_other_keys_jobs_are_not_found(fp: Client, server: AnyServer) -> None:
     with pytest.raises(NotFound) as caught:
         fp.get("00000000-0000-0000-0000-000000000000")
     assert caught.value.problem.kind == "job-not-found"
@@ -243,7 +249,7 @@ def test_an_infeasible_problem_raises_infeasible_with_its_findings(fp: Client) -
     assert job.result().rooms == []  # the report without rooms says why too
 
 
-def test_a_missing_or_wrong_api_key_is_unauthorized(server: Server) -> None:
+def test_a_missing_or_wrong_api_key_is_unauthorized(server: AnyServer) -> None:
     for key in (None, "gamma"):
         with Client(server.url, api_key=key) as fp, pytest.raises(Unauthorized) as caught:
             fp.list()
@@ -272,7 +278,7 @@ class LostAnswers(httpx.HTTPTransport):
                                     "status": 503, "detail": "the upstream went away"})
 
 
-def test_a_retried_submit_makes_one_job_with_one_idempotency_key(server: Server) -> None:
+def test_a_retried_submit_makes_one_job_with_one_idempotency_key(server: AnyServer) -> None:
     transport = LostAnswers()
     http = httpx.Client(transport=transport)
     with Client(server.url, api_key=KEY, http_client=http) as fp, http:
@@ -286,7 +292,7 @@ def test_a_retried_submit_makes_one_job_with_one_idempotency_key(server: Server)
         job.wait(timeout=60)
 
 
-def test_a_failing_service_is_a_server_error_after_the_retries(server: Server) -> None:
+def test_a_failing_service_is_a_server_error_after_the_retries(server: AnyServer) -> None:
     transport = LostAnswers(lose=10)
     http = httpx.Client(transport=transport)
     with Client(server.url, api_key=KEY, max_retries=2, http_client=http) as fp, http, \
@@ -314,8 +320,8 @@ def test_no_service_is_a_connection_error_and_silence_a_timeout() -> None:
             fp.list(timeout=0.3)
 
 
-def test_a_full_queue_is_rate_limited_honouring_retry_after(tmp_path: Path) -> None:
-    s = Server(tmp_path, FLOORPLAN_QUEUE_LIMIT="1", WORKERS="1").start()
+def test_a_full_queue_is_rate_limited_honouring_retry_after(backend: str, tmp_path: Path) -> None:
+    s = service(backend, tmp_path, FLOORPLAN_QUEUE_LIMIT="1", WORKERS="1").start()
     try:
         with Client(s.url, api_key=None, max_retries=1) as fp:
             busy = fp.submit({**LONG, "options": {"time_limit": 30}})
@@ -338,7 +344,7 @@ def test_a_full_queue_is_rate_limited_honouring_retry_after(tmp_path: Path) -> N
         s.stop()
 
 
-def test_the_readme_examples_run(server: Server, tmp_path: Path,
+def test_the_readme_examples_run(server: AnyServer, tmp_path: Path,
                                  monkeypatch: pytest.MonkeyPatch,
                                  capsys: pytest.CaptureFixture[str]) -> None:
     section = (ROOT / "README.md").read_text().split("\n## Use it from Python\n")[1]

@@ -27,21 +27,26 @@ from floorplan_client import (
 )
 
 from models import Layout, Problem, Termination
-from tests.servers import Server
+from tests.servers import BACKENDS, AnyServer, service
 from tests.test_client import CROWDED
 from tests.test_service import LONG, SMALL
 
 T = TypeVar("T")
 
 
+@pytest.fixture(scope="module", params=BACKENDS)
+def backend(request: pytest.FixtureRequest) -> str:
+    return str(request.param)
+
+
 @pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    s = Server(tmp_path_factory.mktemp("data")).start()
+def server(backend: str, tmp_path_factory: pytest.TempPathFactory) -> Iterator[AnyServer]:
+    s = service(backend, tmp_path_factory.mktemp("data")).start()
     yield s
     s.stop()
 
 
-def run(server: Server, test: Callable[[AsyncClient], Awaitable[T]], **options: Any) -> T:
+def run(server: AnyServer, test: Callable[[AsyncClient], Awaitable[T]], **options: Any) -> T:
     async def main() -> T:
         async with AsyncClient(server.url, api_key=None, **options) as fp:
             return await test(fp)
@@ -49,7 +54,7 @@ def run(server: Server, test: Callable[[AsyncClient], Awaitable[T]], **options: 
     return asyncio.run(main())
 
 
-def test_submit_follow_the_events_wait_and_fetch_the_layout(server: Server) -> None:
+def test_submit_follow_the_events_wait_and_fetch_the_layout(server: AnyServer) -> None:
     async def test(fp: AsyncClient) -> None:
         job = await fp.submit(SMALL)
         assert isinstance(job, AsyncJob) and job.status is JobStatus.QUEUED
@@ -71,7 +76,7 @@ def test_submit_follow_the_events_wait_and_fetch_the_layout(server: Server) -> N
     run(server, test)
 
 
-def test_validate_and_list(server: Server) -> None:
+def test_validate_and_list(server: AnyServer) -> None:
     async def test(fp: AsyncClient) -> None:
         assert (await fp.validate(SMALL)).valid
         assert not (await fp.validate(CROWDED)).valid
@@ -88,7 +93,7 @@ def test_validate_and_list(server: Server) -> None:
     run(server, test)
 
 
-def test_cancel_keeps_the_incumbent(server: Server) -> None:
+def test_cancel_keeps_the_incumbent(server: AnyServer) -> None:
     async def test(fp: AsyncClient) -> None:
         job = await fp.submit(LONG)
         with pytest.raises(WaitTimeout):
@@ -115,7 +120,7 @@ def test_cancel_keeps_the_incumbent(server: Server) -> None:
     run(server, test)
 
 
-def test_errors_are_typed_as_in_the_sync_client(server: Server) -> None:
+def test_errors_are_typed_as_in_the_sync_client(server: AnyServer) -> None:
     async def test(fp: AsyncClient) -> None:
         with pytest.raises(InvalidProblem) as invalid:
             await fp.submit({**SMALL, "adjacency": [{"a": "living", "b": "ghost"}]})
@@ -141,7 +146,7 @@ class Unavailable(httpx.AsyncBaseTransport):
         return httpx.Response(503, headers={"Retry-After": "0"}, text="<html>away</html>")
 
 
-def test_a_failing_service_is_a_server_error_after_the_retries(server: Server) -> None:
+def test_a_failing_service_is_a_server_error_after_the_retries(server: AnyServer) -> None:
     transport = Unavailable()
 
     async def test(fp: AsyncClient) -> None:

@@ -1,4 +1,6 @@
-"""The HTTP service, tested against real `floorplan serve` processes on loopback."""
+"""The HTTP service, tested against real processes on loopback, in both modes: the
+embedded `floorplan serve`, and an API node with Celery workers on the machine's Redis
+and PostgreSQL (tests/servers.py). Every test runs against both backends."""
 
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ from typing import Any
 import httpx2 as httpx
 import pytest
 
-from tests.servers import Server
+from tests.servers import BACKENDS, AnyServer, service
 
 TERMINAL = {"succeeded", "failed", "canceled"}
 
@@ -42,15 +44,20 @@ LONG: dict[str, Any] = {
 }
 
 
+@pytest.fixture(scope="module", params=BACKENDS)
+def backend(request: pytest.FixtureRequest) -> str:
+    return str(request.param)
+
+
 @pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    s = Server(tmp_path_factory.mktemp("data")).start()
+def server(backend: str, tmp_path_factory: pytest.TempPathFactory) -> Iterator[AnyServer]:
+    s = service(backend, tmp_path_factory.mktemp("data")).start()
     yield s
     s.stop()
 
 
 @pytest.fixture
-def client(server: Server) -> Iterator[httpx.Client]:
+def client(server: AnyServer) -> Iterator[httpx.Client]:
     with httpx.Client(base_url=server.url, timeout=30) as c:
         yield c
 
@@ -285,13 +292,14 @@ def test_thirty_concurrent_submissions_all_finish(client: httpx.Client) -> None:
     assert all(job["status"] == "succeeded" for job in finished)
 
 
-def test_a_killed_service_resumes_its_jobs_after_a_restart(tmp_path: Path) -> None:
-    first = Server(tmp_path).start()
+def test_a_killed_service_resumes_its_jobs_after_a_restart(backend: str, tmp_path: Path) -> None:
+    # Distributed: every process dies; the job's lease expires and it runs again.
+    first = service(backend, tmp_path).start()
     with httpx.Client(base_url=first.url, timeout=30) as c:
         job = submit(c, {**LONG, "options": {"time_limit": 4}})
         wait(c, job["id"], until={"running"})
     first.kill()
-    second = Server(tmp_path).start()
+    second = service(backend, tmp_path).start()
     try:
         with httpx.Client(base_url=second.url, timeout=30) as c:
             done = wait(c, job["id"], timeout=60)
@@ -302,8 +310,10 @@ def test_a_killed_service_resumes_its_jobs_after_a_restart(tmp_path: Path) -> No
         second.stop()
 
 
-def test_api_keys_guard_every_request_and_hide_other_keys_jobs(tmp_path: Path) -> None:
-    s = Server(tmp_path, FLOORPLAN_API_KEYS="alpha, beta").start()
+def test_api_keys_guard_every_request_and_hide_other_keys_jobs(
+    backend: str, tmp_path: Path
+) -> None:
+    s = service(backend, tmp_path, FLOORPLAN_API_KEYS="alpha, beta").start()
     try:
         with httpx.Client(base_url=s.url, timeout=30) as c:
             refused = c.post("/v1/layouts", json=SMALL)
@@ -324,8 +334,8 @@ def test_api_keys_guard_every_request_and_hide_other_keys_jobs(tmp_path: Path) -
         s.stop()
 
 
-def test_a_full_queue_answers_429_with_retry_after(tmp_path: Path) -> None:
-    s = Server(tmp_path, FLOORPLAN_QUEUE_LIMIT="1", WORKERS="1").start()
+def test_a_full_queue_answers_429_with_retry_after(backend: str, tmp_path: Path) -> None:
+    s = service(backend, tmp_path, FLOORPLAN_QUEUE_LIMIT="1", WORKERS="1").start()
     try:
         with httpx.Client(base_url=s.url, timeout=30) as c:
             busy = submit(c, {**LONG, "options": {"time_limit": 30}})
@@ -342,14 +352,14 @@ def test_a_full_queue_answers_429_with_retry_after(tmp_path: Path) -> None:
 
 
 def test_a_stopped_service_hands_running_jobs_back_without_counting_an_attempt(
-    tmp_path: Path,
+    backend: str, tmp_path: Path,
 ) -> None:
-    first = Server(tmp_path).start()
+    first = service(backend, tmp_path).start()
     with httpx.Client(base_url=first.url, timeout=30) as c:
         job = submit(c, {**LONG, "options": {"time_limit": 4}})
         wait(c, job["id"], until={"running"})
     first.stop()  # SIGTERM: a graceful stop
-    second = Server(tmp_path).start()
+    second = service(backend, tmp_path).start()
     try:
         with httpx.Client(base_url=second.url, timeout=30) as c:
             done = wait(c, job["id"], timeout=60)
@@ -358,23 +368,25 @@ def test_a_stopped_service_hands_running_jobs_back_without_counting_an_attempt(
         second.stop()
 
 
-def _solve_processes(server_pid: int) -> list[int]:
-    """The server's solve children (spawned: their command line runs spawn_main)."""
+def solve_processes(parent: int) -> list[int]:
+    """The solve children of `parent` (spawned: their command line runs spawn_main)."""
     # -ww: without a terminal ps cuts args at 80 columns, and venv paths are long.
-    out = subprocess.run(["ps", "-ww", "-o", "pid=,args=", "--ppid", str(server_pid)],
-                         capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(["ps", "-ww", "-o", "pid=,args=", "--ppid", str(parent)],
+                         capture_output=True, text=True).stdout
     return [int(line.split()[0]) for line in out.splitlines() if "spawn_main" in line]
 
 
-def test_a_crashed_solve_fails_its_own_job_and_the_service_carries_on(tmp_path: Path) -> None:
-    s = Server(tmp_path).start()
+def test_a_crashed_solve_fails_its_own_job_and_the_service_carries_on(
+    backend: str, tmp_path: Path
+) -> None:
+    s = service(backend, tmp_path).start()
     try:
         with httpx.Client(base_url=s.url, timeout=30) as c:
             doomed = submit(c, {**LONG, "options": {"time_limit": 30}})
             wait(c, doomed["id"], until={"running"})
-            assert s.process is not None
             deadline = time.monotonic() + 10
-            while not (children := _solve_processes(s.process.pid)):
+            while not (children := [pid for parent in s.solver_parents()
+                                    for pid in solve_processes(parent)]):
                 assert time.monotonic() < deadline, "no solve process found"
                 time.sleep(0.1)
             for pid in children:

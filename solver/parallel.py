@@ -1,0 +1,108 @@
+"""The sub-domains of one hierarchy level, solved at the same time.
+
+The sub-domains of a level (Sec. 5.3) are disjoint sets of rooms, each an MIQP over its
+own rooms and the gaps they touch, with everything else fixed. Given a
+`SubdomainExecutor` (any `concurrent.futures.Executor`, a local process pool or one
+whose futures are remote tasks, and how many tasks it runs at once), `solve` plans
+every sub-domain of a level from the level's layout, solves them at once with
+`solve_subdomain`, and applies the results in order. Two sub-domains that
+touch one gap may both grow into it: a result overlapping rooms placed meanwhile is
+dropped (its rooms keep their rectangles), so the layout stays valid.
+
+What crosses to the executor is plain data (a `LevelSpec`, boxes, numbers), so tasks
+pickle; the solver knows nothing of who runs them.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterable, Mapping
+from concurrent.futures import Executor
+from dataclasses import dataclass
+
+from solver.formulation import LevelSpec, build_level
+from solver.geometry import Box
+from solver.scip_run import complete_start, run_level
+
+#: Overlap (m²) below which two rectangles count as touching, not overlapping.
+OVERLAP_TOLERANCE = 1e-6
+#: A sub-domain left with less time than this is not started.
+MIN_SECONDS = 0.05
+#: Seconds past a level's deadline its sub-domains are still waited for; a later result
+#: is dropped, so a slow task cannot push the solve past its time limit.
+LATE_SECONDS = 0.5
+
+
+@dataclass(frozen=True)
+class SubdomainExecutor:
+    """Where sub-domains are solved: `executor` runs `slots` tasks at once."""
+
+    executor: Executor
+    slots: int
+
+    def budget(self, level_seconds: float, tasks: int) -> float:
+        """Seconds per task when `tasks` share `level_seconds` in waves of `slots`."""
+        return level_seconds / math.ceil(tasks / max(1, self.slots))
+
+
+@dataclass(frozen=True)
+class SubdomainTask:
+    """One sub-domain's MIQP, its feasible start, the seconds it may take, and the wall
+    clock time (epoch) by which it must end whenever it starts (a task queued behind
+    others gets what is left)."""
+
+    spec: LevelSpec
+    start: dict[str, Box]
+    budget: float
+    deadline: float
+    seed: int
+
+
+@dataclass(frozen=True)
+class SubdomainOutcome:
+    status: str  # a LevelStatus value, or why the start was refused
+    rects: dict[str, Box] | None
+    objective: float | None
+    seconds: float  # wall time in the executor, for the speed-up figures
+
+
+def solve_subdomain(task: SubdomainTask) -> SubdomainOutcome:
+    """Build, start and solve one sub-domain (in whatever process the executor uses).
+    It has no stop flag: it ends within its budget."""
+    started = time.monotonic()
+
+    def left() -> float:  # building the model counts too
+        return min(task.budget - (time.monotonic() - started), task.deadline - time.time())
+
+    if left() < MIN_SECONDS:
+        return SubdomainOutcome("not started: the level's time ran out", None, None, 0.0)
+    lm = build_level(task.spec)
+    start = complete_start(lm, task.start, time_limit=max(left(), MIN_SECONDS) / 4)
+    if start.values is None:
+        return SubdomainOutcome(f"start not feasible: {start.status}", None, None,
+                                time.monotonic() - started)
+    result = run_level(lm, time_limit=max(left(), MIN_SECONDS), seed=task.seed)
+    return SubdomainOutcome(str(result.status), result.rects, result.objective,
+                            time.monotonic() - started)
+
+
+def warm_up() -> None:
+    """Nothing to do: submitted once per pool process, so that it imports this module
+    (and SCIP, shapely) while level 1 runs, not when the first sub-domain waits."""
+
+
+def overlaps_others(rooms: Mapping[str, Iterable[Box]], own: set[str],
+                    boxes: Iterable[Box]) -> bool:
+    """Whether any of `boxes` overlaps a rectangle of a room not in `own`."""
+    boxes = list(boxes)
+    for room_id, placed in rooms.items():
+        if room_id in own:
+            continue
+        for a in placed:
+            for b in boxes:
+                dx = min(a.x1, b.x1) - max(a.x0, b.x0)
+                dy = min(a.y1, b.y1) - max(a.y0, b.y0)
+                if dx > 0 and dy > 0 and dx * dy > OVERLAP_TOLERANCE:
+                    return True
+    return False

@@ -1,0 +1,111 @@
+"""The sub-domains of one refinement level solved at the same time (solver/parallel.py):
+in a local process pool from `solve`, and in the service, whose solve processes start
+such a pool when FLOORPLAN_SUBDOMAIN_PROCESSES asks for one."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import httpx2 as httpx
+import pytest
+
+from models import Problem
+from service.worker import run_job
+from solver.geometry import Box
+from solver.hierarchy import SubDomain
+from solver.parallel import SubdomainExecutor, overlaps_others
+from solver.solve import Phase, SolveEvent, _disjoint_batches, solve
+from tests.servers import Server
+from tests.test_service import submit, wait
+
+#: Two wings behind a wall, two rooms each, too small to fill their wing: every
+#: refinement level has two sub-domains with no room in common.
+TWO_WINGS: dict[str, Any] = {
+    "name": "two-wings",
+    "boundary": [[0, 0], [17, 0], [17, 4], [0, 4]],
+    "obstacles": [{"x": 8, "y": 0, "width": 1, "depth": 4, "label": "wall"}],
+    "rooms": [{"id": rid, "min_size": [2.5, 3], "max_size": [3.6, 4], "target_size": [3.6, 4],
+               "positions": [[x, 2]]} for rid, x in (("a", 1), ("b", 7), ("c", 10), ("d", 16))],
+    "options": {"time_limit": 3, "seed": 1},
+}
+
+
+@pytest.fixture(scope="module")
+def pool() -> Iterator[ProcessPoolExecutor]:
+    with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as executor:
+        yield executor
+
+
+def test_sub_domains_sharing_rooms_go_to_separate_batches() -> None:
+    subs = [SubDomain(frozenset(r)) for r in ({"a", "b"}, {"c"}, {"b", "d"}, {"e"})]
+    batches = _disjoint_batches(subs)
+    assert [[i for i, _ in batch] for batch in batches] == [[0, 1], [2, 3]]
+
+
+def test_overlaps_count_other_rooms_only_and_not_touching_walls() -> None:
+    rooms = {"a": [Box(0, 0, 2, 2)], "b": [Box(2, 0, 4, 2)]}
+    assert not overlaps_others(rooms, {"a"}, [Box(0, 0, 2, 2)])   # its own old box
+    assert not overlaps_others(rooms, {"a"}, [Box(0, 0, 2, 3)])   # touches b
+    assert overlaps_others(rooms, {"a"}, [Box(0, 0, 2.5, 2)])     # into b
+
+
+def test_a_level_s_sub_domains_are_solved_at_once_in_a_process_pool(
+    pool: ProcessPoolExecutor,
+) -> None:
+    events: list[SolveEvent] = []
+    layout = solve(Problem.model_validate(TWO_WINGS), on_event=events.append,
+                   subdomains=SubdomainExecutor(pool, 2))
+    assert layout.report.valid and {r.id for r in layout.rooms} == {"a", "b", "c", "d"}
+    solved = [e for e in events if e.phase is Phase.SUBDOMAIN]
+    assert solved and all(" in " in e.detail for e in solved)  # through the pool
+    levels = {e.level for e in solved}
+    for level in levels:  # both sub-domains of every level, one in each wing
+        details = sorted(e.detail.split(":")[0] for e in solved if e.level == level)
+        assert details == ["rooms a, b", "rooms c, d"]
+    sequential = solve(Problem.model_validate(TWO_WINGS))
+    assert sequential.report.valid
+    assert layout.report.coverage >= sequential.report.coverage - 1e-6
+
+
+def test_a_solve_process_runs_its_sub_domains_in_a_pool_and_ends_it() -> None:
+    messages: multiprocessing.Queue[tuple[str, Any]] = multiprocessing.Queue()
+    before = set(multiprocessing.active_children())
+    run_job(json.dumps(TWO_WINGS), messages, multiprocessing.Event(), os.getppid(),
+            subdomain_processes=2)
+    received = []
+    while (message := messages.get(timeout=10))[0] not in ("done", "error"):
+        received.append(message)
+    assert message[0] == "done", message
+    details = [m[1]["detail"] for m in received if m[0] == "progress"
+               and m[1]["phase"] == "subdomain"]
+    assert details and all(" in " in d for d in details)  # solved by the pool
+    assert json.loads(message[1])["report"]["valid"]
+    assert set(multiprocessing.active_children()) <= before  # its pool is gone with it
+
+
+def test_the_service_with_a_sub_domain_pool_per_solve(tmp_path: Path) -> None:
+    # The real chain: a spawned (daemonic) solve process starting its own pool.
+    s = Server(tmp_path, FLOORPLAN_SUBDOMAIN_PROCESSES="2", WORKERS="1").start()
+    try:
+        with httpx.Client(base_url=s.url, timeout=30) as client:
+            job = submit(client, TWO_WINGS)
+            done = wait(client, job["id"])
+            assert done["status"] == "succeeded", done
+            result = client.get(f"/v1/layouts/{job['id']}/result").json()
+            assert result["report"]["valid"] and len(result["rooms"]) == 4
+    finally:
+        s.stop()
+
+
+def test_the_benchmark_runs_ours_with_a_sub_domain_pool() -> None:
+    from bench.solvers import run_ours
+
+    trace = run_ours(Problem.model_validate(TWO_WINGS), seed=1, subdomain_processes=2)
+    assert trace.solver == "ours-parallel" and trace.final is not None
+    assert trace.extra["subdomains_solved"] >= 2 and trace.extra["refine_seconds"] > 0
