@@ -56,6 +56,14 @@ def status_events(client: httpx.Client, job_id: str) -> list[dict[str, Any]]:
             if line == "event: status"]
 
 
+
+def wait_for_incumbent(client: httpx.Client, job_id: str, timeout: float = 30) -> None:
+    """Until the running job has a best-so-far layout to return."""
+    deadline = time.monotonic() + timeout
+    while client.get(f"/v1/layouts/{job_id}/result").status_code != 200:
+        assert time.monotonic() < deadline, f"no incumbent in {timeout:.0f} s"
+        time.sleep(0.2)
+
 def test_a_worker_killed_mid_job_runs_it_again_on_another_worker(tmp_path: Path) -> None:
     cluster = Cluster(tmp_path, workers=2, WORKERS="1").start()
     store = store_of(cluster)
@@ -98,10 +106,7 @@ def test_a_cancel_reaches_the_worker_holding_the_job_and_keeps_its_incumbent(
     try:
         with httpx.Client(base_url=cluster.url, timeout=30) as client:
             job = submit(client, LONG)
-            deadline = time.monotonic() + 30
-            while client.get(f"/v1/layouts/{job['id']}/result").status_code != 200:
-                assert time.monotonic() < deadline, "no incumbent in 30 s"
-                time.sleep(0.2)
+            wait_for_incumbent(client, job["id"])
             worker = holder_pid(store, job["id"])
             assert worker in [w.pid for w in cluster.workers]
             asked = time.monotonic()
@@ -130,10 +135,7 @@ def test_a_cancel_whose_message_is_lost_still_reaches_the_worker(tmp_path: Path)
     try:
         with httpx.Client(base_url=cluster.url, timeout=30) as client:
             job = submit(client, LONG)
-            deadline = time.monotonic() + 30
-            while client.get(f"/v1/layouts/{job['id']}/result").status_code != 200:
-                assert time.monotonic() < deadline, "no incumbent in 30 s"
-                time.sleep(0.2)
+            wait_for_incumbent(client, job["id"])
             store.request_cancel(job["id"])  # no message on Redis
             done = wait(client, job["id"], timeout=15)
             assert done["status"] == "canceled" and done["termination"] == "interrupted"
