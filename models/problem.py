@@ -13,7 +13,7 @@ solver, the service or the client holds is the expanded form.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from typing import Annotated, Any, Literal, Self
 
 from pydantic import (
@@ -27,8 +27,9 @@ from pydantic import (
     model_validator,
 )
 from pydantic_core import InitErrorDetails, PydanticCustomError
+from shapely.geometry import LineString, Polygon, box
 from shapely.geometry import Point as ShapelyPoint
-from shapely.geometry import Polygon, box
+from shapely.geometry.base import BaseGeometry
 
 #: Largest absolute coordinate or length we accept, in metres. Keeps big-M values sane.
 MAX_COORDINATE = 1e5
@@ -384,3 +385,24 @@ def _reference_errors(problem: Problem) -> list[InitErrorDetails]:
                 errors.append(_error(loc, partner, "unknown_room",
                                      f"unknown room id '{partner}'"))
     return errors
+
+
+def inside_entrance(
+    boundary: Sequence[Point], entrance: Point, free: BaseGeometry, inset: float
+) -> tuple[float, float] | None:
+    """The entrance moved `inset` metres into the floor, across the outline edge it lies
+    on, so that a room covering the point has its door there; None where that point is
+    not in `free` (the floor less obstacles)."""
+    where = ShapelyPoint(entrance)
+    n = len(boundary)
+    edges = [(boundary[k], boundary[(k + 1) % n]) for k in range(n)]
+    (x0, y0), (x1, y1) = min(edges, key=lambda e: LineString(e).distance(where))
+    length = math.hypot(x1 - x0, y1 - y0)
+    if length == 0:
+        return None
+    nx, ny = -(y1 - y0) / length, (x1 - x0) / length
+    for sign in (1, -1):
+        px, py = entrance[0] + sign * inset * nx, entrance[1] + sign * inset * ny
+        if free.contains(ShapelyPoint(px, py)):
+            return px, py
+    return None

@@ -35,14 +35,14 @@ from pydantic import Field, ValidationError, field_validator
 from pydantic_core import InitErrorDetails, PydanticCustomError
 from shapely import affinity
 from shapely.errors import GEOSException
-from shapely.geometry import LineString, Polygon
-from shapely.geometry import Point as ShapelyPoint
+from shapely.geometry import Polygon
 
 from models.problem import (
     MAX_COORDINATE,
     Compass,
     ProblemFields,
     Room,
+    inside_entrance,
 )
 
 TemplateName = Literal["residential"]
@@ -617,28 +617,9 @@ def _cover_entrance(problem: TemplatedProblem, template: Template, ids: Sequence
     if "positions" in problem.rooms[root].model_fields_set:
         return
     assert problem.entrance is not None
-    point = _inside_entrance(problem, problem.entrance, site)
+    point = inside_entrance(problem.boundary, problem.entrance, site.free, ENTRANCE_INSET)
     if point is not None:
-        rooms[root]["positions"] = [point]
-
-
-def _inside_entrance(problem: TemplatedProblem, entrance: tuple[float, float],
-                     site: _Site) -> list[float] | None:
-    """A point `ENTRANCE_INSET` inside the outline from the entrance, across the edge it
-    lies on; None where that point is not free."""
-    where = ShapelyPoint(entrance)
-    n = len(problem.boundary)
-    edges = [(problem.boundary[k], problem.boundary[(k + 1) % n]) for k in range(n)]
-    (x0, y0), (x1, y1) = min(edges, key=lambda e: LineString(e).distance(where))
-    length = math.hypot(x1 - x0, y1 - y0)
-    if length == 0:
-        return None
-    nx, ny = -(y1 - y0) / length, (x1 - x0) / length
-    for sign in (1, -1):
-        px, py = entrance[0] + sign * ENTRANCE_INSET * nx, entrance[1] + sign * ENTRANCE_INSET * ny
-        if site.free.contains(ShapelyPoint(px, py)):
-            return [round(px, 3), round(py, 3)]
-    return None
+        rooms[root]["positions"] = [[round(point[0], 3), round(point[1], 3)]]
 
 
 def _error(loc: tuple[str | int, ...], value: Any, kind: str, message: str) -> InitErrorDetails:

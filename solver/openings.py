@@ -19,6 +19,7 @@ from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
 
 from models import OUTSIDE, Adjacency, Circulation, Door, Problem, Window
+from models.problem import inside_entrance
 
 #: A door keeps this far (metres) from the corners of the wall it is in.
 CORNER_CLEARANCE = 0.1
@@ -107,7 +108,8 @@ def connection_demands(problem: Problem) -> Problem:
         reached = _linked(entry, links, ends) | {room_id}
     rooms = problem.rooms
     if not any(_covers(room.positions, problem.entrance) for room in rooms):
-        point = _inside_entrance(problem)
+        point = inside_entrance(problem.boundary, problem.entrance, problem.free_area(),
+                                ENTRANCE_INSET)
         rooms = [r.model_copy(update={"positions": [*r.positions, point]})
                  if r.id == entry and len(r.positions) < 2 and point is not None else r
                  for r in rooms]
@@ -143,18 +145,6 @@ def _linked(start: str, links: Mapping[str, set[str]], ends: set[str]) -> set[st
 
 def _covers(points: list[tuple[float, float]], target: tuple[float, float]) -> bool:
     return any(Point(p).distance(Point(target)) <= 2 * ENTRANCE_INSET for p in points)
-
-
-def _inside_entrance(problem: Problem) -> tuple[float, float] | None:
-    """The entrance moved just inside the free floor, so that a room must cover it."""
-    assert problem.entrance is not None
-    x, y = problem.entrance
-    free = problem.free_area()
-    for dx, dy in ((0, 1), (0, -1), (1, 0), (-1, 0)):
-        point = (x + dx * ENTRANCE_INSET, y + dy * ENTRANCE_INSET)
-        if free.contains(Point(point)):
-            return point
-    return None
 
 
 def may_connect(problem: Problem, a: str, b: str) -> bool:
