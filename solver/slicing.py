@@ -63,14 +63,16 @@ def slicing_layout(
                if _can_host_a_room(problem.rooms, r)]
     if not regions:
         return None
+    # The side of a room with no target nor maximum: the floor shared out evenly.
+    typical = math.sqrt(sum(r.area for r in regions) / len(problem.rooms))
     best: tuple[float, dict[str, Box]] | None = None
     for shift in ROW_TRIES:
         if time.monotonic() >= deadline:
             break
-        rows = _plan_rows(problem, regions, shift)
+        rows = _plan_rows(problem, regions, shift, typical)
         if rows is None:
             continue
-        solved = _size_rows(problem, rows, deadline=deadline)
+        solved = _size_rows(rows, typical, deadline=deadline)
         if solved is not None and (best is None or solved[0] < best[0]):
             best = solved
     return None if best is None else best[1]
@@ -92,12 +94,13 @@ def _target(room: Room, typical: float) -> tuple[float, float]:
     return room.target_size or room.max_size or (typical, typical)
 
 
-def _plan_rows(problem: Problem, regions: list[Box], shift: int) -> list[_Row] | None:
+def _plan_rows(
+    problem: Problem, regions: list[Box], shift: int, typical: float
+) -> list[_Row] | None:
     """Rows per region from the typical target depth (`shift` more or fewer), rooms
     dealt by area: pinned rooms to the row holding their points, the others deepest
     first so that rooms of one row want similar depths."""
     free_area = sum(r.area for r in regions)
-    typical = math.sqrt(free_area / len(problem.rooms))
     depth = statistics.median(_target(r, typical)[1] for r in problem.rooms)
     rows: list[_Row] = []
     for region in regions:
@@ -237,14 +240,13 @@ def _balance(rows: list[_Row], typical: float) -> None:
 
 
 def _size_rows(
-    problem: Problem, rows: list[_Row], *, deadline: float
+    rows: list[_Row], typical: float, *, deadline: float
 ) -> tuple[float, dict[str, Box]] | None:
     """The convex QP: row heights and room widths minimising E_size (Eq. 6)."""
     m = Model("slicing")
     m.hideOutput()
     m.setParam("limits/time", max(0.05, deadline - time.monotonic()))
     m.setParam("limits/gap", 1e-4)
-    typical = math.sqrt(sum(r.band.area for r in rows) / len(problem.rooms))
     heights = []
     widths: dict[str, object] = {}
     errors = []
