@@ -215,18 +215,24 @@ def c_overlap(lm: LevelModel) -> None:
 
 def c_ratio(lm: LevelModel) -> None:
     """C_ratio (Eq. 7): lo <= long/short <= hi, the binary choosing the orientation."""
-    m = lm.model
     for r in free_rects(lm.spec):
         if r.aspect_ratio is None:
             continue
-        lo, hi = r.aspect_ratio
         v = lm.rects[r.name]
-        big = hi * max(lm.big_m_x, lm.big_m_y)
-        tall = m.addVar(f"tall[{r.name}]", vtype="B")  # sigma_i = 1: a vertical room
-        m.addCons(lo * v.d <= v.w + big * tall, name=f"ratio_wide_lo[{r.name}]")
-        m.addCons(hi * v.d >= v.w - big * tall, name=f"ratio_wide_hi[{r.name}]")
-        m.addCons(lo * v.w <= v.d + big * (1 - tall), name=f"ratio_tall_lo[{r.name}]")
-        m.addCons(hi * v.w >= v.d - big * (1 - tall), name=f"ratio_tall_hi[{r.name}]")
+        _either_orientation(lm, v.w, v.d, r.aspect_ratio, tag=r.name)
+
+
+def _either_orientation(lm: LevelModel, width: Any, depth: Any, ratio: tuple[float, float],
+                        *, tag: str, prefix: str = "") -> None:
+    """lo <= long/short <= hi for a width and depth (variables or expressions), a
+    binary sigma choosing which side is the long one (sigma = 1: a vertical room)."""
+    m, (lo, hi) = lm.model, ratio
+    big = hi * max(lm.big_m_x, lm.big_m_y)
+    tall = m.addVar(f"{prefix}tall[{tag}]", vtype="B")
+    m.addCons(lo * depth <= width + big * tall, name=f"{prefix}ratio_wide_lo[{tag}]")
+    m.addCons(hi * depth >= width - big * tall, name=f"{prefix}ratio_wide_hi[{tag}]")
+    m.addCons(lo * width <= depth + big * (1 - tall), name=f"{prefix}ratio_tall_lo[{tag}]")
+    m.addCons(hi * width >= depth - big * (1 - tall), name=f"{prefix}ratio_tall_hi[{tag}]")
 
 
 def c_pos(lm: LevelModel) -> None:
@@ -401,13 +407,7 @@ def _exact_envelope(lm: LevelModel, e: EnvelopeSpec) -> None:
     m.addCons(width <= e.max_size[0], name=f"env_wmax[{tag}]")
     m.addCons(depth <= e.max_size[1], name=f"env_dmax[{tag}]")
     if e.aspect_ratio is not None:
-        lo, hi = e.aspect_ratio
-        big = hi * max(mx, my)
-        tall = m.addVar(f"env_tall[{tag}]", vtype="B")
-        m.addCons(lo * depth <= width + big * tall, name=f"env_ratio_wide_lo[{tag}]")
-        m.addCons(hi * depth >= width - big * tall, name=f"env_ratio_wide_hi[{tag}]")
-        m.addCons(lo * width <= depth + big * (1 - tall), name=f"env_ratio_tall_lo[{tag}]")
-        m.addCons(hi * width >= depth - big * (1 - tall), name=f"env_ratio_tall_hi[{tag}]")
+        _either_orientation(lm, width, depth, e.aspect_ratio, tag=tag, prefix="env_")
 
 
 def e_objective(lm: LevelModel) -> None:
