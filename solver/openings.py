@@ -130,17 +130,8 @@ def _order(problem: Problem, room_id: str) -> int:
 
 
 def _linked(start: str, links: Mapping[str, set[str]], ends: set[str]) -> set[str]:
-    """The rooms linked to `start`, never through an end room."""
-    seen = {start}
-    queue = deque([start])
-    while queue:
-        here = queue.popleft()
-        if here in ends and here != start:
-            continue
-        for there in links[here] - seen:
-            seen.add(there)
-            queue.append(there)
-    return seen
+    """The rooms linked to `start` (a passable room), never through an end room."""
+    return set(door_steps(start, links, ends))
 
 
 def _covers(points: list[tuple[float, float]], target: tuple[float, float]) -> bool:
@@ -269,8 +260,19 @@ def walk(problem: Problem, doors: list[Door]) -> Circulation:
         links[a].add(b)
         links[b].add(a)
     ends = {r.id for r in problem.rooms if r.type in problem.openings.no_passage}
-    steps = {OUTSIDE: 0}
-    queue = deque([OUTSIDE])
+    steps = door_steps(OUTSIDE, links, ends)
+    del steps[OUTSIDE]
+    unreachable = [r.id for r in problem.rooms if r.id not in steps]
+    dead_ends = [r.id for r in problem.rooms if len(links[r.id]) == 1]
+    return Circulation(reachable=not unreachable, unreachable=unreachable, steps=steps,
+                       furthest=max(steps.values(), default=0), dead_ends=dead_ends)
+
+
+def door_steps(start: str, links: Mapping[str, set[str]], ends: set[str]) -> dict[str, int]:
+    """Breadth-first from `start`: each place reached and how many links away, never
+    going on through an end (one may enter a bathroom, not cross it)."""
+    steps = {start: 0}
+    queue = deque([start])
     while queue:
         here = queue.popleft()
         if here in ends:
@@ -279,11 +281,7 @@ def walk(problem: Problem, doors: list[Door]) -> Circulation:
             if there not in steps:
                 steps[there] = steps[here] + 1
                 queue.append(there)
-    del steps[OUTSIDE]
-    unreachable = [r.id for r in problem.rooms if r.id not in steps]
-    dead_ends = [r.id for r in problem.rooms if len(links[r.id]) == 1]
-    return Circulation(reachable=not unreachable, unreachable=unreachable, steps=steps,
-                       furthest=max(steps.values(), default=0), dead_ends=dead_ends)
+    return steps
 
 
 def longest_shared_wall(a: Polygon, b: Polygon) -> LineString | None:
