@@ -217,6 +217,14 @@ class Openings(_Strict):
         description="room types one may enter but not walk through to another room",
     )
 
+    def allows_door(self, type_a: str, type_b: str) -> bool:
+        """Whether the door policy lets rooms of these types share a door (both ways)."""
+        def one_way(own: str, other: str) -> bool:
+            allowed = self.door_policy.get(own)
+            return allowed is None or "*" in allowed or other in allowed
+
+        return one_way(type_a, type_b) and one_way(type_b, type_a)
+
 
 class ProblemFields(_Strict):
     """The fields every form of a problem shares. Each form (`Problem`, and

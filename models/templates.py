@@ -498,7 +498,7 @@ class _Network:
                  types: Sequence[str]) -> None:
         self.ids = list(ids)
         self.type_of = dict(zip(ids, types, strict=True))
-        self.policy = problem.openings.door_policy
+        self.openings = problem.openings
         self.ends = {i for i in ids if self.type_of[i] in problem.openings.no_passage}
         self.contact = _round(problem.openings.door_width + 2 * DOOR_CLEARANCE)
         self.hubs = [self.ids[k] for k in _hubs(template, types)]
@@ -522,11 +522,7 @@ class _Network:
 
     def allows(self, a: str, b: str) -> bool:
         """The door policy lets a and b share a door (both ways)."""
-        def one_way(own: str, other: str) -> bool:
-            allowed = self.policy.get(own)
-            return allowed is None or "*" in allowed or other in allowed
-        return a != b and one_way(self.type_of[a], self.type_of[b]) and one_way(
-            self.type_of[b], self.type_of[a])
+        return a != b and self.openings.allows_door(self.type_of[a], self.type_of[b])
 
     def _door(self, a: str, b: str) -> None:
         if self.allows(a, b):

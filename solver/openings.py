@@ -140,14 +140,7 @@ def _covers(points: list[tuple[float, float]], target: tuple[float, float]) -> b
 
 def may_connect(problem: Problem, a: str, b: str) -> bool:
     """Whether the door policy lets rooms `a` and `b` share a door (both ways)."""
-    policy = problem.openings.door_policy
-    type_a, type_b = problem.room(a).type, problem.room(b).type
-
-    def allows(own: str, other: str) -> bool:
-        allowed = policy.get(own)
-        return allowed is None or "*" in allowed or other in allowed
-
-    return allows(type_a, type_b) and allows(type_b, type_a)
+    return problem.openings.allows_door(problem.room(a).type, problem.room(b).type)
 
 
 def requested_doors(problem: Problem, rooms: Mapping[str, Polygon]) -> list[Door]:
