@@ -16,6 +16,7 @@ partly covering one.
 from __future__ import annotations
 
 import math
+import random
 import statistics
 import time
 from collections.abc import Sequence
@@ -25,13 +26,22 @@ from typing import Any
 from pyscipopt import Model, quicksum
 
 from models import Problem, Room
-from solver.geometry import Box, Domain, rectangles_of
+from solver.geometry import Box, Domain, Edge, rectangles_of
+from solver.row_search import Demands, RowPlan, anneal_rows, energy, kicked, sizeable
 
 #: Row counts tried per region, relative to the region's depth over the typical
 #: target depth; the plan with the least E_size wins.
 ROW_TRIES = (0, -1, 1)
 #: Passes of the dealing's hill-climb; each tries every loose room in every other row.
 BALANCE_PASSES = 4
+#: Rooms up to which adjacency and boundary demands are sliced too.
+DEMANDS_UP_TO = 40
+#: Row plans (each with every demand able to hold) sized by the QP; the best is kept.
+PLANS_WANTED = 1
+#: Annealing moves per room without a better plan before a plan is sized.
+ANNEAL_PATIENCE = 20
+#: One random move per this many rooms shakes a plan before the next annealing.
+KICK_SHARE = 4
 #: An empty row smaller than this (m²) costs nothing: it is dropped and its region's
 #: other rows take its depth.
 MIN_ROW_AREA = 1e-9
@@ -48,23 +58,32 @@ class _Row:
         return [r for r in self.rooms if r.positions]
 
 
+def slicing_has_demands(problem: Problem) -> bool:
+    """Whether rooms are coupled (adjacency) or tied to the outline (boundary)."""
+    return bool(problem.adjacency) or any(room.boundary for room in problem.rooms)
+
+
 def slicing_applies(problem: Problem) -> bool:
-    """Slicing honours sizes, aspect ratios and guide points, nothing that couples rooms
-    (adjacency) or ties them to the outline (boundary)."""
-    return not problem.adjacency and not any(room.boundary for room in problem.rooms)
+    """Slicing honours sizes, aspect ratios and guide points at any size; adjacency and
+    boundary demands up to `DEMANDS_UP_TO` rooms (the row search is a Python annealing)."""
+    return not slicing_has_demands(problem) or len(problem.rooms) <= DEMANDS_UP_TO
 
 
 def slicing_layout(
-    problem: Problem, domain: Domain, *, deadline: float
+    problem: Problem, domain: Domain, *, deadline: float, seed: int = 0
 ) -> dict[str, Box] | None:
     """One rectangle per room filling the free floor, with the least E_size among a
-    few row counts; None when no row plan admits the rooms' bounds."""
+    few row plans; None when no plan found admits the rooms' bounds and demands."""
     regions = [r for r in sorted(rectangles_of(domain.free), key=lambda b: (b.y0, b.x0))
                if _can_host_a_room(problem.rooms, r)]
     if not regions:
         return None
     # The side of a room with no target nor maximum: the floor shared out evenly.
     typical = math.sqrt(sum(r.area for r in regions) / len(problem.rooms))
+    demands = Demands.of(problem, domain)
+    if demands:
+        return _slice_with_demands(problem, regions, demands, typical,
+                                   rng=random.Random(seed), deadline=deadline)
     best: tuple[float, dict[str, Box]] | None = None
     for shift in ROW_TRIES:
         if time.monotonic() >= deadline:
@@ -72,9 +91,41 @@ def slicing_layout(
         rows = _plan_rows(problem, regions, shift, typical)
         if rows is None:
             continue
-        solved = _size_rows(rows, typical, deadline=deadline)
+        solved = _size_rows(_as_plan(regions, rows), typical, deadline=deadline)
         if solved is not None and (best is None or solved[0] < best[0]):
             best = solved
+    return None if best is None else best[1]
+
+
+def _slice_with_demands(
+    problem: Problem, regions: list[Box], demands: Demands, typical: float,
+    *, rng: random.Random, deadline: float,
+) -> dict[str, Box] | None:
+    """Anneal row plans until every demand can hold (solver/row_search.py), size each
+    such plan with the QP; the best of the first `PLANS_WANTED` that size wins."""
+    rows = _plan_rows(problem, regions, 0, typical)
+    if rows is None:
+        return None
+    plan = _as_plan(regions, rows)
+    target = {r.id: _target(r, typical) for r in problem.rooms}
+    best: tuple[float, dict[str, Box]] | None = None
+    found = 0
+    rooms = len(problem.rooms)
+    base, e_base = plan, math.inf
+    while time.monotonic() < deadline and found < PLANS_WANTED:
+        plan = anneal_rows(plan, demands, target, rng=rng, deadline=deadline,
+                           moves=ANNEAL_PATIENCE * rooms)
+        if sizeable(plan, demands):
+            solved = _size_rows(plan, typical, deadline=deadline, demands=demands)
+            if solved is not None:
+                found += 1
+                if best is None or solved[0] < best[0]:
+                    best = solved
+        # Basin hopping: shake the best plan so far for the next annealing.
+        e_plan = energy(plan, demands, target)
+        if e_plan < e_base:
+            base, e_base = plan, e_plan
+        plan = kicked(base, rng, moves=max(2, rooms // KICK_SHARE))
     return None if best is None else best[1]
 
 
@@ -116,9 +167,10 @@ def _plan_rows(
             continue
         homes = {i for i, row in enumerate(rows)
                  for x, y in room.positions if row.band.contains_point(x, y, tol=0)}
-        if len(homes) != 1:
-            return None  # points in two rows (or none): not a one-row room
-        rows[homes.pop()].rooms.append(room)
+        if len(homes) == 1:
+            rows[homes.pop()].rooms.append(room)
+        else:  # points in two planned rows: dealt like the others, the QP decides
+            loose.append(room)
     # Rooms fill the floor in proportion to their targets.
     area = sum(math.prod(_target(r, typical)) for r in problem.rooms)
     scale = free_area / area if area > 0 else 1.0
@@ -240,86 +292,167 @@ def _balance(rows: list[_Row], typical: float) -> None:
 
 
 def _size_rows(
-    rows: list[_Row], typical: float, *, deadline: float
+    plan: RowPlan, typical: float, *, deadline: float, demands: Demands | None = None
 ) -> tuple[float, dict[str, Box]] | None:
-    """The convex QP: row heights and room widths minimising E_size (Eq. 6)."""
+    """The convex QP: row heights and room widths minimising E_size (Eq. 6) under the
+    rooms' bounds and, with `demands`, the contacts and exterior edges the plan's
+    structure allows (a binary only where a demand has several ways to hold)."""
     m = Model("slicing")
     m.hideOutput()
     m.setParam("limits/time", max(0.05, deadline - time.monotonic()))
     m.setParam("limits/gap", 1e-4)
-    heights = []
-    widths: dict[str, object] = {}
+    q = _Sizes(m)
     errors = []
-    for k, row in enumerate(rows):
-        depth_lo = max(_bounds(r)[1][0] for r in row.rooms)
-        depth_hi = min(_bounds(r)[1][1] for r in row.rooms)
-        if depth_lo > min(depth_hi, row.region.depth):
-            return None
-        h = m.addVar(f"h[{k}]", lb=depth_lo, ub=min(depth_hi, row.region.depth))
-        heights.append(h)
-        x: Any = float(row.region.x0)  # then an expression: the widths so far
-        for room in row.rooms:
-            (w_lo, w_hi), _ = _bounds(room)
-            w = m.addVar(f"w[{room.id}]", lb=w_lo, ub=min(w_hi, row.region.width))
-            widths[room.id] = w
-            _c_ratio(m, room, w, h, typical)
-            # C_pos (Eq. 8) along the row; across it below, per region.
-            for px, _ in room.positions:
-                if isinstance(x, float) and x > px:
-                    return None  # the row's first room starts east of its point
-                if not isinstance(x, float):
-                    m.addCons(x <= px, name=f"pos_w[{room.id}]")
-                m.addCons(x + w >= px, name=f"pos_e[{room.id}]")
-            x = x + w
-            if room.target_size is not None:
-                e = m.addVar(f"e[{room.id}]", lb=0)
-                tw, td = room.target_size
-                m.addCons((w - tw) * (w - tw) + (h - td) * (h - td) <= e,
-                          name=f"size_error[{room.id}]")
-                errors.append(e)
-        m.addCons(quicksum(widths[r.id] for r in row.rooms) == row.region.width,
-                  name=f"fill_row[{k}]")
-    for n, (region, members) in enumerate(_by_region(rows).items()):
-        m.addCons(quicksum(heights[k] for k in members) == region.depth,
-                  name=f"fill_region[{n}]")
-        y: Any = float(region.y0)
-        for k in members:
-            for room in rows[k].pinned:
-                for _, py in room.positions:
-                    if isinstance(y, float) and y > py:
-                        return None
-                    if not isinstance(y, float):
-                        m.addCons(y <= py, name=f"pos_s[{room.id}]")
-                    m.addCons(y + heights[k] >= py, name=f"pos_n[{room.id}]")
-            y = y + heights[k]
+    for g, (region, rows) in enumerate(zip(plan.regions, plan.rows, strict=True)):
+        if not rows:
+            continue
+        y: Any = float(region.y0)  # then an expression: the heights so far
+        for k, row in enumerate(rows):
+            depth_lo = max(_bounds(r)[1][0] for r in row)
+            depth_hi = min(min(_bounds(r)[1][1] for r in row), region.depth)
+            if depth_lo > depth_hi:
+                return None
+            h = m.addVar(f"h[{g},{k}]", lb=depth_lo, ub=depth_hi)
+            q.height[g, k], q.south[g, k] = h, y
+            y = y + h
+            x: Any = float(region.x0)
+            for room in row:
+                (w_lo, w_hi), _ = _bounds(room)
+                w = m.addVar(f"w[{room.id}]", lb=w_lo, ub=min(w_hi, region.width))
+                q.width[room.id], q.west[room.id], q.row[room.id] = w, x, (g, k)
+                x = x + w
+                _c_ratio(m, room, w, h, typical)
+                if room.target_size is not None:
+                    e = m.addVar(f"e[{room.id}]", lb=0)
+                    tw, td = room.target_size
+                    m.addCons((w - tw) * (w - tw) + (h - td) * (h - td) <= e,
+                              name=f"size_error[{room.id}]")
+                    errors.append(e)
+            m.addCons(quicksum(q.width[r.id] for r in row) == region.width,
+                      name=f"fill_row[{g},{k}]")
+        m.addCons(quicksum(q.height[g, k] for k in range(len(rows))) == region.depth,
+                  name=f"fill_region[{g}]")
+    for rows in plan.rows:
+        for row in rows:
+            for room in row:
+                if not _c_pos(q, room):
+                    return None
+    if demands and not _demands(q, plan, demands):
+        return None
     m.setObjective(quicksum(errors) if errors else 0)
     m.optimize()
     if m.getNSols() == 0:
         return None
     sol = m.getBestSol()
     boxes: dict[str, Box] = {}
-    for region, members in _by_region(rows).items():
-        y = region.y0
-        for n, k in enumerate(members):
+    for g, (region, rows) in enumerate(zip(plan.regions, plan.rows, strict=True)):
+        y0 = region.y0
+        for k, row in enumerate(rows):
             # The last row and the last room end exactly on the region's edge.
-            y1 = region.y1 if n == len(members) - 1 else y + sol[heights[k]]
-            x = region.x0
-            for i, room in enumerate(rows[k].rooms):
-                x1 = region.x1 if i == len(rows[k].rooms) - 1 else x + sol[widths[room.id]]
-                boxes[room.id] = Box(x, y, x1, y1)
-                x = x1
-            y = y1
+            y1 = region.y1 if k == len(rows) - 1 else y0 + sol[q.height[g, k]]
+            x0 = region.x0
+            for i, room in enumerate(row):
+                x1 = region.x1 if i == len(row) - 1 else x0 + sol[q.width[room.id]]
+                boxes[room.id] = Box(x0, y0, x1, y1)
+                x0 = x1
+            y0 = y1
     return m.getObjVal(), boxes
 
 
-def _by_region(rows: list[_Row]) -> dict[Box, list[int]]:
-    """Row indices by the region they cut, bottom to top."""
-    groups: dict[Box, list[int]] = {}
-    for k, row in enumerate(rows):
-        groups.setdefault(row.region, []).append(k)
-    for members in groups.values():
-        members.sort(key=lambda k: rows[k].band.y0)
-    return groups
+@dataclass
+class _Sizes:
+    """The QP's variables and the expressions of each room's west side and each row's
+    south side (a number for the first of a row or of a region)."""
+
+    model: Model
+    width: dict[str, Any] = field(default_factory=dict)
+    west: dict[str, Any] = field(default_factory=dict)
+    row: dict[str, tuple[int, int]] = field(default_factory=dict)
+    height: dict[tuple[int, int], Any] = field(default_factory=dict)
+    south: dict[tuple[int, int], Any] = field(default_factory=dict)
+
+    def span_x(self, room: str) -> tuple[Any, Any]:
+        return self.west[room], self.west[room] + self.width[room]
+
+    def span_y(self, room: str) -> tuple[Any, Any]:
+        row = self.row[room]
+        return self.south[row], self.south[row] + self.height[row]
+
+    def at_most(self, low: Any, high: Any, name: str, slack: Any = 0.0) -> bool:
+        """low <= high + slack; False when both sides are numbers and it fails."""
+        if all(isinstance(v, float | int) for v in (low, high, slack)):
+            return low <= high + slack + 1e-9
+        self.model.addCons(low <= high + slack, name=name)
+        return True
+
+
+def _c_pos(q: _Sizes, room: Room) -> bool:
+    """C_pos (Eq. 8): the room's rectangle covers each of its guide points."""
+    x0, x1 = q.span_x(room.id)
+    y0, y1 = q.span_y(room.id)
+    return all(
+        q.at_most(x0, px, f"pos_w[{room.id}]") and q.at_most(px, x1, f"pos_e[{room.id}]")
+        and q.at_most(y0, py, f"pos_s[{room.id}]") and q.at_most(py, y1, f"pos_n[{room.id}]")
+        for px, py in room.positions)
+
+
+def _demands(q: _Sizes, plan: RowPlan, demands: Demands) -> bool:
+    """C_adj (Eq. 10-11) and C_boundary (Eq. 9) in the plan's structure: each demand's
+    ways to hold, as linear constraints; several ways get a binary each."""
+    reach = max(r.x1 for r in plan.regions) - min(r.x0 for r in plan.regions) + max(
+        r.y1 for r in plan.regions) - min(r.y0 for r in plan.regions)
+    for n, c in enumerate(demands.contacts):
+        ways = [_contact_way(q, plan, c.a, p, c.min_contact) for p in c.partners
+                if plan.can_touch(c.a, p)]
+        if not _any_way(q, ways, reach, f"adj[{n}]"):
+            return False
+    for room, edges in demands.edges.items():
+        ways = [_edge_way(q, room, e) for e in edges if plan.can_lie_on(room, e)]
+        if not _any_way(q, ways, reach, f"edge[{room}]"):
+            return False
+    return True
+
+
+Way = list[tuple[Any, Any]]  # pairs (low, high): low <= high must hold
+
+
+def _contact_way(q: _Sizes, plan: RowPlan, a: str, b: str, contact: float) -> Way:
+    """Rooms `a` and `b` sharing `contact` metres of wall where the plan has them meet."""
+    if plan.in_one_row(a, b):
+        return [(contact, q.height[q.row[a]])]
+    a0, a1 = q.span_x(a) if plan.stacked(a, b) or plan.stacked(b, a) else q.span_y(a)
+    b0, b1 = q.span_x(b) if plan.stacked(a, b) or plan.stacked(b, a) else q.span_y(b)
+    # The overlap min(a1, b1) - max(a0, b0) is at least `contact`: four linear cuts.
+    return [(contact + a0, a1), (contact + a0, b1), (contact + b0, a1), (contact + b0, b1)]
+
+
+def _edge_way(q: _Sizes, room: str, edge: Edge) -> Way:
+    """The room's side on `edge` lies within the edge's span, as Eq. 9 asks."""
+    lo, hi = edge.span
+    start, end = q.span_x(room) if edge.horizontal else q.span_y(room)
+    return [(lo, start), (end, hi)]
+
+
+def _any_way(q: _Sizes, ways: list[Way], reach: float, name: str) -> bool:
+    if not ways:
+        return False
+    if len(ways) == 1:
+        return all(q.at_most(lo, hi, f"{name}[{i}]") for i, (lo, hi) in enumerate(ways[0]))
+    chosen = [q.model.addVar(f"{name}:way[{j}]", vtype="B") for j in range(len(ways))]
+    q.model.addCons(quicksum(chosen) >= 1, name=f"{name}:some_way")
+    for j, way in enumerate(ways):
+        for i, (lo, hi) in enumerate(way):
+            q.at_most(lo, hi, f"{name}[{j},{i}]", slack=reach * (1 - chosen[j]))
+    return True
+
+
+def _as_plan(regions: list[Box], rows: list[_Row]) -> RowPlan:
+    """The dealt rows grouped by their rectangle of floor, bottom to top."""
+    by_region: dict[Box, list[_Row]] = {region: [] for region in regions}
+    for row in rows:
+        by_region[row.region].append(row)
+    return RowPlan(regions, [[row.rooms for row in sorted(rs, key=lambda r: r.band.y0)]
+                             for rs in by_region.values()])
 
 
 def _c_ratio(m: Model, room: Room, w: object, h: object, typical: float) -> None:

@@ -83,7 +83,7 @@ from solver.scip_run import (
     complete_start,
     run_level,
 )
-from solver.slicing import slicing_applies, slicing_layout
+from solver.slicing import slicing_applies, slicing_has_demands, slicing_layout
 
 #: Seconds per job up to `BASE_ROOMS` rooms (Sec. 5.4) ...
 BASE_TIME = 5.0
@@ -99,6 +99,9 @@ PLAN_SECONDS_PER_ROOM = 0.002
 #: Above this many rooms the first layout is built in batches (solver/construct.py):
 #: one feasibility MILP of all rooms rarely finds anything in time.
 CONSTRUCT_ABOVE = 20
+#: Share of level 1's time a row plan honouring adjacency and boundary demands may take
+#: (solver/row_search.py): found in tens of milliseconds when rows can hold them.
+SLICE_DEMANDS_SHARE = 0.06
 #: Share of the neighbourhood search spent with coverage weighted first.
 COVERAGE_PHASE_SHARE = 0.85
 #: A fully covering layout's polish ends after this many steps in a row without gain.
@@ -383,7 +386,10 @@ def _level_one(
     # Keep time for extra rectangles when one rectangle per room is not enough.
     may_widen = len(run.wings) < len(problem.rooms)
     if slicing_applies(problem) and not run.wings:
-        first = _slice(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
+        # Rows always exist for sizes alone; with demands they may not, so the MIQP
+        # keeps most of the time.
+        share = SLICE_DEMANDS_SHARE if slicing_has_demands(problem) else 0.5
+        first = _slice(run, domain, time.monotonic() + (deadline - time.monotonic()) * share)
     if large and first is None:
         first = _construct(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
     for window in [] if first is not None else windows_to_try(problem):
@@ -464,7 +470,8 @@ def _with_wings(run: _Run, domain: Domain, deadline: float, why: str) -> LevelRe
 def _slice(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
     """A first layout of rows of rooms filling the floor (solver/slicing.py)."""
     started = time.monotonic()
-    rects = slicing_layout(run.problem, domain, deadline=deadline)
+    rects = slicing_layout(run.problem, domain, deadline=deadline,
+                           seed=run.problem.options.seed)
     outcome = "found" if rects is not None else "nothing found"
     run.relaxations.append(f"user bounds, sliced into rows: {outcome}")
     run.emit(Phase.RELAXATION, detail=f"size bounds user bounds, sliced into rows: {outcome}")

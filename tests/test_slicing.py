@@ -5,10 +5,12 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from models import Problem, Termination
+import pytest
+
+from models import Adjacency, Problem, Termination
 from solver.checker import check_layout
 from solver.geometry import make_domain
-from solver.slicing import slicing_applies, slicing_layout
+from solver.slicing import DEMANDS_UP_TO, slicing_applies, slicing_layout
 from solver.solve import solve
 
 
@@ -64,9 +66,67 @@ def test_no_row_plan_when_the_bounds_cannot_fill_the_floor() -> None:
     assert slicing_layout(p, make_domain(p), deadline=time.monotonic() + 5) is None
 
 
-def test_slicing_is_only_for_problems_without_adjacency_or_boundary_demands() -> None:
+def test_demands_are_sliced_up_to_a_size_and_sizes_alone_at_any_size() -> None:
     assert slicing_applies(offices(6))
-    assert not slicing_applies(offices(6, adjacency=[{"a": "o0", "b": "o1"}]))
+    assert slicing_applies(offices(6, adjacency=[{"a": "o0", "b": "o1"}]))
+    many = offices(DEMANDS_UP_TO + 2)
+    assert slicing_applies(many)
+    assert not slicing_applies(many.model_copy(update={"adjacency": [
+        Adjacency(a="o0", b="o1")]}))
+
+
+def flat(**fields: Any) -> Problem:
+    # A 10 x 8 m flat: living and bedroom on the north facade, kitchen on the east,
+    # foyer reached from the entrance on the south side, the bathroom off the bedroom.
+    data: dict[str, Any] = {
+        "boundary": [[0, 0], [10, 0], [10, 8], [0, 8]],
+        "entrance": [5.0, 0.0],
+        "rooms": [
+            {"id": "foyer", "type": "foyer", "min_size": [1.4, 1.4], "max_size": [3.5, 3.5],
+             "target_size": [2.0, 2.5], "positions": [[5.0, 0.3]]},
+            {"id": "living", "type": "living", "min_size": [3.2, 3.2],
+             "max_size": [7, 7], "target_size": [5.0, 4.5], "boundary": ["north"]},
+            {"id": "kitchen", "type": "kitchen", "min_size": [2.1, 2.1],
+             "max_size": [4.2, 4.2], "target_size": [3.0, 3.0], "boundary": ["east"]},
+            {"id": "bedroom", "type": "bedroom", "min_size": [2.7, 2.7],
+             "max_size": [5.6, 5.6], "target_size": [4.0, 3.8], "boundary": ["north"]},
+            {"id": "bath", "type": "bathroom", "min_size": [1.5, 1.5],
+             "max_size": [3.5, 3.5], "target_size": [2.5, 2.2]},
+        ],
+        "adjacency": [
+            {"a": "foyer", "b": "living"}, {"a": "living", "b": "kitchen"},
+            {"a": "living", "b": "bedroom", "min_contact": 1.2},
+            {"a": "bath", "any_of": ["bedroom", "foyer"]},
+        ],
+    }
+    data.update(fields)
+    return Problem.model_validate(data)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_rows_honour_adjacency_boundary_and_guide_points(seed: int) -> None:
+    p = flat()
+    rects = slicing_layout(p, make_domain(p), deadline=time.monotonic() + 5, seed=seed)
+    assert rects is not None
+    # The independent checker, on contact lengths, facades and the guide point.
+    check = check_layout(p, {k: [b] for k, b in rects.items()})
+    assert check.valid, [c for c in check.constraints if not c.satisfied]
+    assert check.coverage > 0.999
+    kinds = {c.kind for c in check.constraints}
+    assert {"adjacency", "boundary", "position"} <= kinds
+
+
+def test_no_row_plan_when_rows_cannot_hold_the_demands() -> None:
+    # The foyer (at most 2 m deep) and the living room (at least 3.2 m) must both lie on
+    # the south facade and share a wall: in rows they would share a row, hence a depth.
+    rooms = [r.model_copy(update={"boundary": ["south"]}) if r.id == "living" else r
+             for r in flat().rooms]
+    rooms = [r.model_copy(update={"max_size": (2.0, 2.0), "target_size": (1.8, 1.8)})
+             if r.id == "foyer" else r for r in rooms]
+    p = flat().model_copy(update={"rooms": rooms})
+    started = time.monotonic()
+    assert slicing_layout(p, make_domain(p), deadline=started + 0.5) is None
+    assert time.monotonic() - started < 1.5
 
 
 def test_a_size_only_problem_solves_fully_covered_and_ends_when_the_search_stalls() -> None:
