@@ -294,9 +294,9 @@ def _balance(rows: list[_Row], typical: float) -> None:
 def _size_rows(
     plan: RowPlan, typical: float, *, deadline: float, demands: Demands | None = None
 ) -> tuple[float, dict[str, Box]] | None:
-    """The convex QP: row heights and room widths minimising E_size (Eq. 6) under the
-    rooms' bounds and, with `demands`, the contacts and exterior edges the plan's
-    structure allows (a binary only where a demand has several ways to hold)."""
+    """The convex QP: row heights, column widths and room depths minimising E_size
+    (Eq. 6) under the rooms' bounds and, with `demands`, the contacts and exterior edges
+    the plan's structure allows (a binary only where a demand has several ways to hold)."""
     m = Model("slicing")
     m.hideOutput()
     m.setParam("limits/time", max(0.05, deadline - time.monotonic()))
@@ -306,77 +306,99 @@ def _size_rows(
     for g, (region, rows) in enumerate(zip(plan.regions, plan.rows, strict=True)):
         if not rows:
             continue
-        y: Any = float(region.y0)  # then an expression: the heights so far
+        y_row: Any = float(region.y0)  # then an expression: the heights so far
+        row_heights = []
         for k, row in enumerate(rows):
-            depth_lo = max(_bounds(r)[1][0] for r in row)
-            depth_hi = min(min(_bounds(r)[1][1] for r in row), region.depth)
-            if depth_lo > depth_hi:
-                return None
-            h = m.addVar(f"h[{g},{k}]", lb=depth_lo, ub=depth_hi)
-            q.height[g, k], q.south[g, k] = h, y
-            y = y + h
+            h = m.addVar(f"h[{g},{k}]", lb=0, ub=region.depth)
+            row_heights.append(h)
+            q.row_height[g, k] = h
             x: Any = float(region.x0)
-            for room in row:
-                (w_lo, w_hi), _ = _bounds(room)
-                w = m.addVar(f"w[{room.id}]", lb=w_lo, ub=min(w_hi, region.width))
-                q.width[room.id], q.west[room.id], q.row[room.id] = w, x, (g, k)
-                x = x + w
-                _c_ratio(m, room, w, h, typical)
-                if room.target_size is not None:
-                    e = m.addVar(f"e[{room.id}]", lb=0)
-                    tw, td = room.target_size
-                    m.addCons((w - tw) * (w - tw) + (h - td) * (h - td) <= e,
-                              name=f"size_error[{room.id}]")
-                    errors.append(e)
-            m.addCons(quicksum(q.width[r.id] for r in row) == region.width,
-                      name=f"fill_row[{g},{k}]")
-        m.addCons(quicksum(q.height[g, k] for k in range(len(rows))) == region.depth,
-                  name=f"fill_region[{g}]")
-    for rows in plan.rows:
-        for row in rows:
-            for room in row:
-                if not _c_pos(q, room):
+            col_widths = []
+            for c, col in enumerate(row):
+                w_lo = max(_bounds(r)[0][0] for r in col)
+                w_hi = min(min(_bounds(r)[0][1] for r in col), region.width)
+                if w_lo > w_hi:
                     return None
+                w = m.addVar(f"w[{g},{k},{c}]", lb=w_lo, ub=w_hi)
+                col_widths.append(w)
+                y: Any = y_row
+                depths = []
+                for room in col:
+                    (_, (d_lo, d_hi)) = _bounds(room)
+                    d = h if len(col) == 1 else m.addVar(
+                        f"d[{room.id}]", lb=d_lo, ub=min(d_hi, region.depth))
+                    if len(col) == 1:
+                        m.addCons(h >= d_lo, name=f"depth_lo[{room.id}]")
+                        if d_hi < region.depth:
+                            m.addCons(h <= d_hi, name=f"depth_hi[{room.id}]")
+                    depths.append(d)
+                    q.width[room.id], q.west[room.id] = w, x
+                    q.depth[room.id], q.south[room.id] = d, y
+                    y = y + d
+                    _c_ratio(m, room, w, d, typical)
+                    if room.target_size is not None:
+                        e = m.addVar(f"e[{room.id}]", lb=0)
+                        tw, td = room.target_size
+                        m.addCons((w - tw) * (w - tw) + (d - td) * (d - td) <= e,
+                                  name=f"size_error[{room.id}]")
+                        errors.append(e)
+                if len(col) > 1:
+                    m.addCons(quicksum(depths) == h, name=f"fill_column[{g},{k},{c}]")
+                x = x + w
+            m.addCons(quicksum(col_widths) == region.width, name=f"fill_row[{g},{k}]")
+            y_row = y_row + h
+        m.addCons(quicksum(row_heights) == region.depth, name=f"fill_region[{g}]")
+    for rows in plan.rows:
+        for room in (room for row in rows for col in row for room in col):
+            if not _c_pos(q, room):
+                return None
     if demands and not _demands(q, plan, demands):
         return None
     m.setObjective(quicksum(errors) if errors else 0)
     m.optimize()
     if m.getNSols() == 0:
         return None
-    sol = m.getBestSol()
+    return m.getObjVal(), _boxes(plan, q, m.getBestSol())
+
+
+def _boxes(plan: RowPlan, q: _Sizes, sol: Any) -> dict[str, Box]:
+    """The rectangles of a sized plan; the last row, column and room of each cut end
+    exactly on the edge they fill."""
     boxes: dict[str, Box] = {}
     for g, (region, rows) in enumerate(zip(plan.regions, plan.rows, strict=True)):
         y0 = region.y0
         for k, row in enumerate(rows):
-            # The last row and the last room end exactly on the region's edge.
-            y1 = region.y1 if k == len(rows) - 1 else y0 + sol[q.height[g, k]]
+            y1 = region.y1 if k == len(rows) - 1 else y0 + sol[q.row_height[g, k]]
             x0 = region.x0
-            for i, room in enumerate(row):
-                x1 = region.x1 if i == len(row) - 1 else x0 + sol[q.width[room.id]]
-                boxes[room.id] = Box(x0, y0, x1, y1)
+            for c, col in enumerate(row):
+                x1 = region.x1 if c == len(row) - 1 else x0 + sol[q.width[col[0].id]]
+                y = y0
+                for j, room in enumerate(col):
+                    top = y1 if j == len(col) - 1 else y + sol[q.depth[room.id]]
+                    boxes[room.id] = Box(x0, y, x1, top)
+                    y = top
                 x0 = x1
             y0 = y1
-    return m.getObjVal(), boxes
+    return boxes
 
 
 @dataclass
 class _Sizes:
-    """The QP's variables and the expressions of each room's west side and each row's
-    south side (a number for the first of a row or of a region)."""
+    """The QP's variables and expressions per room: its column's width and west side,
+    its depth and south side (a number for the first of a cut)."""
 
     model: Model
     width: dict[str, Any] = field(default_factory=dict)
     west: dict[str, Any] = field(default_factory=dict)
-    row: dict[str, tuple[int, int]] = field(default_factory=dict)
-    height: dict[tuple[int, int], Any] = field(default_factory=dict)
-    south: dict[tuple[int, int], Any] = field(default_factory=dict)
+    depth: dict[str, Any] = field(default_factory=dict)
+    south: dict[str, Any] = field(default_factory=dict)
+    row_height: dict[tuple[int, int], Any] = field(default_factory=dict)
 
     def span_x(self, room: str) -> tuple[Any, Any]:
         return self.west[room], self.west[room] + self.width[room]
 
     def span_y(self, room: str) -> tuple[Any, Any]:
-        row = self.row[room]
-        return self.south[row], self.south[row] + self.height[row]
+        return self.south[room], self.south[room] + self.depth[room]
 
     def at_most(self, low: Any, high: Any, name: str, slack: Any = 0.0) -> bool:
         """low <= high + slack; False when both sides are numbers and it fails."""
@@ -417,12 +439,13 @@ Way = list[tuple[Any, Any]]  # pairs (low, high): low <= high must hold
 
 
 def _contact_way(q: _Sizes, plan: RowPlan, a: str, b: str, contact: float) -> Way:
-    """Rooms `a` and `b` sharing `contact` metres of wall where the plan has them meet."""
-    if plan.in_one_row(a, b):
-        return [(contact, q.height[q.row[a]])]
-    a0, a1 = q.span_x(a) if plan.stacked(a, b) or plan.stacked(b, a) else q.span_y(a)
-    b0, b1 = q.span_x(b) if plan.stacked(a, b) or plan.stacked(b, a) else q.span_y(b)
-    # The overlap min(a1, b1) - max(a0, b0) is at least `contact`: four linear cuts.
+    """Rooms `a` and `b` sharing `contact` metres of wall where the plan has them meet:
+    their ranges along the wall overlap by `contact`, i.e. min(a1, b1) - max(a0, b0)
+    >= contact, four linear cuts (two of them trivial in one column)."""
+    a0, a1 = q.span_x(a) if plan.along_x(a, b) else q.span_y(a)
+    b0, b1 = q.span_x(b) if plan.along_x(a, b) else q.span_y(b)
+    if plan.in_one_column(a, b):
+        return [(contact, q.width[a])]
     return [(contact + a0, a1), (contact + a0, b1), (contact + b0, a1), (contact + b0, b1)]
 
 
@@ -447,11 +470,13 @@ def _any_way(q: _Sizes, ways: list[Way], reach: float, name: str) -> bool:
 
 
 def _as_plan(regions: list[Box], rows: list[_Row]) -> RowPlan:
-    """The dealt rows grouped by their rectangle of floor, bottom to top."""
+    """The dealt rows grouped by their rectangle of floor, bottom to top, a room a
+    column."""
     by_region: dict[Box, list[_Row]] = {region: [] for region in regions}
     for row in rows:
         by_region[row.region].append(row)
-    return RowPlan(regions, [[row.rooms for row in sorted(rs, key=lambda r: r.band.y0)]
+    return RowPlan(regions, [[[[room] for room in row.rooms]
+                              for row in sorted(rs, key=lambda r: r.band.y0)]
                              for rs in by_region.values()])
 
 
