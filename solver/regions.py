@@ -22,6 +22,7 @@ from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
+import shapely
 from shapely.geometry import LineString, Point, Polygon
 
 from models import (
@@ -66,8 +67,14 @@ REGION_SHARE = 0.2
 MIN_PART_SECONDS = 0.5
 #: Time kept per room for merging, doors and the check.
 FINISH_SECONDS_PER_ROOM = 0.01
+#: What a room sub-problem gives up, in turn, when it finds no layout (model fields
+#: set to None; `positions` and `boundary` become empty).
+RELAXATIONS: tuple[tuple[str, ...], ...] = (("aspect_ratio",), ("min_size",))
 #: Name of the region that gathers the rooms no explicit region names.
 REST_REGION = "rest"
+#: Guide points closer than this (metres) go to one region: an aisle between them
+#: would leave one of them in the aisle.
+NEAR_POINTS = 8.0
 #: How much fuller than the mean a region may get to keep rooms of one facade together.
 BALANCE_SLACK = 1.15
 
@@ -127,7 +134,11 @@ def auto_partition(problem: Problem) -> list[Region]:
     for unit in sorted(pinned, key=lambda u: _first_point(u)):
         unit_points = [p for r in unit for p in r.positions]
         empty = [k for k in range(count) if not points[k]]
-        if empty:
+        near = [k for k in range(count) if points[k] and len(points[k]) < 2 and min(
+            math.dist(p, q) for p in points[k] for q in unit_points) <= NEAR_POINTS]
+        if near:
+            k = near[0]
+        elif empty:
             k = min(empty, key=lambda k: load[k])
         else:
             k = min(range(count), key=lambda k: min(math.dist(p, q) for p in points[k]
@@ -302,8 +313,10 @@ def _on_edge(sub: object, building: object) -> bool:
 
 def assign_to_parts(problem: Problem, rooms: Sequence[Room],
                     parts: Sequence[Polygon]) -> list[list[Room]]:
-    """A region cut by an aisle into parts shares out its rooms: units with a guide point
-    go to the part holding it, the others, largest first, where the most area is free."""
+    """Share out `rooms` among region parts in proportion to their area: units of rooms
+    joined by adjacencies stay together; units with a guide point go to the part holding
+    it (else the nearest), then the others, largest first, to the part with the most area
+    left, among those touching an exterior wall the unit asks for when there are any."""
     if len(parts) <= 1:
         return [list(rooms)] if parts else []
     typical = _typical_area(problem)
@@ -315,13 +328,25 @@ def assign_to_parts(problem: Problem, rooms: Sequence[Room],
     room_share = total / sum(p.area for p in parts)
     free = [p.area * room_share for p in parts]
     out: list[list[Room]] = [[] for _ in parts]
-    for unit in sorted(units, key=lambda u: -sum(_room_area(r, typical) for r in u)):
-        need = sum(_room_area(r, typical) for r in unit)
-        homes = [k for k, p in enumerate(parts) for r in unit for q in r.positions
-                 if p.buffer(1e-6).contains(Point(q))]
-        k = homes[0] if homes else max(range(len(parts)), key=lambda k: free[k])
+    edges = boundary_edges(problem.boundary)
+
+    def area_of(unit: Sequence[Room]) -> float:
+        return sum(_room_area(r, typical) for r in unit)
+
+    pinned = [u for u in units if any(r.positions for r in u)]
+    for unit in sorted(pinned, key=area_of, reverse=True):
+        point = Point(next(q for r in unit for q in r.positions))
+        k = min(range(len(parts)), key=lambda k: (parts[k].distance(point), -free[k]))
         out[k] += unit
-        free[k] -= need
+        free[k] -= area_of(unit)
+    for unit in sorted((u for u in units if u not in pinned), key=area_of, reverse=True):
+        named = [e for r in unit for e in edges_named(problem, edges, r.boundary)]
+        facing = [k for k, p in enumerate(parts) if any(
+            p.boundary.intersection(LineString([e.start, e.end])).length > 1e-3 for e in named)]
+        roomy = [k for k in facing if free[k] >= area_of(unit) / 2]
+        k = max(roomy or range(len(parts)), key=lambda k: free[k])
+        out[k] += unit
+        free[k] -= area_of(unit)
     return out
 
 
@@ -410,11 +435,7 @@ def solve_regions(
                             problem.aisle_width, entrance=problem.entrance, keep=keep)
     progress.say(f"aisles: {len(network.pieces)} aisle(s), "
                  f"{network.union.area:.1f} m²")
-    jobs = [(g, part, rooms) for g in regions
-            for part, rooms in zip(network.parts[g.id],
-                                   assign_to_parts(problem, [problem.room(r) for r in g.rooms],
-                                                   network.parts[g.id]), strict=True)
-            if rooms]
+    jobs = _jobs(problem, regions, network)
     placed: dict[str, list[Box]] = {}
     owner: dict[str, str] = {}
     terminations: list[Termination] = [laid.report.termination]
@@ -430,10 +451,17 @@ def solve_regions(
         sub = room_problem(problem, part, rooms, share)
         inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
                       should_stop=should_stop)
-        if not inner.rooms:
-            relaxed = sub.model_copy(update={"rooms": [
-                r.model_copy(update={"min_size": None, "aspect_ratio": None}) for r in sub.rooms]})
-            inner = solve(relaxed, should_stop=should_stop)
+        for relax in RELAXATIONS:
+            if inner.rooms or (should_stop is not None and should_stop()):
+                break
+            # A part the region layout made awkward: keep the rooms, give up what
+            # cannot hold there; the final check reports it against the user's problem.
+            progress.say(f"{stage}: no layout, retrying without {', '.join(relax)}")
+            sub = sub.model_copy(update={"rooms": [
+                r.model_copy(update=dict.fromkeys(relax)) for r in sub.rooms]})
+            sub = sub.model_copy(update={"options": sub.options.model_copy(
+                update={"time_limit": max(MIN_PART_SECONDS, share / 2)})})
+            inner = solve(sub, should_stop=should_stop)
         terminations.append(inner.report.termination)
         levels = max(levels, inner.report.levels)
         for room in inner.rooms:
@@ -443,6 +471,24 @@ def solve_regions(
     stopped = should_stop is not None and should_stop()
     return _merge(problem, regions, network, placed, owner, _termination(terminations, stopped),
                   levels, started, progress)
+
+
+def _jobs(problem: Problem, regions: Sequence[Region],
+          network: AisleNetwork) -> list[tuple[Region, Polygon, list[Room]]]:
+    """The room sub-problems: per region part, its rooms. The user's regions keep their
+    rooms; an automatic partition is only a means, so its rooms are dealt again over
+    every part by the area the region layout actually gave (a region that came out
+    smaller than planned gets fewer rooms, not squeezed ones)."""
+    if problem.regions is None:
+        parts = [(g, part) for g in regions for part in network.parts[g.id]]
+        dealt = assign_to_parts(problem, problem.rooms, [p for _, p in parts])
+        return [(g, part, rooms) for (g, part), rooms in zip(parts, dealt, strict=True)
+                if rooms]
+    return [(g, part, rooms) for g in regions
+            for part, rooms in zip(network.parts[g.id],
+                                   assign_to_parts(problem, [problem.room(r) for r in g.rooms],
+                                                   network.parts[g.id]), strict=True)
+            if rooms]
 
 
 def _termination(terminations: Sequence[Termination], stopped: bool) -> Termination:
@@ -556,27 +602,32 @@ def through_doors(problem: Problem, rooms: Mapping[str, Polygon],
     added: list[Door] = []
     width = problem.openings.door_width
     ends = {r.id for r in problem.rooms if r.type in problem.openings.no_passage}
-    while True:
-        reached = set(_steps(problem, doors + added, aisles, from_aisles=True))
-        best: tuple[float, str, str, LineString] | None = None
-        for room_id, polygon in rooms.items():
-            if room_id in reached:
+    reached = set(_steps(problem, doors, aisles, from_aisles=True))
+    names = list(rooms)
+    tree = shapely.STRtree([rooms[n] for n in names])
+    walls: dict[str, list[tuple[float, str, LineString]]] = {}
+    for room_id in names:
+        if room_id in reached:
+            continue
+        for j in tree.query(rooms[room_id], "touches"):
+            other = names[int(j)]
+            if other == room_id or not may_connect(problem, room_id, other):
                 continue
-            for other in (reached - ends) & set(rooms):
-                if not may_connect(problem, room_id, other):
-                    continue
-                wall = longest_shared_wall(polygon, rooms[other])
-                if wall is None or wall.length < width - 1e-4:
-                    continue
-                if best is None or wall.length > best[0]:
-                    best = (wall.length, room_id, other, wall)
-        if best is None:
+            wall = longest_shared_wall(rooms[room_id], rooms[other])
+            if wall is not None and wall.length >= width - 1e-4:
+                walls.setdefault(room_id, []).append((wall.length, other, wall))
+    while True:
+        options = [(length, room_id, other, wall) for room_id, found in walls.items()
+                   if room_id not in reached for length, other, wall in found
+                   if other in reached and other not in ends]
+        if not options:
             return added
-        _, room_id, other, wall = best
+        _, room_id, other, wall = max(options, key=lambda o: o[0])
         segment = _door_segment(wall, width)
         assert segment is not None
         added.append(Door(between=(other, room_id), segment=segment, opens_into=room_id,
                           requested=False))
+        reached.add(room_id)
 
 
 def _steps(problem: Problem, doors: Sequence[Door], aisles: Mapping[str, Polygon], *,
