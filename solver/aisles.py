@@ -253,6 +253,16 @@ def _disjoint(shapes: Sequence[BaseGeometry], free: BaseGeometry,
     return pieces
 
 
+def aisle_pieces(shapes: Sequence[BaseGeometry], free: BaseGeometry,
+                 regions: Mapping[str, BaseGeometry], *,
+                 keep_regions: Sequence[tuple[str, ...]] = ()) -> list[AislePiece]:
+    """`shapes` as disjoint aisle pieces; the first ones keep `keep_regions`."""
+    pieces = _disjoint(shapes, free, regions)
+    named = list(keep_regions)
+    return [AislePiece(p.polygon, named[k] if k < len(named) else p.regions)
+            for k, p in enumerate(pieces)]
+
+
 def _without_holes(polygon: Polygon) -> list[Polygon]:
     """A polygon with holes cut into pieces without: by the vertical lines through each
     hole's left and right side."""

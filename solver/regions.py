@@ -40,7 +40,7 @@ from models import (
     RoomLayout,
     Termination,
 )
-from solver.aisles import AisleNetwork, aisle_network
+from solver.aisles import AisleNetwork, aisle_network, aisle_pieces
 from solver.checker import SOFT_KINDS, check_aisles, check_layout
 from solver.geometry import (
     Box,
@@ -507,6 +507,7 @@ def _merge(problem: Problem, regions: Sequence[Region], network: AisleNetwork,
            progress: _Progress) -> Layout:
     """One layout of every room and aisle, with doors, windows and the checks."""
     flat = rooms_only(problem)
+    network = _with_leftovers(problem, network, placed)
     aisles = [Aisle(id=f"aisle-{k + 1}", polygon=polygon_coords(p.polygon),
                     rectangles=[b.to_rect() for b in rectangles_of(p.polygon)],
                     area=round(float(p.polygon.area), 6), width=problem.aisle_width,
@@ -550,6 +551,22 @@ def _merge(problem: Problem, regions: Sequence[Region], network: AisleNetwork,
                                      detail=f"coverage {check.coverage:.1%} (aisles included)"))
     return Layout(name=problem.name, rooms=rooms, doors=doors, windows=windows, aisles=aisles,
                   report=report)
+
+
+def _with_leftovers(problem: Problem, network: AisleNetwork,
+                    placed: Mapping[str, list[Box]]) -> AisleNetwork:
+    """Floor a region's rooms left uncovered where it opens onto an aisle widens that
+    aisle (an alcove), rather than staying a gap in the plan."""
+    rooms = shapely.union_all([b.to_polygon() for boxes in placed.values() for b in boxes])
+    current = network.union
+    left = problem.free_area().difference(rooms).difference(current)
+    extra = [p for p in getattr(left, "geoms", [left]) if isinstance(p, Polygon)
+             and p.area > 1e-3 and p.boundary.intersection(current.boundary).length > 0.1]
+    if not extra:
+        return network
+    grown = aisle_pieces([*(p.polygon for p in network.pieces), *extra], problem.free_area(),
+                         {}, keep_regions=[p.regions for p in network.pieces])
+    return AisleNetwork(grown, network.parts)
 
 
 # Doors and circulation with aisles: aisles are corridors that are not rooms.
