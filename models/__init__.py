@@ -2,6 +2,7 @@
 
 from models.layout import (
     OUTSIDE,
+    Aisle,
     Circulation,
     ConflictItem,
     ConflictSet,
@@ -23,6 +24,7 @@ from models.problem import (
     Openings,
     Options,
     Problem,
+    Region,
     Room,
     Weights,
 )
@@ -31,6 +33,7 @@ __all__ = [
     "DEFAULT_MAX_ROOMS",
     "OUTSIDE",
     "Adjacency",
+    "Aisle",
     "Circulation",
     "ConflictItem",
     "ConflictSet",
@@ -44,6 +47,7 @@ __all__ = [
     "Options",
     "Problem",
     "Rect",
+    "Region",
     "Report",
     "Room",
     "RoomLayout",

@@ -46,6 +46,21 @@ class RoomLayout(BaseModel):
     polygon: list[Point] = Field(description="counter-clockwise outline, the union of rectangles")
     rectangles: list[Rect]
     area: float
+    region: str | None = Field(
+        None, description="the region the room was laid out in (large layouts), else null")
+
+
+class Aisle(BaseModel):
+    """Circulation floor between regions (large layouts, Sec. 5.3): not a room, but
+    part of the plan; it counts as covered floor."""
+
+    id: str
+    polygon: list[Point] = Field(description="counter-clockwise outline")
+    rectangles: list[Rect] = Field(description="disjoint rectangles whose union is the aisle")
+    area: float
+    width: float = Field(description="the problem's aisle_width, metres")
+    regions: list[str] = Field(default_factory=list,
+                               description="the regions this aisle runs along")
 
 
 #: The `between` name of the world outside, for the front door.
@@ -84,7 +99,7 @@ class ConstraintCheck(BaseModel):
     """One constraint of the request, verified on the final polygons."""
 
     kind: str = Field(description="inside, overlap, size, aspect_ratio, position, boundary, "
-                      "adjacency or coverage")
+                      "adjacency or coverage; aisle and aisle_access with regions")
     rooms: list[str]
     satisfied: bool
     detail: str = ""
@@ -175,4 +190,7 @@ class Layout(BaseModel):
     rooms: list[RoomLayout] = Field(default_factory=list)
     doors: list[Door] = Field(default_factory=list)
     windows: list[Window] = Field(default_factory=list)
+    aisles: list[Aisle] = Field(
+        default_factory=list, description="aisles between regions (large layouts); their "
+        "doors name them in `between`")
     report: Report

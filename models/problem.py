@@ -39,6 +39,13 @@ DEFAULT_MAX_ROOMS = 400
 MAX_ROOM_RECTS = 4
 #: Geometric tolerance in metres for "on the boundary" and similar tests.
 TOLERANCE = 1e-6
+#: Default aisle width between regions (metres): two people pass, a wheelchair turns.
+DEFAULT_AISLE_WIDTH = 1.8
+#: Narrowest and widest aisle accepted (metres).
+MIN_AISLE_WIDTH = 0.8
+MAX_AISLE_WIDTH = 10.0
+#: Problems with more rooms than this are partitioned into regions by default.
+DEFAULT_REGIONS_ABOVE = 40
 
 Coordinate = Annotated[float, Field(allow_inf_nan=False, ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
 Length = Annotated[float, Field(allow_inf_nan=False, ge=0, le=MAX_COORDINATE)]
@@ -153,6 +160,30 @@ class Adjacency(_Strict):
         return [self.b] if self.b is not None else list(self.any_of or [])
 
 
+class Region(_Strict):
+    """A group of rooms laid out as one block first (paper Sec. 5.3, large layouts).
+
+    The regions are placed like rooms (with these optional constraints, meaning what
+    they mean for a room), the gaps between them become aisles of `aisle_width`, and
+    then each region's rooms are laid out inside what is left of it."""
+
+    id: Annotated[str, Field(min_length=1, max_length=100)]
+    rooms: Annotated[list[str], Field(min_length=1)] = Field(
+        description="ids of the rooms in this region; a room belongs to at most one region")
+    min_size: Size | None = Field(None, description="[width, depth] lower bounds of the region")
+    max_size: Size | None = Field(None, description="[width, depth] upper bounds of the region")
+    target_size: Size | None = Field(
+        None, description="[width, depth] wanted; default: its rooms' share of the floor, "
+        "aisles included")
+    aspect_ratio: tuple[PositiveLength, PositiveLength] | None = Field(
+        None, description="[lo, hi], lo >= 1: long side / short side of the region")
+    positions: Annotated[list[Point], Field(max_length=2)] = Field(
+        default_factory=list, description="points the region must cover")
+    boundary: list[Annotated[StrictInt, Field(ge=0)] | Compass] = Field(
+        default_factory=list,
+        description="exterior edges (indices or compass words); the region touches one")
+
+
 class Weights(_Strict):
     """lambda_cover and lambda_size of Eq. 12."""
 
@@ -177,6 +208,13 @@ class Options(_Strict):
         False, description="every room must be reachable through doors from the entrance: "
         "the solver adds the adjacencies that guarantee it, then doors where walls allow; "
         "the report says if any room stays unreachable",
+    )
+    # Regions and aisles (large layouts, Sec. 5.3 end).
+    regions_above: Annotated[int, Field(ge=0, le=10_000)] = Field(
+        DEFAULT_REGIONS_ABOVE,
+        description="a problem without `regions` and with more rooms than this is "
+        "partitioned into regions automatically and solved through regions and aisles; "
+        "0 never partitions",
     )
 
 
@@ -240,6 +278,15 @@ class ProblemFields(_Strict):
     weights: Weights = Field(default_factory=Weights)
     options: Options = Field(default_factory=Options)
     openings: Openings = Field(default_factory=Openings)
+    regions: list[Region] | None = Field(
+        None, description="groups of rooms laid out as blocks with aisles between them "
+        "(Sec. 5.3, large layouts); rooms in no region form a region of their own "
+        "('rest'); adjacency entries may name two regions (they face each other across "
+        "an aisle), not rooms of two different regions")
+    aisle_width: Annotated[
+        float, Field(ge=MIN_AISLE_WIDTH, le=MAX_AISLE_WIDTH, allow_inf_nan=False)
+    ] = Field(DEFAULT_AISLE_WIDTH, description="clear width of the aisles between regions, "
+              "metres")
 
     @field_validator("boundary", mode="before")
     @classmethod
@@ -380,18 +427,85 @@ def _reference_errors(problem: Problem) -> list[InitErrorDetails]:
             errors.append(_error(("rooms", r, "id"), room.id, "duplicate_id",
                                  f"room id '{room.id}' is used twice"))
         seen.add(room.id)
+    region_ids = {region.id for region in problem.regions or []}
     for k, adjacency in enumerate(problem.adjacency):
-        if adjacency.a not in seen:
+        if adjacency.a not in seen and adjacency.a not in region_ids:
             errors.append(_error(("adjacency", k, "a"), adjacency.a, "unknown_room",
                                  f"unknown room id '{adjacency.a}'"))
         field = "b" if adjacency.b is not None else "any_of"
         for p, partner in enumerate(adjacency.partners):
-            if partner not in seen:
+            if partner not in seen and partner not in region_ids:
                 loc: tuple[str | int, ...] = (
                     ("adjacency", k, "b") if field == "b" else ("adjacency", k, "any_of", p)
                 )
                 errors.append(_error(loc, partner, "unknown_room",
                                      f"unknown room id '{partner}'"))
+    if problem.regions is not None:
+        errors += _region_errors(problem, seen)
+    return errors
+
+
+def region_of_rooms(problem: ProblemFields) -> dict[str, str]:
+    """Room id -> the id of its explicit region (rooms in none are left out)."""
+    return {room_id: region.id for region in problem.regions or []
+            for room_id in region.rooms}
+
+
+def _region_errors(problem: Problem, room_ids: set[str]) -> list[InitErrorDetails]:
+    """Regions name known rooms, each room at most once, ids distinct from rooms';
+    adjacencies pair two rooms of one region or two regions, never across an aisle."""
+    errors: list[InitErrorDetails] = []
+    regions = problem.regions or []
+    owner: dict[str, str] = {}
+    region_ids: set[str] = set()
+    for g, region in enumerate(regions):
+        if region.id in region_ids or region.id in room_ids:
+            errors.append(_error(("regions", g, "id"), region.id, "duplicate_id",
+                                 f"region id '{region.id}' is used twice (by a region or "
+                                 "a room)"))
+        region_ids.add(region.id)
+        for i, room_id in enumerate(region.rooms):
+            if room_id not in room_ids:
+                errors.append(_error(("regions", g, "rooms", i), room_id, "unknown_room",
+                                     f"unknown room id '{room_id}'"))
+            elif room_id in owner:
+                errors.append(_error(("regions", g, "rooms", i), room_id, "room_in_two_regions",
+                                     f"room '{room_id}' is already in region "
+                                     f"'{owner[room_id]}'"))
+            else:
+                owner[room_id] = region.id
+        for b, edge in enumerate(region.boundary):
+            if isinstance(edge, int) and edge >= len(problem.boundary):
+                errors.append(_error(("regions", g, "boundary", b), edge, "unknown_edge",
+                                     f"edge {edge} does not exist: the boundary has "
+                                     f"{len(problem.boundary)} edges"))
+        grown = problem.outline().buffer(TOLERANCE, join_style="mitre")
+        for p, point in enumerate(region.positions):
+            if not grown.contains(ShapelyPoint(point)):
+                errors.append(_error(("regions", g, "positions", p), point, "point_outside",
+                                     f"position {point} of region '{region.id}' is outside "
+                                     "the boundary"))
+        if region.min_size and region.max_size and any(
+                region.min_size[k] > region.max_size[k] for k in (0, 1)):
+            errors.append(_error(("regions", g, "min_size"), region.min_size, "min_above_max",
+                                 "minimum size exceeds maximum size"))
+        if region.aspect_ratio and not 1 <= region.aspect_ratio[0] <= region.aspect_ratio[1]:
+            errors.append(_error(("regions", g, "aspect_ratio"), region.aspect_ratio,
+                                 "ratio_order", "ratios must satisfy 1 <= lo <= hi"))
+    for k, adjacency in enumerate(problem.adjacency):
+        names = [adjacency.a, *adjacency.partners]
+        if all(n in region_ids for n in names):
+            continue
+        if any(n in region_ids for n in names):
+            errors.append(_error(("adjacency", k), adjacency.model_dump(), "region_and_room",
+                                 "an adjacency names either regions or rooms, not both"))
+            continue
+        # Rooms in no explicit region share the implicit one.
+        homes = {owner.get(n) for n in names if n in room_ids}
+        if len(homes) > 1:
+            errors.append(_error(("adjacency", k), adjacency.model_dump(), "across_regions",
+                                 "rooms of different regions cannot share a wall: an aisle "
+                                 "runs between regions (constrain the regions instead)"))
     return errors
 
 

@@ -37,7 +37,7 @@ from solver.geometry import (
 #: Coverage at or above this share of the free area counts as covered (a soft goal).
 COVERAGE_GOAL = 0.99
 #: Kinds that do not decide `valid`: coverage is an objective term (Eq. 3), not a constraint.
-SOFT_KINDS = frozenset({"coverage"})
+SOFT_KINDS = frozenset({"coverage", "aisle_access"})
 
 
 @dataclass(frozen=True)
@@ -71,12 +71,14 @@ Placed = Mapping[str, PlacedRoom]
 
 
 def check_layout(
-    problem: Problem, rooms: Mapping[str, Sequence[Box]], *, tol: float = 1e-4
+    problem: Problem, rooms: Mapping[str, Sequence[Box]], *, tol: float = 1e-4,
+    aisles: Sequence[BaseGeometry] = (),
 ) -> CheckResult:
-    """Check every constraint of `problem` on `rooms` (room id -> its rectangles)."""
+    """Check every constraint of `problem` on `rooms` (room id -> its rectangles).
+    `aisles` (large layouts) count as covered floor; `check_aisles` checks them."""
     placed = place_rooms(problem, rooms, tol)
     free = problem.free_area()
-    cover, coverage, uncovered = check_coverage(free, placed)
+    cover, coverage, uncovered = check_coverage(free, placed, aisles)
     checks = [
         *check_placed(problem, rooms),
         *check_inside(problem, free, placed, tol),
@@ -307,9 +309,13 @@ def _adjacency(adj: Adjacency, placed: Placed, tol: float) -> ConstraintCheck:
     return ConstraintCheck(kind="adjacency", rooms=rooms, satisfied=ok, detail=detail)
 
 
-def check_coverage(free: BaseGeometry, placed: Placed) -> tuple[ConstraintCheck, float, float]:
-    """The share of the free area the rooms cover (the goal behind E_cover, Eq. 3)."""
-    covered = shapely.union_all([p.snapped for p in placed.values()]).intersection(free).area
+def check_coverage(
+    free: BaseGeometry, placed: Placed, aisles: Sequence[BaseGeometry] = ()
+) -> tuple[ConstraintCheck, float, float]:
+    """The share of the free area the rooms (and aisles, part of the plan) cover (the
+    goal behind E_cover, Eq. 3)."""
+    shapes = [p.snapped for p in placed.values()] + list(aisles)
+    covered = shapely.union_all(shapes).intersection(free).area
     total = free.area
     coverage = min(1.0, covered / total) if total > 0 else 1.0
     uncovered = max(0.0, total - covered)
@@ -332,3 +338,79 @@ def size_error(problem: Problem, placed: Placed) -> dict[str, float]:
 
 def _dims(size: Sequence[float]) -> str:
     return " x ".join("any" if v == float("inf") else f"{v:.2f}" for v in size)
+
+
+# Aisles of large layouts (regions, Sec. 5.3): circulation floor, not rooms.
+
+
+def check_aisles(
+    problem: Problem, rooms: Mapping[str, BaseGeometry], aisles: Mapping[str, BaseGeometry],
+    regions: Mapping[str, Sequence[str]], *, tol: float = 1e-4,
+) -> list[ConstraintCheck]:
+    """Kind `aisle`: the aisles overlap no room, lie inside the free area, form one
+    connected network, reach the entrance (without one: the facade, the building's
+    exits), and every region's rooms share at least a door's width of wall with them.
+    Adjacencies naming two regions (kind `adjacency`): the regions face each other across
+    an aisle (their rooms within an aisle's width, over `min_contact`) or share a wall."""
+    names = list(aisles)
+    network = shapely.union_all([aisles[a] for a in names]) if names else Point(0, 0).buffer(0)
+    room_union = shapely.union_all(list(rooms.values())) if rooms else Point(0, 0).buffer(0)
+    free = problem.free_area()
+    checks = []
+    overlap = float(network.intersection(room_union).area)
+    checks.append(ConstraintCheck(kind="aisle", rooms=names, satisfied=overlap <= tol,
+                                  detail=f"aisles overlap rooms by {overlap:.2f} m²"))
+    outside = float(network.difference(free).area)
+    checks.append(ConstraintCheck(kind="aisle", rooms=names, satisfied=outside <= tol,
+                                  detail=f"{outside:.2f} m² of aisle outside the free area"))
+    # Aisles meeting along a wall (not at a corner) are one corridor.
+    joined = shapely.union_all([shapely.buffer(aisles[a], tol, join_style="mitre")
+                                for a in names]) if names else network
+    parts = len(getattr(joined, "geoms", [joined])) if names else 0
+    checks.append(ConstraintCheck(kind="aisle", rooms=names, satisfied=parts == 1,
+                                  detail=f"aisles form {parts} connected network(s)"))
+    if problem.entrance is not None:
+        gap = float(network.distance(Point(problem.entrance))) if names else float("inf")
+        checks.append(ConstraintCheck(kind="aisle", rooms=names, satisfied=gap <= 1e-3,
+                                      detail=f"aisles {gap:.2f} m from the entrance"))
+    else:
+        facade = float(network.boundary.intersection(problem.outline().exterior).length) \
+            if names else 0.0
+        checks.append(ConstraintCheck(kind="aisle", rooms=names,
+                                      satisfied=facade >= problem.openings.door_width - tol,
+                                      detail=f"aisles meet the facade over {facade:.2f} m"))
+    door = problem.openings.door_width
+    for region_id, members in regions.items():
+        shapes = [rooms[r] for r in members if r in rooms]
+        if not shapes:
+            continue
+        wall = shared_wall_length(shapely.union_all(shapes), network) if names else 0.0
+        checks.append(ConstraintCheck(kind="aisle", rooms=[region_id, *members],
+                                      satisfied=wall >= door - tol,
+                                      detail=f"region '{region_id}' has {wall:.2f} m of wall "
+                                             f"on an aisle (needs {door:.2f})"))
+    region_ids = set(regions)
+    for adj in problem.adjacency:
+        if adj.a not in region_ids:
+            continue
+        checks.append(_region_adjacency(problem, adj, rooms, regions, tol))
+    return checks
+
+
+def _region_adjacency(problem: Problem, adj: Adjacency, rooms: Mapping[str, BaseGeometry],
+                      regions: Mapping[str, Sequence[str]], tol: float) -> ConstraintCheck:
+    """Two regions face each other when one, grown by an aisle's width, runs along the
+    other over at least `min_contact`."""
+    def shape(region_id: str) -> BaseGeometry:
+        return shapely.union_all([rooms[r] for r in regions.get(region_id, []) if r in rooms])
+
+    a = shape(adj.a)
+    grown = shapely.buffer(a, problem.aisle_width + tol, join_style="mitre")
+    facing = {b: float(grown.intersection(shape(b).boundary).length)
+              for b in adj.partners if not shape(b).is_empty}
+    best = max(facing, key=facing.__getitem__, default=None)
+    length = facing.get(best, 0.0) if best is not None else 0.0
+    return ConstraintCheck(kind="adjacency", rooms=[adj.a, *adj.partners],
+                           satisfied=best is not None and length >= adj.min_contact - tol,
+                           detail=f"regions face each other over {length:.2f} m "
+                                  f"(needs {adj.min_contact:.2f})")

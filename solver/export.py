@@ -34,8 +34,8 @@ TYPE_COLOURS = {"living": 2, "kitchen": 30, "bedroom": 5, "bathroom": 4, "dining
 
 def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
     """One Feature per room (Polygon, counter-clockwise) with its id, type, area and
-    size error; doors and windows as LineString features; the outline and obstacles
-    as features of their own."""
+    size error (and region); aisles as Polygon features of kind "aisle"; doors and
+    windows as LineString features; the outline and obstacles as features of their own."""
     features: list[dict[str, Any]] = [
         _feature("Polygon", [_ring(problem.boundary)], kind="outline", name=problem.name),
     ]
@@ -47,7 +47,11 @@ def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
         features.append(_feature(
             "Polygon", [_ring(room.polygon)], kind="room", id=room.id, type=room.type,
             area=room.area, size_error=layout.report.size_error.get(room.id),
+            region=room.region,
         ))
+    for aisle in layout.aisles:
+        features.append(_feature("Polygon", [_ring(aisle.polygon)], kind="aisle", id=aisle.id,
+                                 area=aisle.area, width=aisle.width, regions=aisle.regions))
     for door in layout.doors:
         features.append(_feature("LineString", [list(p) for p in door.segment], kind="door",
                                  between=list(door.between), opens_into=door.opens_into,
@@ -67,7 +71,8 @@ def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
 
 def to_dxf(problem: Problem, layout: Layout) -> bytes:
     """A DXF drawing in metres: a layer per room type with each room as a closed
-    polyline and its label, layers OUTLINE, OBSTACLES, DOORS and WINDOWS."""
+    polyline and its label, layers OUTLINE, OBSTACLES, DOORS, WINDOWS and (with
+    regions) AISLES."""
     doc = ezdxf.new("R2010", setup=True)
     doc.units = ezdxf.units.M
     msp = doc.modelspace()
@@ -75,6 +80,8 @@ def to_dxf(problem: Problem, layout: Layout) -> bytes:
     doc.layers.add("OBSTACLES", color=colors.GRAY)
     doc.layers.add("DOORS", color=colors.RED)
     doc.layers.add("WINDOWS", color=colors.BLUE)
+    if layout.aisles:
+        doc.layers.add("AISLES", color=colors.GRAY)
     msp.add_lwpolyline(problem.boundary, close=True, dxfattribs={"layer": "OUTLINE"})
     for o in problem.obstacles:
         msp.add_lwpolyline([(o.x, o.y), (o.x + o.width, o.y), (o.x + o.width, o.y + o.depth),
@@ -88,6 +95,8 @@ def to_dxf(problem: Problem, layout: Layout) -> bytes:
         label = msp.add_text(f"{room.id} {room.area:.1f} m2", height=0.25,
                              dxfattribs={"layer": layer})
         label.set_placement((x, y), align=TextEntityAlignment.MIDDLE_CENTER)
+    for aisle in layout.aisles:
+        msp.add_lwpolyline(aisle.polygon, close=True, dxfattribs={"layer": "AISLES"})
     for door in layout.doors:
         msp.add_line(*door.segment, dxfattribs={"layer": "DOORS"})
     for window in layout.windows:

@@ -21,7 +21,7 @@ from shapely.geometry import Point as ShapelyPoint
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
-from models import Layout, Problem, RoomLayout
+from models import Aisle, Layout, Problem, RoomLayout
 from solver.geometry import Box, boundary_edges, rectangles_of
 
 SVG_NS = "http://www.w3.org/2000/svg"
@@ -45,6 +45,8 @@ PALETTE: dict[str, str] = {
 }
 WALL_COLOUR = "#222222"
 GAP_COLOUR = "#ff9d9d"
+#: Aisles between regions: circulation floor, light grey.
+AISLE_COLOUR = "#e4e4e4"
 ENTRANCE_COLOUR = "#1b7f3b"
 TEXT_COLOUR = "#222222"
 
@@ -103,7 +105,9 @@ def render_svg(problem: Problem, layout: Layout, *, scale: float = 40.0) -> str:
     ET.SubElement(svg, "title").text = _clean(problem.name)
     _add_hatch_pattern(svg)
     ET.SubElement(svg, "rect", {"width": "100%", "height": "100%", "fill": "white"})
-    _add_gaps(svg, frame, problem.free_area(), layout.rooms)
+    _add_gaps(svg, frame, problem.free_area(), layout.rooms, layout.aisles)
+    for aisle in layout.aisles:
+        _add_aisle(svg, frame, aisle)
     for room in layout.rooms:
         _add_room(svg, frame, room)
     for index, obstacle in enumerate(problem.obstacles):
@@ -160,8 +164,10 @@ def _add_hatch_pattern(svg: ET.Element) -> None:
 
 
 def _add_gaps(svg: ET.Element, frame: _Frame, free: BaseGeometry,
-              rooms: Sequence[RoomLayout]) -> None:
-    shapes = [_room_shape(room) for room in rooms]
+              rooms: Sequence[RoomLayout], aisles: Sequence[Aisle] = ()) -> None:
+    # Aisles are floor of the plan, not gaps.
+    shapes = [_room_shape(room) for room in rooms] + [
+        Polygon(aisle.polygon) for aisle in aisles if len(aisle.polygon) >= 3]
     covered = shapely.union_all([s for s in shapes if s is not None])
     gaps = free.difference(covered)
     parts = [p for p in shapely.get_parts(gaps) if isinstance(p, Polygon) and p.area > 1e-6]
@@ -185,6 +191,19 @@ def _add_room(svg: ET.Element, frame: _Frame, room: RoomLayout) -> None:
         "stroke": "#555555", "stroke-width": "1",
     })
     _add_label(group, frame, _label_box(shape), [room.id, f"{room.area:.1f} m²"], "room-label")
+
+
+def _add_aisle(svg: ET.Element, frame: _Frame, aisle: Aisle) -> None:
+    """An aisle between regions: light grey floor, labelled where it is wide enough."""
+    if len(aisle.polygon) < 3:
+        return
+    group = ET.SubElement(svg, "g", {"class": "aisle", "data-id": _clean(aisle.id)})
+    ET.SubElement(group, "polygon", {"points": _points(frame, aisle.polygon),
+                                     "fill": AISLE_COLOUR, "stroke": "none"})
+    shape = Polygon(aisle.polygon)
+    x0, y0, x1, y1 = shape.bounds
+    if max(x1 - x0, y1 - y0) >= 4 * aisle.width:
+        _add_label(group, frame, _label_box(shape), [aisle.id], "aisle-label")
 
 
 def _add_obstacle(svg: ET.Element, frame: _Frame, box: Box, label: str, index: int) -> None:

@@ -232,7 +232,13 @@ def solve(
 ) -> Layout:
     """Lay out `problem`: a valid layout, or a report saying why there is none. With
     `subdomains`, the sub-domains of each refinement level are solved at the same time
-    on its executor (solver/parallel.py); without, one after the other."""
+    on its executor (solver/parallel.py); without, one after the other. Problems with
+    regions, or more rooms than `options.regions_above`, go through solver/regions.py."""
+    # Imported here: regions lays out its parts with this very function.
+    from solver.regions import regions_apply, solve_regions
+
+    if regions_apply(problem):
+        return solve_regions(problem, on_event=on_event, should_stop=should_stop)
     started = time.monotonic()
     asked = problem
     # The doors every room needs, as adjacencies the MIQP must honour.

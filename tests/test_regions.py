@@ -1,0 +1,145 @@
+"""Large layouts through regions and aisles (paper Sec. 5.3 end): real SCIP, checked
+independently with shapely."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+import shapely
+from pydantic import ValidationError
+from shapely.geometry import Point, Polygon
+
+from models import Layout, Problem
+from solver.regions import auto_partition, regions_apply
+from solver.solve import Phase, SolveEvent, solve
+
+
+def _offices(count: int, seed: int, prefix: str = "o") -> list[dict]:
+    rng = random.Random(seed)
+    return [{"id": f"{prefix}{k}", "type": "office", "min_size": [2.0, 2.0],
+             "target_size": [round(rng.uniform(3.0, 4.0), 2), round(rng.uniform(2.8, 3.4), 2)]}
+            for k in range(count)]
+
+
+def _explicit_problem() -> dict:
+    rooms = _offices(16, seed=1)
+    return {
+        "name": "four-blocks",
+        "boundary": [[0, 0], [30, 0], [30, 16], [0, 16]],
+        "entrance": [15.0, 0.0],
+        "rooms": rooms,
+        "regions": [{"id": f"block-{g}", "rooms": [r["id"] for r in rooms[4 * g:4 * g + 4]]}
+                    for g in range(4)],
+        "aisle_width": 1.8,
+        "options": {"time_limit": 8, "seed": 0},
+    }
+
+
+def _union(polygons: list[list[tuple[float, float]]]) -> shapely.Geometry:
+    return shapely.union_all([Polygon(p) for p in polygons])
+
+
+def test_explicit_regions_aisles_connect_every_region_to_the_entrance() -> None:
+    problem = Problem.model_validate(_explicit_problem())
+    events: list[SolveEvent] = []
+    layout = solve(problem, on_event=events.append)
+    assert len(layout.rooms) == 16
+    assert layout.aisles, "regions need aisles between them"
+    aisles = _union([a.polygon for a in layout.aisles])
+    # One network (pieces meeting along a wall), touching the entrance.
+    grown = shapely.union_all([Polygon(a.polygon).buffer(1e-6, join_style="mitre")
+                               for a in layout.aisles])
+    assert grown.geom_type == "Polygon"
+    assert aisles.distance(Point(15.0, 0.0)) <= 1e-3
+    rooms = _union([r.polygon for r in layout.rooms])
+    assert aisles.intersection(rooms).area <= 1e-3
+    # Every region's rooms share at least a door's width of wall with an aisle.
+    for g in range(4):
+        block = _union([r.polygon for r in layout.rooms if r.region == f"block-{g}"])
+        assert block.boundary.intersection(aisles.boundary).length >= 0.9
+    # The aisles are as wide as asked: no aisle rectangle is narrower than the width.
+    narrow = [r for a in layout.aisles for r in a.rectangles
+              if min(r.width, r.depth) < 1.8 - 1e-6 and max(r.width, r.depth) > 1.8 + 1e-6]
+    assert len(narrow) <= len(layout.aisles)  # only junction stubs may be cut narrower
+    assert {r.region for r in layout.rooms} == {f"block-{g}" for g in range(4)}
+    report = layout.report
+    assert report.valid, [c for c in report.constraints if not c.satisfied]
+    assert report.coverage >= 0.99
+    assert any(c.kind == "aisle" for c in report.constraints)
+    assert report.circulation is not None and report.circulation.reachable
+    # Progress named the stages.
+    details = [e.detail for e in events]
+    assert any(d.startswith("regions") for d in details)
+    assert any(d.startswith("region block-") for d in details)
+    assert events[-1].phase is Phase.DONE
+
+
+def test_auto_partition_of_45_offices() -> None:
+    data = {"name": "office-45", "boundary": [[0, 0], [34, 0], [34, 19], [0, 19]],
+            "rooms": _offices(45, seed=2), "options": {"time_limit": 12, "seed": 0}}
+    problem = Problem.model_validate(data)
+    assert regions_apply(problem)
+    regions = auto_partition(problem)
+    assert sorted(r for g in regions for r in g.rooms) == sorted(r["id"] for r in data["rooms"])
+    assert all(8 <= len(g.rooms) <= 20 for g in regions)
+    layout = solve(problem)
+    assert len(layout.rooms) == 45
+    assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
+    assert layout.report.coverage >= 0.99
+    assert layout.aisles and all(r.region is not None for r in layout.rooms)
+    assert layout.report.solve_time <= 12 + 1.5
+
+
+def test_auto_partition_keeps_adjacent_rooms_together() -> None:
+    rooms = _offices(42, seed=3)
+    problem = Problem.model_validate({
+        "boundary": [[0, 0], [34, 0], [34, 19], [0, 19]], "rooms": rooms,
+        "adjacency": [{"a": "o0", "b": "o1"}, {"a": "o1", "b": "o2"}]})
+    owner = {r: g.id for g in auto_partition(problem) for r in g.rooms}
+    assert owner["o0"] == owner["o1"] == owner["o2"]
+
+
+def test_regions_above_zero_never_partitions() -> None:
+    problem = Problem.model_validate({
+        "boundary": [[0, 0], [34, 0], [34, 19], [0, 19]], "rooms": _offices(45, seed=2),
+        "options": {"regions_above": 0}})
+    assert not regions_apply(problem)
+
+
+@pytest.mark.parametrize(("change", "field"), [
+    (lambda d: d["regions"][0]["rooms"].append("nobody"), ("regions", 0, "rooms", 4)),
+    (lambda d: d["regions"][1]["rooms"].append("o0"), ("regions", 1, "rooms", 4)),
+    (lambda d: d["regions"][1].update(id="block-0"), ("regions", 1, "id")),
+    (lambda d: d["adjacency"].append({"a": "o0", "b": "o5"}), ("adjacency", 0)),
+    (lambda d: d["adjacency"].append({"a": "block-0", "b": "o5"}), ("adjacency", 0)),
+    (lambda d: d["adjacency"].append({"a": "block-0", "b": "block-9"}), ("adjacency", 0, "b")),
+    (lambda d: d.update(aisle_width=0.2), ("aisle_width",)),
+    (lambda d: d.update(aisle_width=50), ("aisle_width",)),
+    (lambda d: d["regions"][0].update(boundary=[9]), ("regions", 0, "boundary", 0)),
+])
+def test_invalid_regions_name_the_field(change, field) -> None:  # type: ignore[no-untyped-def]
+    data = _explicit_problem()
+    data["adjacency"] = []
+    change(data)
+    with pytest.raises(ValidationError) as err:
+        Problem.model_validate(data)
+    assert field in [tuple(e["loc"]) for e in err.value.errors()]
+
+
+def test_adjacency_between_regions_and_within_one() -> None:
+    data = _explicit_problem()
+    data["adjacency"] = [{"a": "block-0", "b": "block-1", "min_contact": 2.0},
+                         {"a": "o0", "b": "o1"}]
+    problem = Problem.model_validate(data)
+    layout = solve(problem)
+    checks = [c for c in layout.report.constraints if c.kind == "adjacency"]
+    assert len(checks) == 2
+    assert all(c.satisfied for c in checks), checks
+
+
+def test_layout_with_aisles_round_trips() -> None:
+    problem = Problem.model_validate(_explicit_problem())
+    layout = solve(problem)
+    again = Layout.model_validate_json(layout.model_dump_json())
+    assert again.aisles == layout.aisles
