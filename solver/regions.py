@@ -83,9 +83,14 @@ EventSink = Callable[..., None]
 
 def regions_apply(problem: Problem) -> bool:
     """Regions are used when the problem names them, or has more rooms than
-    `options.regions_above` (0: never)."""
+    `options.regions_above` (0: never) and asks for circulation: an entrance or
+    `require_connected`. Aisles are walking space that must lead somewhere; a floor of
+    rooms asked for by size alone is tiled without them (solver/slicing.py), which keeps
+    every room's target reachable instead of giving a fifth of the floor to aisles."""
     above = problem.options.regions_above
-    return problem.regions is not None or (above > 0 and len(problem.rooms) > above)
+    circulation = problem.entrance is not None or problem.options.require_connected
+    return problem.regions is not None or (
+        above > 0 and len(problem.rooms) > above and circulation)
 
 
 def room_adjacency(problem: Problem) -> list[Adjacency]:

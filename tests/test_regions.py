@@ -77,6 +77,7 @@ def test_explicit_regions_aisles_connect_every_region_to_the_entrance() -> None:
 
 def test_auto_partition_of_45_offices() -> None:
     data = {"name": "office-45", "boundary": [[0, 0], [34, 0], [34, 19], [0, 19]],
+            "entrance": [17.0, 0.0],
             "rooms": _offices(45, seed=2), "options": {"time_limit": 12, "seed": 0}}
     problem = Problem.model_validate(data)
     assert regions_apply(problem)
@@ -103,8 +104,16 @@ def test_auto_partition_keeps_adjacent_rooms_together() -> None:
 def test_regions_above_zero_never_partitions() -> None:
     problem = Problem.model_validate({
         "boundary": [[0, 0], [34, 0], [34, 19], [0, 19]], "rooms": _offices(45, seed=2),
-        "options": {"regions_above": 0}})
+        "entrance": [17.0, 0.0], "options": {"regions_above": 0}})
     assert not regions_apply(problem)
+
+
+def test_no_automatic_aisles_without_circulation() -> None:
+    # Rooms asked for by size alone, no entrance: tiled without aisles.
+    data = {"boundary": [[0, 0], [34, 0], [34, 19], [0, 19]], "rooms": _offices(45, seed=2)}
+    assert not regions_apply(Problem.model_validate(data))
+    connected = data | {"options": {"require_connected": True}}
+    assert regions_apply(Problem.model_validate(connected))
 
 
 @pytest.mark.parametrize(("change", "field"), [
