@@ -66,6 +66,9 @@ class RectSpec:
     #: positions, boundary): each may be violated at `LevelSpec.violation_weight` per
     #: metre of slack.
     soft: frozenset[str] = frozenset()
+    #: Hard lower bounds on width and depth under a soft minimum (or none): a room that
+    #: yields to its neighbours still stays a room.
+    floor: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -196,11 +199,12 @@ def c_size(lm: LevelModel) -> None:
         extents = (lm.spec.region.width, lm.spec.region.depth)
         for axis, var, name in ((0, v.w, "w"), (1, v.d, "d")):
             lo, hi = r.min_size[axis], r.max_size[axis]
-            if "min_size" in r.soft and lo > 0:
+            if "min_size" in r.soft and lo > r.floor[axis]:
                 slack = _slack(lm, f"min_{name}[{r.name}]")
                 m.addCons(var + slack >= lo, name=f"size_min_{name}[{r.name}]")
+                m.chgVarLb(var, r.floor[axis])
             else:
-                m.chgVarLb(var, lo)
+                m.chgVarLb(var, max(lo, r.floor[axis]))
             if "max_size" in r.soft and hi < extents[axis]:
                 slack = _slack(lm, f"max_{name}[{r.name}]")
                 m.addCons(var - slack <= hi, name=f"size_max_{name}[{r.name}]")

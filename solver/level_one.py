@@ -22,6 +22,10 @@ WING_JOIN = 1.2
 WING_MIN = 1.0
 #: Separates a room's id from the number of one of its extra rectangles.
 WING_MARK = "~wing"
+#: In the soft model every room keeps at least this width and depth (metres), or its
+#: maximum when smaller: a room squeezed to nothing by its neighbours' demands is
+#: not a plan, whatever its own constraints say.
+SOFT_FLOOR = 0.5
 
 
 def size_bounds(room: Room, domain: Domain, window: float | None) -> tuple[
@@ -90,6 +94,7 @@ def level_one_spec(
             positions=tuple(room.positions),
             edges=tuple(edges_named(problem, domain.edges, room.boundary)),
             soft=frozenset(relaxed),
+            floor=(min(SOFT_FLOOR, hi[0]), min(SOFT_FLOOR, hi[1])) if soft else (0.0, 0.0),
         ))
         for name in extra:
             rects.append(RectSpec(name=name, room=room.id, min_size=(WING_MIN, WING_MIN),
