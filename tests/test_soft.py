@@ -228,3 +228,15 @@ def test_the_service_validates_and_solves_a_soft_problem(server: Server) -> None
         layout = Layout.model_validate(client.get(f"/v1/layouts/{job['id']}/result").json())
     assert layout.report.valid and layout.report.violations
     assert layout.report.total_shortfall > 0
+
+
+def test_a_templated_problem_too_full_for_its_floors_is_solved_when_not_strict() -> None:
+    raw = {"boundary": [[0, 0], [9, 0], [9, 7], [0, 7]], "entrance": [4.5, 0],
+           "template": "residential",
+           "rooms": ["living", "kitchen", *["bedroom"] * 9, "bathroom"]}
+    with pytest.raises(ValidationError):
+        Problem.model_validate(raw)
+    problem = Problem.model_validate(raw | {"options": {"strict": False, "time_limit": 4}})
+    assert find_impossibilities(problem, make_domain(problem)) == []
+    report = solve(problem).report
+    assert report.valid and report.violations and report.total_shortfall > 0
