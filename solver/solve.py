@@ -202,7 +202,7 @@ class _Run:
         """Announce the whole current layout with its Eq. 12 value, as the report counts it."""
         if self.on_event is not None:
             self.emit(Phase.INCUMBENT, subdomain=sub, subdomains=subs, rooms=rooms,
-                      objective=layout_objective(self.problem, domain, rooms),
+                      objective=layout_objective(self.problem, domain, rooms, soft=self.soft),
                       dual_bound=dual_bound)
 
     def run(self, lm: LevelModel, limit: float, *,
@@ -213,9 +213,12 @@ class _Run:
         return result
 
 
-def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box]]) -> float:
+def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box]], *,
+                     soft: bool = False) -> float:
     """Eq. 12 on a layout: lambda_cover * uncovered area + lambda_size * E_size of the
-    rooms with a target, each room measured by its bounding box."""
+    rooms with a target, each room measured by its bounding box; with `soft` (a layout
+    of the soft model, the only kind that may violate anything) plus the price of the
+    soft constraints' shortfalls."""
     union = shapely.union_all([b.to_polygon() for boxes in rooms.values() for b in boxes])
     uncovered = domain.area - float(domain.free.intersection(union).area)
     size = 0.0
@@ -224,7 +227,7 @@ def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box
             b = bounding_box(rooms[room.id])
             size += (b.width - room.target_size[0]) ** 2 + (b.depth - room.target_size[1]) ** 2
     penalty = 0.0
-    if has_soft(problem) and all(r.id in rooms for r in problem.rooms):
+    if soft and all(r.id in rooms for r in problem.rooms):
         # The price of soft violations, as the report counts it.
         checks = check_layout(problem, rooms).constraints
         penalty = problem.weights.violation * sum(
