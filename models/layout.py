@@ -103,6 +103,17 @@ class ConstraintCheck(BaseModel):
     rooms: list[str]
     satisfied: bool
     detail: str = ""
+    soft: bool = Field(False, description="the constraint was soft (options.strict false, "
+                       "or soft on its room or adjacency): a violation costs, but the "
+                       "layout stays valid")
+    shortfall: float = Field(
+        0.0, description="how far a violated constraint is from holding, in metres (0 when "
+        "it holds): size, the missing width or depth (or the excess over the maximum), "
+        "both axes added; aspect_ratio, how much the long side exceeds hi x the short side "
+        "(or falls short of lo x it); position, the distance from the point to the room "
+        "along the farther axis; boundary, the distance from the room to the nearest named "
+        "edge, along the farther axis; adjacency, the missing contact length, or the gap "
+        "between the walls when larger (the best partner of an any_of)")
 
 
 class ExtraRectangles(BaseModel):
@@ -170,7 +181,8 @@ class Report(BaseModel):
     levels: int = 0
     solve_time: float = 0.0
     termination: Termination = Termination.OPTIMAL
-    valid: bool = Field(True, description="every hard constraint holds on the polygons")
+    valid: bool = Field(True, description="every hard constraint holds on the polygons; "
+                       "violated soft constraints (see `violations`) do not count")
     infeasibility: Infeasibility | None = None
     circulation: Circulation | None = Field(
         None, description="set when the problem has an entrance")
@@ -183,6 +195,13 @@ class Report(BaseModel):
         default_factory=list,
         description="rooms that started from several rectangles at level 1, and why",
     )
+    violations: list[ConstraintCheck] = Field(
+        default_factory=list,
+        description="every soft constraint the layout violates, with its shortfall (also "
+        "among `constraints`); `valid` stays true when these are the only failures",
+    )
+    total_shortfall: float = Field(
+        0.0, description="the sum of the violations' shortfalls, metres")
 
 
 class Layout(BaseModel):

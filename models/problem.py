@@ -54,6 +54,10 @@ Point = tuple[Coordinate, Coordinate]
 #: [width, depth]: width along x (east), depth along y (north).
 Size = tuple[Length, Length]
 Compass = Literal["north", "south", "east", "west"]
+#: The constraints of a room that may be soft (`Room.soft`, `Options.strict`).
+SoftFamily = Literal["min_size", "max_size", "aspect_ratio", "positions", "boundary"]
+SOFT_FAMILIES: tuple[SoftFamily, ...] = (
+    "min_size", "max_size", "aspect_ratio", "positions", "boundary")
 
 
 class _Strict(BaseModel):
@@ -100,6 +104,19 @@ class Room(_Strict):
         None, description="rectangles the room may start from: 1 keeps it a rectangle; "
         "default 1, or 2 with shape 'free'",
     )
+    soft: bool | list[SoftFamily] = Field(
+        False, description="constraints of this room that may be violated at a cost "
+        "(Weights.violation per metre of shortfall) when they cannot all hold: true for "
+        "all of them, or a list of min_size, max_size, aspect_ratio, positions, boundary. "
+        "With options.strict false every one of them is soft anyway",
+    )
+
+    def soft_families(self, strict: bool = True) -> frozenset[SoftFamily]:
+        """The families of this room's constraints that are soft: all of them when the
+        problem is not `strict` or the room says `soft: true`, else those it lists."""
+        if not strict or self.soft is True:
+            return frozenset(SOFT_FAMILIES)
+        return frozenset(self.soft or ())
 
     @property
     def rectangles(self) -> int:
@@ -146,6 +163,11 @@ class Adjacency(_Strict):
     b: str | None = None
     any_of: Annotated[list[str], Field(min_length=1)] | None = None
     min_contact: Length = 0.9
+    soft: bool = Field(
+        False, description="the contact may fall short, or the rooms stay apart, at a cost "
+        "(Weights.violation per metre of missing contact or of gap between the walls) when "
+        "it cannot hold; with options.strict false every adjacency is soft anyway",
+    )
 
     @model_validator(mode="after")
     def _exactly_one_partner_field(self) -> Self:
@@ -184,11 +206,22 @@ class Region(_Strict):
         description="exterior edges (indices or compass words); the region touches one")
 
 
+#: Default cost of a metre of shortfall of a soft constraint: see `Weights.violation`.
+DEFAULT_VIOLATION_WEIGHT = 100.0
+
+
 class Weights(_Strict):
-    """lambda_cover and lambda_size of Eq. 12."""
+    """lambda_cover and lambda_size of Eq. 12, and the cost of soft violations."""
 
     cover: Annotated[float, Field(ge=0, le=1e3, allow_inf_nan=False)] = 1.0
     size: Annotated[float, Field(ge=0, le=1e3, allow_inf_nan=False)] = 1.0
+    violation: Annotated[float, Field(gt=0, le=1e5, allow_inf_nan=False)] = Field(
+        DEFAULT_VIOLATION_WEIGHT,
+        description="cost per metre of shortfall of a soft constraint, added to Eq. 12. "
+        "The default 100 makes a metre of shortfall cost as much as 100 m² of uncovered "
+        "floor, more than moving one wall of a room up to ~30 m wide can gain in Eq. 12 "
+        "at unit weights, so the solver trades accuracy for compliance, not the reverse",
+    )
 
 
 class Options(_Strict):
@@ -215,6 +248,13 @@ class Options(_Strict):
         description="a problem without `regions`, with more rooms than this and asking "
         "for circulation (an `entrance` or `require_connected`) is partitioned into "
         "regions automatically and solved through regions and aisles; 0 never partitions",
+    )
+    strict: bool = Field(
+        True, description="false: every constraint that can be relaxed (sizes, aspect "
+        "ratios, positions, boundary walls, adjacencies, and what require_connected adds) "
+        "is soft, so an over-constrained problem gets the layout of least total shortfall "
+        "instead of none; inside the outline, no overlap and obstacles stay hard. A layout "
+        "meeting every constraint is always looked for first",
     )
 
 

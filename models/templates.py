@@ -396,7 +396,10 @@ def _ratio_possible(ratio: Sequence[float], mins: Sequence[float],
 def _check_floors_fit(problem: TemplatedProblem, template: Template, types: Sequence[str],
                       rooms: list[dict[str, Any]], sized: Iterable[int], site: _Site) -> None:
     """Refuse a problem whose smallest rooms cannot fit: better a message naming the
-    rooms than a problem the solver proves infeasible."""
+    rooms than a problem the solver proves infeasible. With `options.strict` false the
+    minimum sizes are soft and may give way, so nothing is refused."""
+    if not problem.options.strict:
+        return
     errors: list[InitErrorDetails] = []
     mins = [room["min_size"] for room in rooms if room.get("min_size") is not None]
     need = sum(width * depth for width, depth in mins)

@@ -33,6 +33,15 @@ from solver.geometry import (
     shared_wall_length,
     snap_rooms,
 )
+from solver.soft import (
+    adjacency_soft,
+    contact_shortfall,
+    edge_shortfall,
+    point_shortfall,
+    ratio_shortfall,
+    room_soft,
+    size_shortfall,
+)
 
 #: Coverage at or above this share of the free area counts as covered (a soft goal).
 COVERAGE_GOAL = 0.99
@@ -96,7 +105,7 @@ def check_layout(
         coverage=coverage,
         uncovered_area=uncovered,
         size_error=size_error(problem, placed),
-        valid=all(c.satisfied for c in checks if c.kind not in SOFT_KINDS),
+        valid=all(c.satisfied or c.soft for c in checks if c.kind not in SOFT_KINDS),
     )
 
 
@@ -217,15 +226,32 @@ def check_overlap(problem: Problem, placed: Placed, tol: float) -> list[Constrai
 def check_size(problem: Problem, placed: Placed, tol: float) -> list[ConstraintCheck]:
     """C_size (Eq. 5): the bounding box's width and depth lie within min_size..max_size."""
 
-    def verdict(room: Room, p: PlacedRoom) -> tuple[bool, str]:
-        size = p.size
+    checks = []
+    for room in problem.rooms:
+        if room.min_size is None and room.max_size is None:
+            continue
+        soft = room_soft(problem, room)
         lo = room.min_size or (0.0, 0.0)
         hi = room.max_size or (float("inf"), float("inf"))
+        bounds = [b for b, given in (("min_size", room.min_size), ("max_size", room.max_size))
+                  if given is not None]
+        if room.id not in placed:
+            checks.append(ConstraintCheck(kind="size", rooms=[room.id], satisfied=False,
+                                          detail="room not placed",
+                                          soft=all(b in soft for b in bounds)))
+            continue
+        size = placed[room.id].size
         ok = all(lo[k] - tol <= size[k] <= hi[k] + tol for k in (0, 1))
-        return ok, f"{_dims(size)} (needs {_dims(lo)} to {_dims(hi)})"
-
-    return _per_room(problem, placed, "size",
-                     lambda r: r.min_size is not None or r.max_size is not None, verdict)
+        below = size_shortfall(size, room.min_size, None)
+        above = size_shortfall(size, None, room.max_size)
+        # Soft only if what is broken is soft: a hard bound broken is a hard failure.
+        broken = [b for b, miss in (("min_size", below), ("max_size", above)) if miss > tol]
+        checks.append(ConstraintCheck(
+            kind="size", rooms=[room.id], satisfied=ok,
+            detail=f"{_dims(size)} (needs {_dims(lo)} to {_dims(hi)})",
+            soft=all(b in soft for b in (broken if not ok else bounds)),
+            shortfall=0.0 if ok else _round(below + above)))
+    return checks
 
 
 def check_aspect_ratio(problem: Problem, placed: Placed, tol: float) -> list[ConstraintCheck]:
@@ -240,15 +266,36 @@ def check_aspect_ratio(problem: Problem, placed: Placed, tol: float) -> list[Con
         ratio = long / short if short > 0 else float("inf")
         return ok, f"ratio {ratio:.2f} (needs {lo:.2f} to {hi:.2f})"
 
-    return _per_room(problem, placed, "aspect_ratio",
-                     lambda r: r.aspect_ratio is not None, verdict)
+    checks = _per_room(problem, placed, "aspect_ratio",
+                       lambda r: r.aspect_ratio is not None, verdict)
+    rooms = [r for r in problem.rooms if r.aspect_ratio is not None]
+    return [_soft_verdict(c, "aspect_ratio" in room_soft(problem, room),
+                          lambda room=room: ratio_shortfall(placed[room.id].size,
+                                                            room.aspect_ratio))
+            for c, room in zip(checks, rooms, strict=True)]
+
+
+def _soft_verdict(check: ConstraintCheck, soft: bool,
+                  shortfall: Callable[[], float]) -> ConstraintCheck:
+    """`check` marked soft or not, with its shortfall when it failed on a placed room."""
+    update: dict[str, object] = {"soft": soft}
+    if not check.satisfied and check.detail != "room not placed":
+        update["shortfall"] = _round(shortfall())
+    return check.model_copy(update=update)
+
+
+def _round(value: float) -> float:
+    """Shortfalls to the micrometre: SCIP's own tolerance is coarser."""
+    return round(value, 6)
 
 
 def check_position(problem: Problem, placed: Placed, tol: float) -> list[ConstraintCheck]:
     """C_pos (Eq. 8): the room covers each of its guide points."""
     checks = []
     for room in problem.rooms:
+        soft = "positions" in room_soft(problem, room)
         for x, y in room.positions:
+            shortfall = 0.0
             if room.id not in placed:
                 ok, detail = False, "room not placed"
             else:
@@ -256,8 +303,10 @@ def check_position(problem: Problem, placed: Placed, tol: float) -> list[Constra
                 ok = gap <= tol
                 detail = (f"covers ({x:.2f}, {y:.2f})" if ok
                           else f"misses ({x:.2f}, {y:.2f}) by {gap:.2f} m")
+                if not ok:
+                    shortfall = _round(point_shortfall(placed[room.id].rects, (x, y)))
             checks.append(ConstraintCheck(kind="position", rooms=[room.id], satisfied=ok,
-                                          detail=detail))
+                                          detail=detail, soft=soft, shortfall=shortfall))
     return checks
 
 
@@ -275,13 +324,30 @@ def check_boundary(problem: Problem, placed: Placed, tol: float) -> list[Constra
             return True, f"{contact[best]:.2f} m along {edge}"
         return False, f"touches none of edges {', '.join(map(str, contact))}"
 
-    return _per_room(problem, placed, "boundary", lambda r: bool(r.boundary), verdict)
+    checks = _per_room(problem, placed, "boundary", lambda r: bool(r.boundary), verdict)
+    rooms = [r for r in problem.rooms if r.boundary]
+    return [_soft_verdict(c, "boundary" in room_soft(problem, room),
+                          lambda room=room: edge_shortfall(
+                              placed[room.id].snapped_rects,
+                              edges_named(problem, edges, room.boundary)))
+            for c, room in zip(checks, rooms, strict=True)]
 
 
 def check_adjacency(problem: Problem, placed: Placed, tol: float) -> list[ConstraintCheck]:
     """C_adj (Eq. 10, Eq. 11 generalised): room a shares a wall of at least min_contact
     with b, or with the best of any_of."""
-    return [_adjacency(adj, placed, tol) for adj in problem.adjacency]
+    checks = []
+    for adj in problem.adjacency:
+        check = _adjacency(adj, placed, tol)
+        present = [placed[b].snapped_rects for b in adj.partners if b in placed]
+        if adj.a in placed and present and adj.a not in adj.partners:
+            check = _soft_verdict(check, adjacency_soft(problem, adj),
+                                  lambda adj=adj, present=present: contact_shortfall(
+                                      placed[adj.a].snapped_rects, present, adj.min_contact))
+        else:
+            check = check.model_copy(update={"soft": adjacency_soft(problem, adj)})
+        checks.append(check)
+    return checks
 
 
 def _adjacency(adj: Adjacency, placed: Placed, tol: float) -> ConstraintCheck:

@@ -168,6 +168,8 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
         print(no_layout_message(layout), file=sys.stderr)
     elif not layout.report.valid:
         print(invalid_layout_warning(layout), file=sys.stderr)
+    elif layout.report.violations and not args.quiet:
+        print(soft_violations_note(layout), file=sys.stderr)
     if stopped:
         what = "the best layout found so far" if layout.rooms else "the report"
         print(f"{PROG}: interrupted; wrote {what}", file=sys.stderr)
@@ -462,9 +464,11 @@ def progress_line(event: SolveEvent) -> str:
 
 def summary_line(layout: Layout) -> str:
     r = layout.report
+    soft = (f"  soft violations {len(r.violations)} ({r.total_shortfall:.2f} m short)"
+            if r.violations else "")
     return (f"{len(layout.rooms)} rooms  coverage {r.coverage:.1%}  levels {r.levels}  "
-            f"termination {r.termination.value}  valid {'yes' if r.valid else 'no'}  "
-            f"solve time {r.solve_time:.2f} s")
+            f"termination {r.termination.value}  valid {'yes' if r.valid else 'no'}"
+            f"{soft}  solve time {r.solve_time:.2f} s")
 
 
 def invalid_layout_warning(layout: Layout) -> str:
@@ -474,6 +478,17 @@ def invalid_layout_warning(layout: Layout) -> str:
         rooms = ", ".join(c.rooms)
         lines.append(f"  {c.kind}{' ' + rooms if rooms else ''}"
                      f"{': ' + c.detail if c.detail else ''}")
+    return "\n".join(lines)
+
+
+def soft_violations_note(layout: Layout) -> str:
+    """The soft constraints a valid layout breaks (issue 8), each with its shortfall."""
+    r = layout.report
+    lines = [f"{PROG}: {len(r.violations)} soft constraint(s) not met, "
+             f"{r.total_shortfall:.2f} m short in all:"]
+    for c in r.violations:
+        lines.append(f"  {c.kind} {', '.join(c.rooms)}: {c.shortfall:.2f} m short"
+                     f"{' (' + c.detail + ')' if c.detail else ''}")
     return "\n".join(lines)
 
 

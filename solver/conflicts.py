@@ -41,6 +41,7 @@ from solver.level_one import level_one_spec, wings_wanted
 from solver.openings import connection_demands
 from solver.precheck import find_impossibilities
 from solver.scip_run import LevelStatus, run_level
+from solver.soft import hard_part
 
 #: A SCIP check gets this share of the time left ...
 CHECK_SHARE = 0.25
@@ -525,9 +526,11 @@ def diagnose(
     problem: Problem, *, time_limit: float, should_stop: Callable[[], bool] | None = None,
 ) -> Diagnosis:
     """The prechecks, then (when they find nothing) one level-1 check of the whole
-    problem, then a conflict search if it is infeasible; all within `time_limit`."""
+    problem, then a conflict search if it is infeasible; all within `time_limit`.
+    Soft constraints (issue 8) are left out: a layout may break them."""
     deadline = time.monotonic() + time_limit
-    solved = connection_demands(problem)
+    problem = hard_part(problem)
+    solved = hard_part(connection_demands(problem))
     domain = make_domain(solved)
     findings = find_impossibilities(solved, domain)
     if findings:

@@ -21,7 +21,15 @@ from typing import Any, Literal
 
 from pyscipopt import Model, Variable, quicksum
 
-from solver.geometry import EPS, Box, Edge
+from solver.geometry import EPS, Box, Edge, bounding_box
+from solver.soft import (
+    SOFT_EDGE_CONTACT,
+    contact_shortfall,
+    edge_shortfall,
+    point_shortfall,
+    ratio_shortfall,
+    size_shortfall,
+)
 
 Split = Literal["vertical", "horizontal"]
 
@@ -54,6 +62,13 @@ class RectSpec:
     #: A rectangle held at this box: a neighbour that a free rectangle must touch
     #: (C_adj) but that is otherwise settled; it is also among the level's `blocked`.
     fixed: Box | None = None
+    #: Soft constraint families of this rectangle (min_size, max_size, aspect_ratio,
+    #: positions, boundary): each may be violated at `LevelSpec.violation_weight` per
+    #: metre of slack.
+    soft: frozenset[str] = frozenset()
+    #: Hard lower bounds on width and depth under a soft minimum (or none): a room that
+    #: yields to its neighbours still stays a room.
+    floor: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -65,6 +80,8 @@ class ContactSpec:
     a: tuple[str, ...]
     partners: tuple[tuple[str, ...], ...]
     min_contact: float
+    #: The contact may fall short (and the walls stay apart) at a price per metre.
+    soft: bool = False
 
     @property
     def members(self) -> set[str]:
@@ -87,6 +104,8 @@ class EnvelopeSpec:
     previous: Box | None
     max_size: tuple[float, float]
     aspect_ratio: tuple[float, float] | None
+    #: Soft families among max_size and aspect_ratio (exact envelopes only).
+    soft: frozenset[str] = frozenset()
 
 
 @dataclass(frozen=True)
@@ -106,6 +125,8 @@ class LevelSpec:
     #: size: it pushes rooms to cover more along their own shape without touching
     #: convexity (0 = Eq. 12 exactly).
     growth_weight: float = 0.0
+    #: Price per metre of slack of a soft constraint (`Weights.violation`).
+    violation_weight: float = 0.0
 
 
 def free_rects(spec: LevelSpec) -> list[RectSpec]:
@@ -129,6 +150,8 @@ class LevelModel:
     model: Model
     rects: dict[str, RectVars]
     families: list[str] = field(default_factory=list)
+    #: The slack variables of soft constraints, each priced in the objective.
+    slacks: list[Variable] = field(default_factory=list)
     #: Event callbacks of the current solve; SCIP takes each handler once per model, so
     #: the runner installs handlers once and swaps what they call.
     hooks: dict[str, Any] = field(default_factory=dict)
@@ -168,14 +191,33 @@ def add_rect_vars(m: Model, spec: LevelSpec) -> dict[str, RectVars]:
 
 
 def c_size(lm: LevelModel) -> None:
-    """C_size (Eq. 5): min <= w <= max and min <= d <= max, as variable bounds."""
+    """C_size (Eq. 5): min <= w <= max and min <= d <= max, as variable bounds; a soft
+    bound is a constraint with a slack instead (w + s >= min, w - s <= max)."""
     m = lm.model
     for r in free_rects(lm.spec):
         v = lm.rects[r.name]
-        m.chgVarLb(v.w, r.min_size[0])
-        m.chgVarUb(v.w, min(r.max_size[0], lm.spec.region.width))
-        m.chgVarLb(v.d, r.min_size[1])
-        m.chgVarUb(v.d, min(r.max_size[1], lm.spec.region.depth))
+        extents = (lm.spec.region.width, lm.spec.region.depth)
+        for axis, var, name in ((0, v.w, "w"), (1, v.d, "d")):
+            lo, hi = r.min_size[axis], r.max_size[axis]
+            if "min_size" in r.soft and lo > r.floor[axis]:
+                slack = _slack(lm, f"min_{name}[{r.name}]")
+                m.addCons(var + slack >= lo, name=f"size_min_{name}[{r.name}]")
+                m.chgVarLb(var, r.floor[axis])
+            else:
+                m.chgVarLb(var, max(lo, r.floor[axis]))
+            if "max_size" in r.soft and hi < extents[axis]:
+                slack = _slack(lm, f"max_{name}[{r.name}]")
+                m.addCons(var - slack <= hi, name=f"size_max_{name}[{r.name}]")
+                m.chgVarUb(var, extents[axis])
+            else:
+                m.chgVarUb(var, min(hi, extents[axis]))
+
+
+def _slack(lm: LevelModel, name: str) -> Variable:
+    """A slack variable of a soft constraint (metres), priced in the objective."""
+    slack = lm.model.addVar(f"slack[{name}]", lb=0.0, ub=None)
+    lm.slacks.append(slack)
+    return slack
 
 
 def c_inside(lm: LevelModel) -> None:
@@ -219,40 +261,52 @@ def c_ratio(lm: LevelModel) -> None:
         if r.aspect_ratio is None:
             continue
         v = lm.rects[r.name]
-        _either_orientation(lm, v.w, v.d, r.aspect_ratio, tag=r.name)
+        slack = _slack(lm, f"ratio[{r.name}]") if "aspect_ratio" in r.soft else None
+        _either_orientation(lm, v.w, v.d, r.aspect_ratio, tag=r.name, slack=slack)
 
 
 def _either_orientation(lm: LevelModel, width: Any, depth: Any, ratio: tuple[float, float],
-                        *, tag: str, prefix: str = "") -> None:
+                        *, tag: str, prefix: str = "", slack: Variable | None = None) -> None:
     """lo <= long/short <= hi for a width and depth (variables or expressions), a
-    binary sigma choosing which side is the long one (sigma = 1: a vertical room)."""
+    binary sigma choosing which side is the long one (sigma = 1: a vertical room).
+    With a `slack` (soft), the long side may miss [lo, hi] x the short side by it."""
     m, (lo, hi) = lm.model, ratio
+    s: Any = 0.0 if slack is None else slack
     big = hi * max(lm.big_m_x, lm.big_m_y)
     tall = m.addVar(f"{prefix}tall[{tag}]", vtype="B")
-    m.addCons(lo * depth <= width + big * tall, name=f"{prefix}ratio_wide_lo[{tag}]")
-    m.addCons(hi * depth >= width - big * tall, name=f"{prefix}ratio_wide_hi[{tag}]")
-    m.addCons(lo * width <= depth + big * (1 - tall), name=f"{prefix}ratio_tall_lo[{tag}]")
-    m.addCons(hi * width >= depth - big * (1 - tall), name=f"{prefix}ratio_tall_hi[{tag}]")
+    m.addCons(lo * depth <= width + big * tall + s, name=f"{prefix}ratio_wide_lo[{tag}]")
+    m.addCons(hi * depth >= width - big * tall - s, name=f"{prefix}ratio_wide_hi[{tag}]")
+    m.addCons(lo * width <= depth + big * (1 - tall) + s,
+              name=f"{prefix}ratio_tall_lo[{tag}]")
+    m.addCons(hi * width >= depth - big * (1 - tall) - s,
+              name=f"{prefix}ratio_tall_hi[{tag}]")
 
 
 def c_pos(lm: LevelModel) -> None:
-    """C_pos (Eq. 8): the rectangle covers each of its guide points."""
+    """C_pos (Eq. 8): the rectangle covers each of its guide points; soft, it comes
+    within a slack of each point on both axes."""
     m = lm.model
     for r in free_rects(lm.spec):
         v = lm.rects[r.name]
         for k, (px, py) in enumerate(r.positions):
-            m.addCons(v.x <= px, name=f"pos_w[{r.name},{k}]")
-            m.addCons(v.x + v.w >= px, name=f"pos_e[{r.name},{k}]")
-            m.addCons(v.y <= py, name=f"pos_s[{r.name},{k}]")
-            m.addCons(v.y + v.d >= py, name=f"pos_n[{r.name},{k}]")
+            s: Any = _slack(lm, f"pos[{r.name},{k}]") if "positions" in r.soft else 0.0
+            m.addCons(v.x <= px + s, name=f"pos_w[{r.name},{k}]")
+            m.addCons(v.x + v.w >= px - s, name=f"pos_e[{r.name},{k}]")
+            m.addCons(v.y <= py + s, name=f"pos_s[{r.name},{k}]")
+            m.addCons(v.y + v.d >= py - s, name=f"pos_n[{r.name},{k}]")
 
 
 def c_boundary(lm: LevelModel) -> None:
     """C_boundary (Eq. 9, all four facings): one whole side of the rectangle lies on
-    one of the candidate exterior edges; a binary rho_k per candidate edge."""
+    one of the candidate exterior edges; a binary rho_k per candidate edge. Soft, the
+    rectangle comes within a slack of the edge's line and of its span, overlapping
+    the span by `SOFT_EDGE_CONTACT` at zero slack."""
     m = lm.model
     for r in free_rects(lm.spec):
         if not r.edges:
+            continue
+        if "boundary" in r.soft:
+            _soft_boundary(lm, r)
             continue
         v = lm.rects[r.name]
         rho = {}
@@ -278,13 +332,49 @@ def c_boundary(lm: LevelModel) -> None:
                 m.addCons(across + extent >= e.line - m_across * off, name=f"edge_on[{tag}]")
 
 
+def _soft_boundary(lm: LevelModel, r: RectSpec) -> None:
+    """C_boundary (Eq. 9) with one slack s: across the chosen edge's line the rectangle
+    is within s, and along it the rectangle overlaps the edge's span by the contact
+    margin less s (the distance `edge_shortfall` measures)."""
+    m, v = lm.model, lm.rects[r.name]
+    slack = _slack(lm, f"boundary[{r.name}]")
+    rho: dict[int, Any] = {}
+    if len(r.edges) == 1:
+        rho[r.edges[0].index] = 1.0
+    else:
+        for e in r.edges:
+            rho[e.index] = m.addVar(f"rho[{r.name},{e.index}]", vtype="B")
+        m.addCons(quicksum(rho.values()) >= 1, name=f"boundary[{r.name}]")
+    for e in r.edges:
+        off = 1 - rho[e.index]
+        lo, hi = e.span
+        margin = min(SOFT_EDGE_CONTACT, e.length / 2)
+        along, length, across, extent = (
+            (v.x, v.w, v.y, v.d) if e.horizontal else (v.y, v.d, v.x, v.w)
+        )
+        m_along, m_across = _edge_big_m(lm.spec.region, e)
+        m_along += margin
+        tag = f"{r.name},{e.index}"
+        m.addCons(along + length >= lo + margin - slack - m_along * off,
+                  name=f"edge_lo[{tag}]")
+        m.addCons(along <= hi - margin + slack + m_along * off, name=f"edge_hi[{tag}]")
+        if e.facing in ("south", "west"):
+            m.addCons(across <= e.line + slack + m_across * off, name=f"edge_on[{tag}]")
+        else:
+            m.addCons(across + extent >= e.line - slack - m_across * off,
+                      name=f"edge_on[{tag}]")
+
+
 def c_adj(lm: LevelModel) -> None:
     """C_adj (Eq. 10) and its any-of form (Eq. 11 generalised to k candidates): the
     two rectangles overlap in x by >= c (theta = 1, a horizontal shared wall) or in y
-    by >= c (theta = 0), and touch; C_overlap keeps their interiors apart."""
+    by >= c (theta = 0), and touch; C_overlap keeps their interiors apart. Soft, one
+    slack s per contact: the overlap along the wall may miss c by s, and the walls may
+    stand s apart (the distance `contact_shortfall` measures)."""
     m = lm.model
     mx, my = lm.big_m_x, lm.big_m_y
     for c in lm.spec.contacts:
+        s: Any = _slack(lm, f"adj[{c.name}]") if c.soft else 0.0
         # dict.fromkeys: a partner named twice is still one candidate pair.
         pairs = list(dict.fromkeys((a, b) for group in c.partners for b in group for a in c.a))
         if len(pairs) == 1:
@@ -298,18 +388,21 @@ def c_adj(lm: LevelModel) -> None:
             theta = m.addVar(f"theta[{tag}]", vtype="B")
             off = 1 - pick
             cc = c.min_contact
-            m.addCons(i.x <= j.x + j.w - cc * theta + (mx + cc) * off, name=f"adj_x1[{tag}]")
-            m.addCons(i.x + i.w >= j.x + cc * theta - (mx + cc) * off, name=f"adj_x2[{tag}]")
-            m.addCons(i.y <= j.y + j.d - cc * (1 - theta) + (my + cc) * off,
+            m.addCons(i.x <= j.x + j.w - cc * theta + s + (mx + cc) * off,
+                      name=f"adj_x1[{tag}]")
+            m.addCons(i.x + i.w >= j.x + cc * theta - s - (mx + cc) * off,
+                      name=f"adj_x2[{tag}]")
+            m.addCons(i.y <= j.y + j.d - cc * (1 - theta) + s + (my + cc) * off,
                       name=f"adj_y1[{tag}]")
-            m.addCons(i.y + i.d >= j.y + cc * (1 - theta) - (my + cc) * off,
+            m.addCons(i.y + i.d >= j.y + cc * (1 - theta) - s - (my + cc) * off,
                       name=f"adj_y2[{tag}]")
             # The overlap of two intervals is also bounded by each length: without these
             # a narrow room nested in a wide neighbour's span would pass Eq. 10 with less
             # than c of wall.
             for v, which in ((i, "i"), (j, "j")):
-                m.addCons(v.w >= cc * theta - cc * off, name=f"adj_wlen[{tag},{which}]")
-                m.addCons(v.d >= cc * (1 - theta) - cc * off, name=f"adj_dlen[{tag},{which}]")
+                m.addCons(v.w >= cc * theta - s - cc * off, name=f"adj_wlen[{tag},{which}]")
+                m.addCons(v.d >= cc * (1 - theta) - s - cc * off,
+                          name=f"adj_dlen[{tag},{which}]")
 
 
 def c_refine(lm: LevelModel) -> None:
@@ -404,10 +497,18 @@ def _exact_envelope(lm: LevelModel, e: EnvelopeSpec) -> None:
             m.addCons(outward * (edge - value) <= big * (1 - pick),
                       name=f"env_at[{tag},{side},{k}]")
     width, depth = box["x1"] - box["x0"], box["y1"] - box["y0"]
-    m.addCons(width <= e.max_size[0], name=f"env_wmax[{tag}]")
-    m.addCons(depth <= e.max_size[1], name=f"env_dmax[{tag}]")
+    if "max_size" in e.soft:
+        m.addCons(width - _slack(lm, f"env_max_w[{tag}]") <= e.max_size[0],
+                  name=f"env_wmax[{tag}]")
+        m.addCons(depth - _slack(lm, f"env_max_d[{tag}]") <= e.max_size[1],
+                  name=f"env_dmax[{tag}]")
+    else:
+        m.addCons(width <= e.max_size[0], name=f"env_wmax[{tag}]")
+        m.addCons(depth <= e.max_size[1], name=f"env_dmax[{tag}]")
     if e.aspect_ratio is not None:
-        _either_orientation(lm, width, depth, e.aspect_ratio, tag=tag, prefix="env_")
+        slack = _slack(lm, f"env_ratio[{tag}]") if "aspect_ratio" in e.soft else None
+        _either_orientation(lm, width, depth, e.aspect_ratio, tag=tag, prefix="env_",
+                            slack=slack)
 
 
 def e_objective(lm: LevelModel) -> None:
@@ -423,8 +524,8 @@ def e_objective(lm: LevelModel) -> None:
     terms = []
     for r in free_rects(spec):
         v = lm.rects[r.name]
-        w_hi = min(r.max_size[0], spec.region.width)
-        d_hi = min(r.max_size[1], spec.region.depth)
+        # The variables' own upper bounds: a soft maximum leaves them the region's.
+        w_hi, d_hi = v.w.getUbOriginal(), v.d.getUbOriginal()
         tw, td = _aim(spec, r)
         bonus = spec.growth_weight * (td * w_hi + tw * d_hi)
         z = m.addVar(f"energy[{r.name}]", lb=-lc * w_hi * d_hi - bonus)
@@ -435,7 +536,14 @@ def e_objective(lm: LevelModel) -> None:
             name=f"energy_epigraph[{r.name}]",
         )
         terms.append(z)
-    m.setObjective(quicksum(terms) + lc * spec.free_area, "minimize")
+    m.setObjective(quicksum(terms) + e_violation(lm) + lc * spec.free_area, "minimize")
+
+
+def e_violation(lm: LevelModel) -> Any:
+    """The price of the soft constraints' slacks: `violation_weight` per metre. Linear,
+    so Eq. 12 stays convex; the exact-penalty form makes every slack zero whenever the
+    rest of the objective gains less than the weight per metre of violation."""
+    return lm.spec.violation_weight * quicksum(lm.slacks)
 
 
 Family = Callable[[LevelModel], None]
@@ -458,6 +566,9 @@ def build_level(
         lm.families.append(family.__name__)
     if not feasibility:
         e_objective(lm)
+    elif lm.slacks:
+        # A first layout of a soft problem: the least violation, Eq. 12 left for later.
+        m.setObjective(e_violation(lm), "minimize")
     return lm
 
 
@@ -511,6 +622,39 @@ def level_objective(spec: LevelSpec, boxes: dict[str, Box]) -> float:
         total += spec.size_weight * ((b.width - tw) ** 2 + (b.depth - td) ** 2)
         total -= spec.cover_weight * b.width * b.depth
         total -= spec.growth_weight * (td * b.width + tw * b.depth)
+    return total + spec.violation_weight * spec_shortfall(spec, boxes)
+
+
+def spec_shortfall(spec: LevelSpec, boxes: dict[str, Box]) -> float:
+    """The total shortfall of the soft constraints of `spec` on given rectangles
+    (metres), as the slacks of the MIQP count it (solver/soft.py)."""
+    total = 0.0
+    for r in free_rects(spec):
+        if not r.soft:
+            continue
+        b = boxes[r.name]
+        size = (b.width, b.depth)
+        total += size_shortfall(size, r.min_size if "min_size" in r.soft else None,
+                                r.max_size if "max_size" in r.soft else None)
+        if r.aspect_ratio is not None and "aspect_ratio" in r.soft:
+            total += ratio_shortfall(size, r.aspect_ratio)
+        if "positions" in r.soft:
+            total += sum(point_shortfall([b], p) for p in r.positions)
+        if r.edges and "boundary" in r.soft:
+            total += edge_shortfall([b], r.edges, SOFT_EDGE_CONTACT)
+    for c in spec.contacts:
+        if c.soft:
+            total += contact_shortfall([boxes[n] for n in c.a],
+                                       [[boxes[n] for n in g] for g in c.partners],
+                                       c.min_contact)
+    for e in spec.envelopes:
+        if e.soft and e.previous is None:
+            b = bounding_box([boxes[n] for n in e.rects])
+            size = (b.width, b.depth)
+            if "max_size" in e.soft:
+                total += size_shortfall(size, None, e.max_size)
+            if e.aspect_ratio is not None and "aspect_ratio" in e.soft:
+                total += ratio_shortfall(size, e.aspect_ratio)
     return total
 
 

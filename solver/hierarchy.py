@@ -11,6 +11,7 @@ halves of each split together.
 from __future__ import annotations
 
 import itertools
+import math
 import random
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
@@ -22,6 +23,7 @@ from shapely.geometry.base import BaseGeometry
 from models import Problem
 from solver.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
 from solver.geometry import EPS, Box, Domain, Edge, bounding_box, rectangles_of
+from solver.soft import room_soft
 
 #: Uncovered parts smaller than this (m²) are numerical dust, not gaps.
 GAP_AREA = 1e-3
@@ -46,6 +48,8 @@ class Piece:
     box: Box
     positions: tuple[tuple[float, float], ...] = ()
     edges: tuple[Edge, ...] = ()
+    #: The room's soft constraint families, inherited by the halves of a split.
+    soft: frozenset[str] = frozenset()
 
 
 @dataclass(frozen=True)
@@ -142,19 +146,39 @@ def split_piece(piece: Piece, direction: Split) -> tuple[Piece, Piece]:
         halves = (Box(b.x0, b.y0, b.x1, mid), Box(b.x0, mid, b.x1, b.y1))
     points = [tuple(p for p in piece.positions if (h.contains_point(*p))) for h in halves]
     points[1] = tuple(p for p in points[1] if p not in points[0])
+    if "positions" in piece.soft:
+        # A soft point the room misses goes on with the nearer half, which may grow
+        # toward it.
+        for p in piece.positions:
+            if p not in points[0] and p not in points[1]:
+                k = _nearer(halves, p)
+                points[k] = (*points[k], p)
     # An edge goes to one half lying on it; the other keeps touching it anyway, as
     # the halves cover the parent. An edge neither half lies on is dropped: the room's
-    # C_boundary is already met through another of its candidate edges.
+    # C_boundary is already met through another of its candidate edges (or, soft and
+    # missed, goes on with the nearer half).
     edges: list[list[Edge]] = [[], []]
     for e in piece.edges:
         for k in (0, 1):
             if on_edge(halves[k], e):
                 edges[k].append(e)
                 break
+        else:
+            if "boundary" in piece.soft:
+                edges[_nearer(halves, ((e.start[0] + e.end[0]) / 2,
+                                       (e.start[1] + e.end[1]) / 2))].append(e)
     return tuple(  # type: ignore[return-value]
-        Piece(f"{piece.name}.{k}", piece.room, halves[k], points[k], tuple(edges[k]))
+        Piece(f"{piece.name}.{k}", piece.room, halves[k], points[k], tuple(edges[k]),
+              piece.soft)
         for k in range(2)
     )
+
+
+def _nearer(halves: tuple[Box, Box], point: tuple[float, float]) -> int:
+    """The index of the half nearer to `point`."""
+    x, y = point
+    far = [max(h.x0 - x, x - h.x1, h.y0 - y, y - h.y1, 0.0) for h in halves]
+    return 0 if far[0] <= far[1] else 1
 
 
 def on_edge(b: Box, e: Edge) -> bool:
@@ -230,6 +254,7 @@ def plan_refinement(
                 edges=h.edges,
                 refine=Refine(parent=p.box, direction=direction,
                               child=k if len(halves) == 2 else -1, delta=delta),
+                soft=h.soft & {"positions", "boundary"},
             ))
             start[h.name] = h.box
             children[h.name] = h
@@ -243,11 +268,11 @@ def plan_refinement(
             ))
     envelopes = []
     for room_id in sorted(sub.rooms):
-        room = problem.room(room_id)
         names = tuple(n for n, h in children.items() if h.room == room_id)
         previous = bounding_box([p.box for p in inside if p.room == room_id])
-        max_size = room.max_size or (domain.bbox.width, domain.bbox.depth)
-        envelopes.append(EnvelopeSpec(room_id, names, previous, max_size, room.aspect_ratio))
+        max_size, ratio = relaxed_bounds(problem, room_id, previous,
+                                         (domain.bbox.width, domain.bbox.depth))
+        envelopes.append(EnvelopeSpec(room_id, names, previous, max_size, ratio))
     spec = LevelSpec(
         name=f"{problem.name}/level{level}/sub{index}",
         region=region,
@@ -258,8 +283,28 @@ def plan_refinement(
         envelopes=tuple(envelopes),
         cover_weight=problem.weights.cover,
         size_weight=max(problem.weights.size, problem.weights.cover / 2),
+        violation_weight=problem.weights.violation,
     )
     return RefinementPlan(spec, start, children)
+
+
+def relaxed_bounds(
+    problem: Problem, room_id: str, now: Box, unbounded: tuple[float, float],
+) -> tuple[tuple[float, float], tuple[float, float] | None]:
+    """The maximum size and aspect ratio a room may grow within. A soft bound the room
+    already breaks is moved to where the room is: growth may not make the violation
+    worse, and the room need not shrink (refinement only grows rooms)."""
+    room = problem.room(room_id)
+    soft = room_soft(problem, room)
+    max_size = room.max_size or unbounded
+    if "max_size" in soft:
+        max_size = (max(max_size[0], now.width), max(max_size[1], now.depth))
+    ratio = room.aspect_ratio
+    if ratio is not None and "aspect_ratio" in soft:
+        long, short = max(now.width, now.depth), min(now.width, now.depth)
+        actual = long / max(short, EPS)
+        ratio = (min(ratio[0], actual), max(ratio[1], actual))
+    return max_size, ratio
 
 
 def _min_half(b: Box, direction: Split, n: int) -> tuple[float, float]:
@@ -369,7 +414,7 @@ def _deepest_strip(
         }[side]
 
     def fits(t: float) -> bool:
-        return _within_bounds(problem, room_id, [*own, strip(t)])
+        return _within_bounds(problem, room_id, [*own, strip(t)], bounding_box(own))
 
     full = part.depth if side in ("south", "north") else part.width
     if fits(full):
@@ -409,13 +454,13 @@ def _cuts_along(pieces: Sequence[Piece], cell: Box, side: str) -> list[tuple[str
     return cuts if at >= hi - 1e-6 else None
 
 
-def _within_bounds(problem: Problem, room_id: str, boxes: list[Box]) -> bool:
-    room = problem.room(room_id)
+def _within_bounds(problem: Problem, room_id: str, boxes: list[Box], now: Box) -> bool:
     b = bounding_box(boxes)
-    if room.max_size and (b.width > room.max_size[0] + 1e-9 or b.depth > room.max_size[1] + 1e-9):
+    max_size, aspect_ratio = relaxed_bounds(problem, room_id, now, (math.inf, math.inf))
+    if b.width > max_size[0] + 1e-9 or b.depth > max_size[1] + 1e-9:
         return False
-    if room.aspect_ratio:
-        lo, hi = room.aspect_ratio
+    if aspect_ratio:
+        lo, hi = aspect_ratio
         ratio = max(b.width, b.depth) / max(min(b.width, b.depth), EPS)
         if not lo - 1e-9 <= ratio <= hi + 1e-9:
             return False

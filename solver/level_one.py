@@ -9,6 +9,7 @@ from collections.abc import Mapping
 from models import Problem, Room
 from solver.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec
 from solver.geometry import Domain, edges_named
+from solver.soft import adjacency_soft, room_soft
 
 #: Sec. 5.4: with targets, start the size bounds at 90-110 % of the target ...
 WINDOW_START = 0.10
@@ -21,6 +22,10 @@ WING_JOIN = 1.2
 WING_MIN = 1.0
 #: Separates a room's id from the number of one of its extra rectangles.
 WING_MARK = "~wing"
+#: In the soft model every room keeps at least this width and depth (metres), or its
+#: maximum when smaller: a room squeezed to nothing by its neighbours' demands is
+#: not a plan, whatever its own constraints say.
+SOFT_FLOOR = 0.5
 
 
 def size_bounds(room: Room, domain: Domain, window: float | None) -> tuple[
@@ -63,13 +68,14 @@ def windows_to_try(problem: Problem) -> list[float | None]:
 
 def level_one_spec(
     problem: Problem, domain: Domain, *, window: float | None,
-    wings: Mapping[str, int] | None = None,
+    wings: Mapping[str, int] | None = None, soft: bool = False,
 ) -> LevelSpec:
     """Level 1: every room one rectangle, every constraint of the request; a room in
     `wings` gets that many more rectangles (issue 8), each sharing at least
     `WING_JOIN` metres of wall with the room's main rectangle, which answers for the
     room's guide points, boundary and target, while its size maximum and aspect ratio
-    hold on the bounding box of all of them (an exact envelope)."""
+    hold on the bounding box of all of them (an exact envelope). With `soft`, the
+    problem's soft constraints get slacks priced at `Weights.violation` per metre."""
     wings = wings or {}
     rects = []
     contacts: list[ContactSpec] = []
@@ -77,6 +83,7 @@ def level_one_spec(
     for room in problem.rooms:
         lo, hi = size_bounds(room, domain, window)
         extra = wing_names(room.id, wings.get(room.id, 0))
+        relaxed = room_soft(problem, room) if soft else frozenset()
         rects.append(RectSpec(
             name=room.id,
             room=room.id,
@@ -86,6 +93,8 @@ def level_one_spec(
             aspect_ratio=None if extra else room.aspect_ratio,
             positions=tuple(room.positions),
             edges=tuple(edges_named(problem, domain.edges, room.boundary)),
+            soft=frozenset(relaxed),
+            floor=(min(SOFT_FLOOR, hi[0]), min(SOFT_FLOOR, hi[1])) if soft else (0.0, 0.0),
         ))
         for name in extra:
             rects.append(RectSpec(name=name, room=room.id, min_size=(WING_MIN, WING_MIN),
@@ -94,7 +103,7 @@ def level_one_spec(
                                         partners=((room.id,),), min_contact=WING_JOIN))
         if extra:
             envelopes.append(EnvelopeSpec(room.id, (room.id, *extra), None, hi,
-                                          room.aspect_ratio))
+                                          room.aspect_ratio, soft=frozenset(relaxed)))
 
     def parts(room_id: str) -> tuple[str, ...]:
         return (room_id, *wing_names(room_id, wings.get(room_id, 0)))
@@ -105,6 +114,7 @@ def level_one_spec(
             a=parts(adj.a),
             partners=tuple(parts(p) for p in adj.partners),
             min_contact=adj.min_contact,
+            soft=soft and adjacency_soft(problem, adj),
         )
         for k, adj in enumerate(problem.adjacency)
     ]
@@ -118,6 +128,7 @@ def level_one_spec(
         envelopes=tuple(envelopes),
         cover_weight=problem.weights.cover,
         size_weight=problem.weights.size,
+        violation_weight=problem.weights.violation if soft else 0.0,
     )
 
 

@@ -101,7 +101,7 @@ def connection_demands(problem: Problem) -> Problem:
         if not partners:
             continue
         demands.append(Adjacency(a=room_id, any_of=circulation or partners,
-                                 min_contact=contact))
+                                 min_contact=contact, soft=not problem.options.strict))
         # Any one of the partners links the room in; count it as reached from here on.
         links[room_id].add(partners[0])
         links[partners[0]].add(room_id)

@@ -10,10 +10,16 @@ from shapely.geometry.base import BaseGeometry
 
 from models import Problem, Room
 from solver.geometry import EPS, Domain, edges_named
+from solver.soft import hard_part
 
 
-def find_impossibilities(problem: Problem, domain: Domain) -> list[str]:
-    """Every cheap reason why no layout can exist."""
+def find_impossibilities(
+    problem: Problem, domain: Domain, *, ignore_soft: bool = True
+) -> list[str]:
+    """Every cheap reason why no layout can exist; soft constraints (issue 8) are not
+    looked at unless `ignore_soft` is false (then: why no layout meets all of them)."""
+    if ignore_soft:
+        problem = hard_part(problem)
     findings = list(_total_area(problem, domain))
     for room in problem.rooms:
         findings += _room_fits(room, domain)

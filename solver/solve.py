@@ -84,6 +84,7 @@ from solver.scip_run import (
     run_level,
 )
 from solver.slicing import slicing_applies, slicing_has_demands, slicing_layout
+from solver.soft import hard_part, has_soft, room_soft
 
 #: Seconds per job up to `BASE_ROOMS` rooms (Sec. 5.4) ...
 BASE_TIME = 5.0
@@ -106,6 +107,9 @@ SLICE_DEMANDS_SHARE = 0.06
 COVERAGE_PHASE_SHARE = 0.85
 #: A fully covering layout's polish ends after this many steps in a row without gain.
 STALL_STEPS = 8
+#: With soft constraints, the share of level 1's time the search for a layout meeting
+#: every constraint may use before the soft model takes over.
+STRICT_FIRST_SHARE = 0.5
 #: Output coordinates closer than this (metres) are made equal: SCIP's feasibility
 #: tolerance is relative, so at 60 m two walls meant to meet may lie 6e-5 m apart.
 #: The same tolerance as the checker's.
@@ -166,6 +170,8 @@ class _Run:
     #: Extra level-1 rectangles per room (issue 8), and the report's account of them.
     wings: dict[str, int] = field(default_factory=dict)
     extra: list[ExtraRectangles] = field(default_factory=list)
+    #: The layout comes from the soft model: soft constraints carry priced slacks.
+    soft: bool = False
 
     def room_of(self, rect: str) -> str:
         """The room a level-1 rectangle belongs to."""
@@ -199,7 +205,7 @@ class _Run:
         """Announce the whole current layout with its Eq. 12 value, as the report counts it."""
         if self.on_event is not None:
             self.emit(Phase.INCUMBENT, subdomain=sub, subdomains=subs, rooms=rooms,
-                      objective=layout_objective(self.problem, domain, rooms),
+                      objective=layout_objective(self.problem, domain, rooms, soft=self.soft),
                       dual_bound=dual_bound)
 
     def run(self, lm: LevelModel, limit: float, *,
@@ -210,9 +216,12 @@ class _Run:
         return result
 
 
-def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box]]) -> float:
+def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box]], *,
+                     soft: bool = False) -> float:
     """Eq. 12 on a layout: lambda_cover * uncovered area + lambda_size * E_size of the
-    rooms with a target, each room measured by its bounding box."""
+    rooms with a target, each room measured by its bounding box; with `soft` (a layout
+    of the soft model, the only kind that may violate anything) plus the price of the
+    soft constraints' shortfalls."""
     union = shapely.union_all([b.to_polygon() for boxes in rooms.values() for b in boxes])
     uncovered = domain.area - float(domain.free.intersection(union).area)
     size = 0.0
@@ -220,7 +229,13 @@ def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box
         if room.target_size is not None and room.id in rooms:
             b = bounding_box(rooms[room.id])
             size += (b.width - room.target_size[0]) ** 2 + (b.depth - room.target_size[1]) ** 2
-    return problem.weights.cover * uncovered + problem.weights.size * size
+    penalty = 0.0
+    if soft and all(r.id in rooms for r in problem.rooms):
+        # The price of soft violations, as the report counts it.
+        checks = check_layout(problem, rooms).constraints
+        penalty = problem.weights.violation * sum(
+            c.shortfall for c in checks if c.soft and not c.satisfied)
+    return problem.weights.cover * uncovered + problem.weights.size * size + penalty
 
 
 def solve(
@@ -248,12 +263,25 @@ def solve(
     reserve = min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
     run = _Run(problem, started + limit - reserve, started, on_event, should_stop, asked=asked)
     domain = make_domain(problem)
-    findings = find_impossibilities(problem, domain)
+    findings = find_impossibilities(problem, domain)  # soft constraints never refuse
     if findings:
         return _no_layout(run, Termination.INFEASIBLE, _explained(run, domain, Infeasibility(
             reason="the problem is infeasible before any solving", findings=findings)))
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
-    pieces, failure = _level_one(run, domain, started + (run.deadline - started) * LEVEL_ONE_SHARE)
+    level_one_end = started + (run.deadline - started) * LEVEL_ONE_SHARE
+    if not has_soft(problem):
+        pieces, failure = _level_one(run, domain, level_one_end)
+    else:
+        # Issue 8: a layout meeting every constraint, soft ones too, is looked for first
+        # (no price per metre makes a violating layout reliably lose to it); the soft
+        # model takes over when there is none, or none found in its share of the time.
+        pieces, failure = None, None
+        if not find_impossibilities(problem, domain, ignore_soft=False):
+            pieces, failure = _level_one(
+                run, domain, level_one_end, explain=False,
+                first_by=started + (level_one_end - started) * STRICT_FIRST_SHARE)
+        if pieces is None and not run.stopped():
+            pieces, failure = _soft_level_one(run, domain, level_one_end)
     if pieces is None:
         assert failure is not None
         return failure
@@ -378,11 +406,15 @@ def _refine_at_once(
 
 
 def _level_one(
-    run: _Run, domain: Domain, deadline: float
+    run: _Run, domain: Domain, deadline: float, *, first_by: float | None = None,
+    explain: bool = True,
 ) -> tuple[list[Piece] | None, Layout | None]:
     """Sec. 5.4: find a first layout with size bounds at target +-10 %, widening by 10 %
-    until one is found; then improve it under the user's own bounds (Eq. 12)."""
+    until one is found (by `first_by`, else by `deadline`); then improve it under the
+    user's own bounds (Eq. 12) until `deadline`. Without `explain`, an infeasible
+    problem's answer has no conflict search."""
     problem = run.problem
+    improve_by, deadline = deadline, first_by or deadline
     first: LevelResult | None = None
     proven_infeasible = False
     large = len(problem.rooms) > CONSTRUCT_ABOVE
@@ -427,7 +459,9 @@ def _level_one(
             why = Infeasibility(
                 reason="SCIP proved that no single-rectangle layout satisfies the constraints",
                 active_families=active_families(spec), relaxations_tried=run.relaxations)
-            return None, _no_layout(run, Termination.INFEASIBLE, _explained(run, domain, why))
+            if explain:
+                why = _explained(run, domain, why)
+            return None, _no_layout(run, Termination.INFEASIBLE, why)
         if run.stopped():
             termination = Termination.INTERRUPTED
             reason = "stopped on request before any layout was found"
@@ -439,7 +473,49 @@ def _level_one(
             relaxations_tried=run.relaxations))
     assert first.rects is not None
     run.incumbent(domain, run.by_room(first.rects))
-    boxes = _improve_level_one(run, domain, first.rects, deadline)
+    boxes = _improve_level_one(run, domain, first.rects, improve_by)
+    return [_piece(problem, domain, run.room_of(name), name, box)
+            for name, box in boxes.items()], None
+
+
+def _soft_level_one(
+    run: _Run, domain: Domain, deadline: float
+) -> tuple[list[Piece] | None, Layout | None]:
+    """Soft constraints (issue 8): no layout meeting every constraint was found, so the
+    soft ones get slacks priced per metre. The first layout minimises the total
+    violation alone (a MILP; above `CONSTRUCT_ABOVE` rooms built in batches); then
+    Eq. 12 plus that price is minimised as for any problem."""
+    problem = run.problem
+    run.soft = True
+    spec = level_one_spec(problem, domain, window=None, wings=run.wings, soft=True)
+    left = deadline - time.monotonic()
+    rects: dict[str, Box] | None = None
+    status = LevelStatus.NO_SOLUTION
+    if len(problem.rooms) > CONSTRUCT_ABOVE and not run.wings:
+        rects = construct(spec, deadline=time.monotonic() + left * ATTEMPT_SHARE,
+                          rng=random.Random(problem.options.seed),
+                          step=lambda model, limit: run.run(model, limit))
+    if rects is None and deadline - time.monotonic() > 0.05 and not run.stopped():
+        result = run.run(build_level(spec, feasibility=True),
+                         (deadline - time.monotonic()) * ATTEMPT_SHARE)
+        rects, status = result.rects, result.status
+    outcome = "found" if rects is not None else status.value
+    run.relaxations.append(f"user bounds, soft constraints priced: {outcome}")
+    run.emit(Phase.RELAXATION, detail=f"soft constraints priced: {outcome}")
+    if rects is None:
+        if status is LevelStatus.INFEASIBLE:
+            why = Infeasibility(
+                reason="SCIP proved that no single-rectangle layout satisfies the hard "
+                "constraints (inside, no overlap, obstacles and those not soft)",
+                active_families=active_families(spec), relaxations_tried=run.relaxations)
+            return None, _no_layout(run, Termination.INFEASIBLE, _explained(run, domain, why))
+        termination = Termination.INTERRUPTED if run.stopped() else Termination.NO_SOLUTION
+        return None, _no_layout(run, termination, Infeasibility(
+            reason="stopped on request before any layout was found" if run.stopped() else
+            "no layout was found within the time limit; feasibility is unknown",
+            active_families=active_families(spec), relaxations_tried=run.relaxations))
+    run.incumbent(domain, run.by_room(rects))
+    boxes = _improve_level_one(run, domain, rects, deadline)
     return [_piece(problem, domain, run.room_of(name), name, box)
             for name, box in boxes.items()], None
 
@@ -510,7 +586,8 @@ def _improve_level_one(
     neighbourhood search on the level-1 MIQP."""
     if deadline - time.monotonic() <= 0.1 or run.stopped():
         return first
-    lm = build_level(level_one_spec(run.problem, domain, window=None, wings=run.wings))
+    lm = build_level(level_one_spec(run.problem, domain, window=None, wings=run.wings,
+                                    soft=run.soft))
     start = complete_start(lm, first, time_limit=deadline - time.monotonic())
     if start.values is None:
         return first
@@ -556,9 +633,14 @@ def _piece(problem: Problem, domain: Domain, room_id: str, name: str, box: Box) 
     room = problem.room(room_id)
     if name != room_id:
         return Piece(name, room_id, box)  # an extra rectangle answers for nothing alone
-    # Only the candidate edges the room actually lies on carry over to refinement.
-    edges = tuple(e for e in edges_named(problem, domain.edges, room.boundary) if on_edge(box, e))
-    return Piece(room_id, room_id, box, tuple(room.positions), edges)
+    # Only the candidate edges the room actually lies on carry over to refinement; a
+    # soft demand the room misses keeps them all, so that growing may come nearer.
+    named = edges_named(problem, domain.edges, room.boundary)
+    edges = tuple(e for e in named if on_edge(box, e))
+    soft = room_soft(problem, room)
+    if not edges and "boundary" in soft:
+        edges = tuple(named)
+    return Piece(room_id, room_id, box, tuple(room.positions), edges, soft)
 
 
 def _termination(run: _Run) -> Termination:
@@ -596,15 +678,22 @@ def _layout(run: _Run, domain: Domain, pieces: list[Piece], levels: int) -> Layo
             ("no entrance to start from" if openings.circulation is None else
              f"unreachable: {', '.join(unreachable)}"),
         )]
-        valid = valid and connected
+        if not problem.options.strict:
+            # Soft, like the adjacencies require_connected added, which carry the shortfall.
+            constraints[-1] = constraints[-1].model_copy(update={"soft": True})
+        valid = valid and (connected or not problem.options.strict)
     w = problem.weights
-    objective = w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
+    violations = [c for c in constraints if c.soft and not c.satisfied]
+    shortfall = sum(c.shortfall for c in violations)
+    objective = (w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
+                 + w.violation * shortfall)
     report = Report(
         coverage=check.coverage, uncovered_area=check.uncovered_area,
         constraints=constraints, size_error=check.size_error,
         objective=objective, levels=levels, solve_time=run.elapsed(),
         termination=_termination(run), valid=valid, circulation=openings.circulation,
         relaxation=run.window, extra_rectangles=run.extra,
+        violations=violations, total_shortfall=round(shortfall, 6),
     )
     run.emit(Phase.DONE, objective=objective, detail=f"coverage {check.coverage:.1%}")
     return Layout(name=problem.name, rooms=out, doors=openings.doors, windows=openings.windows,
@@ -648,9 +737,11 @@ def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float
 
 def _explained(run: _Run, domain: Domain, why: Infeasibility) -> Infeasibility:
     """`why` with a small set of the user's constraints that cannot hold together,
-    searched in the time the solve has left (solver/conflicts.py)."""
-    conflict = find_conflict(run.asked or run.problem, domain, deadline=run.deadline,
-                             solved=run.problem, should_stop=run.should_stop)
+    searched in the time the solve has left (solver/conflicts.py); soft constraints
+    never are among them."""
+    conflict = find_conflict(hard_part(run.asked or run.problem), domain,
+                             deadline=run.deadline, solved=hard_part(run.problem),
+                             should_stop=run.should_stop)
     if conflict is not None:
         run.emit(Phase.CONFLICT, detail=f"{len(conflict.constraints)} constraints cannot "
                  f"hold together{'' if conflict.minimal else ' (perhaps not minimal)'}")

@@ -217,7 +217,14 @@ def test_solved_layouts_of_feasible_problems_always_pass_the_checker(p: Problem)
     assert {r.id for r in layout.rooms} == {r.id for r in p.rooms}
 
 
-def test_problems_above_twenty_rooms_are_built_in_batches_and_come_back_valid() -> None:
+@pytest.mark.parametrize(("rows_up_to", "start"), [
+    (40, "sliced into rows: found"),  # rows of columns honour its adjacencies and walls
+    (0, "built in batches: found"),  # without the row search: the batch construction
+])
+def test_problems_above_twenty_rooms_get_a_constructive_start_and_come_back_valid(
+    rows_up_to: int, start: str, monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr("solver.slicing.DEMANDS_UP_TO", rows_up_to)
     rooms = [{"id": f"cell{k:02d}", "type": "office", "min_size": [1.8, 1.8],
               "max_size": [4, 4], "target_size": [2.5, 2.5]} for k in range(24)]
     rooms[0]["positions"] = [[0.5, 0.5]]
@@ -230,7 +237,7 @@ def test_problems_above_twenty_rooms_are_built_in_batches_and_come_back_valid() 
     )
     events: list[SolveEvent] = []
     layout = solve(p, on_event=events.append)
-    assert any("built in batches: found" in e.detail for e in events)
+    assert any(start in e.detail for e in events)
     assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
     assert layout.report.coverage > 0.8
 
