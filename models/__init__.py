@@ -8,6 +8,7 @@ from models.layout import (
     ConstraintCheck,
     Door,
     ExtraRectangles,
+    FloorLayout,
     Infeasibility,
     Layout,
     Rect,
@@ -19,11 +20,13 @@ from models.layout import (
 from models.problem import (
     DEFAULT_MAX_ROOMS,
     Adjacency,
+    Floor,
     Obstacle,
     Openings,
     Options,
     Problem,
     Room,
+    VerticalRoom,
     Weights,
 )
 
@@ -37,6 +40,8 @@ __all__ = [
     "ConstraintCheck",
     "Door",
     "ExtraRectangles",
+    "Floor",
+    "FloorLayout",
     "Infeasibility",
     "Layout",
     "Obstacle",
@@ -48,6 +53,7 @@ __all__ = [
     "Room",
     "RoomLayout",
     "Termination",
+    "VerticalRoom",
     "Weights",
     "Window",
 ]

@@ -88,6 +88,9 @@ class ConstraintCheck(BaseModel):
     rooms: list[str]
     satisfied: bool
     detail: str = ""
+    floor: str | None = Field(
+        None, description="in a layout of several storeys: the id of the floor the check "
+        "belongs to (none for a `vertical` check, which spans floors)")
 
 
 class ExtraRectangles(BaseModel):
@@ -170,9 +173,34 @@ class Report(BaseModel):
     )
 
 
+class FloorLayout(BaseModel):
+    """One storey of a layout of several (`Layout.floors`): the layout of the floor's
+    rooms and the vertical rooms spanning it, with the floor's own report."""
+
+    id: str = Field(description="the floor's id in the problem")
+    name: str = Field(description="the floor's name, else its id")
+    rooms: list[RoomLayout] = Field(default_factory=list)
+    doors: list[Door] = Field(default_factory=list)
+    windows: list[Window] = Field(default_factory=list)
+    report: Report = Field(description="this floor's checks, coverage and circulation, as "
+                           "for a single-floor layout")
+
+
 class Layout(BaseModel):
     name: str = "layout"
     rooms: list[RoomLayout] = Field(default_factory=list)
     doors: list[Door] = Field(default_factory=list)
     windows: list[Window] = Field(default_factory=list)
     report: Report
+    floors: list[FloorLayout] | None = Field(
+        None, description="for a problem with `floors`: one layout per floor, in the "
+        "problem's order (the top-level rooms, doors and windows then stay empty and the "
+        "top-level report sums the floors up)")
+
+    @property
+    def all_rooms(self) -> list[RoomLayout]:
+        """Every placed room: the rooms, or with `floors` those of every floor (a vertical
+        room once per floor it spans)."""
+        if self.floors is None:
+            return self.rooms
+        return [room for floor in self.floors for room in floor.rooms]
