@@ -72,7 +72,8 @@ def _examples() -> dict[str, _Example]:
         text = path.read_text(encoding="utf-8")
         problem = LayoutProblem.model_validate_json(text)
         found[path.stem] = _Example(ExampleSummary(
-            name=path.stem, title=problem.name, rooms=len(problem.rooms),
+            name=path.stem, title=problem.name, rooms=len(problem.rooms) + sum(
+                len(f.rooms) for f in problem.floors or []) + len(problem.vertical),
             obstacles=len(problem.obstacles), href=f"/v1/examples/{path.stem}",
         ), text)
     return found

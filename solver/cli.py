@@ -164,15 +164,15 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
         print(summary_line(layout), file=sys.stderr)
     if not written:
         return EXIT_FAILURE
-    if not layout.rooms:
+    if not layout.all_rooms:
         print(no_layout_message(layout), file=sys.stderr)
     elif not layout.report.valid:
         print(invalid_layout_warning(layout), file=sys.stderr)
     if stopped:
-        what = "the best layout found so far" if layout.rooms else "the report"
+        what = "the best layout found so far" if layout.all_rooms else "the report"
         print(f"{PROG}: interrupted; wrote {what}", file=sys.stderr)
-        return EXIT_OK if layout.rooms else EXIT_INTERRUPTED
-    return EXIT_OK if layout.rooms else EXIT_NO_LAYOUT
+        return EXIT_OK if layout.all_rooms else EXIT_INTERRUPTED
+    return EXIT_OK if layout.all_rooms else EXIT_NO_LAYOUT
 
 
 def write_expanded(args: argparse.Namespace, problem: Problem) -> int:
@@ -189,7 +189,10 @@ def write_expanded(args: argparse.Namespace, problem: Problem) -> int:
         print(f"{PROG}: error: cannot write {args.output}: {err}", file=sys.stderr)
         return EXIT_FAILURE
     if not args.quiet:
-        print(f"{len(problem.rooms)} rooms, {len(problem.adjacency)} adjacencies; "
+        floors = problem.floors or []
+        rooms = len(problem.rooms) + sum(len(f.rooms) for f in floors) + len(problem.vertical)
+        adjacencies = len(problem.adjacency) + sum(len(f.adjacency) for f in floors)
+        print(f"{rooms} rooms, {adjacencies} adjacencies; "
               "not solved (--expand)", file=sys.stderr)
     return EXIT_OK
 
@@ -462,7 +465,8 @@ def progress_line(event: SolveEvent) -> str:
 
 def summary_line(layout: Layout) -> str:
     r = layout.report
-    return (f"{len(layout.rooms)} rooms  coverage {r.coverage:.1%}  levels {r.levels}  "
+    floors = f" on {len(layout.floors)} floors" if layout.floors is not None else ""
+    return (f"{len(layout.all_rooms)} rooms{floors}  coverage {r.coverage:.1%}  levels {r.levels}  "
             f"termination {r.termination.value}  valid {'yes' if r.valid else 'no'}  "
             f"solve time {r.solve_time:.2f} s")
 
@@ -473,6 +477,7 @@ def invalid_layout_warning(layout: Layout) -> str:
     for c in failed:
         rooms = ", ".join(c.rooms)
         lines.append(f"  {c.kind}{' ' + rooms if rooms else ''}"
+                     f"{' on floor ' + c.floor if c.floor else ''}"
                      f"{': ' + c.detail if c.detail else ''}")
     return "\n".join(lines)
 
