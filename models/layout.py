@@ -112,7 +112,8 @@ class ConflictItem(BaseModel):
     kind: str = Field(
         description="min_size, max_size (one axis each), aspect_ratio, position, boundary, "
         "adjacency; connection and entrance for what require_connected added (a wall "
-        "for a door, the front-door room covering the entrance)")
+        "for a door, the front-door room covering the entrance); vertical in a building "
+        "of several storeys: a vertical room held where another floor put it")
     rooms: list[str] = Field(description="ids of the rooms the constraint names")
     constraint: str = Field(
         description="compact form, e.g. kitchen.width>=4, kitchen.boundary=east, "

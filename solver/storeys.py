@@ -30,6 +30,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from models import (
+    ConflictItem,
     ConflictSet,
     ConstraintCheck,
     FloorLayout,
@@ -81,8 +82,12 @@ class _Attempt:
     seed: int
     #: Floor index -> its layout, for the floors solved so far.
     layouts: dict[int, Layout] = field(default_factory=dict)
-    #: Vertical room id -> its pinned footprint.
+    #: Vertical room id -> its pinned footprint, and the vertices of its polygon there
+    #: (the polygon is on a finer grid than the rectangles: both are matched).
     pinned: dict[str, list[Box]] = field(default_factory=dict)
+    outlines: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
+    #: Vertical room id -> the floor it was placed on.
+    placed_on: dict[str, str] = field(default_factory=dict)
     #: The floor that failed, its layout (without rooms) or None, and why.
     failed: int | None = None
     failure: Layout | None = None
@@ -189,17 +194,22 @@ def _run_attempt(
                 f" ({reason})" if reason else "")
             return
         if pins:
-            layout = _snapped(layout, pins)
+            layout = _snapped(layout, pins, attempt.outlines)
         attempt.layouts[i] = layout
         for j in verticals_on(problem, floor_id):
             vertical = problem.vertical[j]
             if vertical.id in attempt.pinned:
                 continue
             boxes = _footprint(layout, vertical.id)
+            outline = next(r.polygon for r in layout.rooms if r.id == vertical.id)
             if len(boxes) > 1:  # an L or T: every floor gets the bounding box
                 boxes = [bounding_box(boxes)]
+                b = boxes[0]
+                outline = [(b.x0, b.y0), (b.x1, b.y0), (b.x1, b.y1), (b.x0, b.y1)]
                 again.add(i)
             attempt.pinned[vertical.id] = boxes
+            attempt.outlines[vertical.id] = outline
+            attempt.placed_on[vertical.id] = floor_id
             fits = _misfit_anywhere(problem, vertical.id, boxes)
             if fits:
                 attempt.failed, attempt.why = i, fits
@@ -283,24 +293,27 @@ def _misfit_anywhere(problem: Problem, room_id: str, boxes: list[Box]) -> str:
     return ""
 
 
-def _snapped(layout: Layout, pins: dict[str, list[Box]]) -> Layout:
+def _snapped(
+    layout: Layout, pins: dict[str, list[Box]], outlines: dict[str, list[tuple[float, float]]]
+) -> Layout:
     """`layout` with every coordinate within `PIN_SNAP` of a pinned footprint's set to
-    it exactly, so that the footprint is the very same on every floor."""
-    xs = sorted({v for boxes in pins.values() for b in boxes for v in (b.x0, b.x1)})
-    ys = sorted({v for boxes in pins.values() for b in boxes for v in (b.y0, b.y1)})
+    it exactly (rectangles to its rectangles', polygons and openings to its polygon's),
+    so that the footprint is the very same on every floor."""
+    def snapper(values: set[float]) -> Callable[[float], float]:
+        ordered = sorted(values)
+        return lambda v: next((w for w in ordered if abs(w - v) <= PIN_SNAP), v)
 
-    def sx(v: float) -> float:
-        return next((x for x in xs if abs(x - v) <= PIN_SNAP), v)
-
-    def sy(v: float) -> float:
-        return next((y for y in ys if abs(y - v) <= PIN_SNAP), v)
+    rx = snapper({v for boxes in pins.values() for b in boxes for v in (b.x0, b.x1)})
+    ry = snapper({v for boxes in pins.values() for b in boxes for v in (b.y0, b.y1)})
+    sx = snapper({x for room_id in pins for x, _ in outlines[room_id]})
+    sy = snapper({y for room_id in pins for _, y in outlines[room_id]})
 
     def point(p: tuple[float, float]) -> tuple[float, float]:
         return (sx(p[0]), sy(p[1]))
 
     rooms = []
     for room in layout.rooms:
-        rects = [Box(sx(b.x0), sy(b.y0), sx(b.x1), sy(b.y1))
+        rects = [Box(rx(b.x0), ry(b.y0), rx(b.x1), ry(b.y1))
                  for b in (Box.of(r) for r in room.rectangles)]
         polygon = [point(p) for p in room.polygon]
         area = float(shapely.Polygon(polygon).area) if len(polygon) >= 3 else room.area
@@ -427,7 +440,8 @@ def _failure(
         active_families=inner.active_families if inner else [],
         relaxations_tried=[*tried, *(f"floor '{floor_id}': {r}"
                                      for r in (inner.relaxations_tried if inner else []))],
-        conflict=_user_conflict(problem, floor_id, inner),
+        conflict=_user_conflict(problem, floor_id, inner, {
+            room: placed for room, placed in last.placed_on.items() if placed != floor_id}),
     )
     if termination is Termination.INTERRUPTED and last.layouts:
         # The floors laid out before the stop are the best layout so far.
@@ -438,13 +452,25 @@ def _failure(
 
 
 def _user_conflict(
-    problem: Problem, floor_id: str, inner: Infeasibility | None
+    problem: Problem, floor_id: str, inner: Infeasibility | None, pinned: dict[str, str],
 ) -> ConflictSet | None:
-    """The failed floor's explained conflict with paths into the user's problem."""
+    """The failed floor's explained conflict with paths into the user's problem. The
+    sizes and corner points that pinned a vertical room (`pinned`: room -> the floor
+    that placed it) become one item: the room stands where that floor put it."""
     if inner is None or inner.conflict is None:
         return None
-    items = [c.model_copy(update={"path": user_path(problem, floor_id, c.path)})
-             for c in inner.conflict.constraints]
+    items: list[ConflictItem] = []
+    for c in inner.conflict.constraints:
+        path = user_path(problem, floor_id, c.path)
+        room = c.rooms[0] if len(c.rooms) == 1 else ""
+        if room in pinned and c.kind in ("min_size", "max_size", "position"):
+            path = ".".join(path.split(".")[:2])  # vertical.J
+            if any(i.path == path for i in items):
+                continue
+            c = c.model_copy(update={
+                "kind": "vertical", "constraint": f"{room} pinned by floor {pinned[room]}",
+                "phrase": f"'{room}' must stand where floor '{pinned[room]}' put it"})
+        items.append(c.model_copy(update={"path": path}))
     return inner.conflict.model_copy(update={"constraints": items})
 
 
