@@ -191,7 +191,7 @@ DEFAULT_DOOR_POLICY: dict[str, list[str]] = {
 #: Room types that are ends, not passages: no one reaches the hall through a bathroom.
 DEFAULT_NO_PASSAGE = ["bathroom", "wc", "closet", "storage"]
 #: Room types without windows by default.
-DEFAULT_WINDOWLESS = ["storage", "closet", "wc", "stairs", "shaft", "laundry"]
+DEFAULT_WINDOWLESS = ["storage", "closet", "wc", "stairs", "shaft", "lift", "laundry"]
 
 
 class Openings(_Strict):
