@@ -310,7 +310,8 @@ class Floor(_Strict):
 
 class VerticalRoom(Room):
     """A room through several floors (stairs, a lift, a shaft): the very same rectangles
-    on every floor it spans. Its own constraints hold on every one of them."""
+    on every floor it spans. Its constraints are imposed on the floor that places it
+    first; the others take the footprint as it is."""
 
     floors: Annotated[list[str], Field(max_length=100)] | None = Field(
         None, description="ids of the floors it spans, at least two; default every floor")
