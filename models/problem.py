@@ -374,6 +374,13 @@ class Problem(ProblemFields):
             raise ValidationError.from_exception_data(type(self).__name__, errors)
         return self
 
+    @property
+    def room_count(self) -> int:
+        """The rooms to lay out: `rooms`, or with `floors` every floor's rooms and each
+        vertical room once."""
+        floors = self.floors or []
+        return len(self.rooms) + sum(len(f.rooms) for f in floors) + len(self.vertical)
+
     def room(self, room_id: str) -> Room:
         for room in self.rooms:
             if room.id == room_id:

@@ -189,10 +189,8 @@ def write_expanded(args: argparse.Namespace, problem: Problem) -> int:
         print(f"{PROG}: error: cannot write {args.output}: {err}", file=sys.stderr)
         return EXIT_FAILURE
     if not args.quiet:
-        floors = problem.floors or []
-        rooms = len(problem.rooms) + sum(len(f.rooms) for f in floors) + len(problem.vertical)
-        adjacencies = len(problem.adjacency) + sum(len(f.adjacency) for f in floors)
-        print(f"{rooms} rooms, {adjacencies} adjacencies; "
+        adjacencies = len(problem.adjacency) + sum(len(f.adjacency) for f in problem.floors or [])
+        print(f"{problem.room_count} rooms, {adjacencies} adjacencies; "
               "not solved (--expand)", file=sys.stderr)
     return EXIT_OK
 
