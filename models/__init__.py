@@ -9,6 +9,7 @@ from models.layout import (
     ConstraintCheck,
     Door,
     ExtraRectangles,
+    FloorLayout,
     Infeasibility,
     Layout,
     Rect,
@@ -20,12 +21,14 @@ from models.layout import (
 from models.problem import (
     DEFAULT_MAX_ROOMS,
     Adjacency,
+    Floor,
     Obstacle,
     Openings,
     Options,
     Problem,
     Region,
     Room,
+    VerticalRoom,
     Weights,
 )
 
@@ -40,6 +43,8 @@ __all__ = [
     "ConstraintCheck",
     "Door",
     "ExtraRectangles",
+    "Floor",
+    "FloorLayout",
     "Infeasibility",
     "Layout",
     "Obstacle",
@@ -52,6 +57,7 @@ __all__ = [
     "Room",
     "RoomLayout",
     "Termination",
+    "VerticalRoom",
     "Weights",
     "Window",
 ]

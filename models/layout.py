@@ -114,6 +114,9 @@ class ConstraintCheck(BaseModel):
         "along the farther axis; boundary, the distance from the room to the nearest named "
         "edge, along the farther axis; adjacency, the missing contact length, or the gap "
         "between the walls when larger (the best partner of an any_of)")
+    floor: str | None = Field(
+        None, description="in a layout of several storeys: the id of the floor the check "
+        "belongs to (none for a `vertical` check, which spans floors)")
 
 
 class ExtraRectangles(BaseModel):
@@ -135,7 +138,8 @@ class ConflictItem(BaseModel):
     kind: str = Field(
         description="min_size, max_size (one axis each), aspect_ratio, position, boundary, "
         "adjacency; connection and entrance for what require_connected added (a wall "
-        "for a door, the front-door room covering the entrance)")
+        "for a door, the front-door room covering the entrance); vertical in a building "
+        "of several storeys: a vertical room held where another floor put it")
     rooms: list[str] = Field(description="ids of the rooms the constraint names")
     constraint: str = Field(
         description="compact form, e.g. kitchen.width>=4, kitchen.boundary=east, "
@@ -204,6 +208,19 @@ class Report(BaseModel):
         0.0, description="the sum of the violations' shortfalls, metres")
 
 
+class FloorLayout(BaseModel):
+    """One storey of a layout of several (`Layout.floors`): the layout of the floor's
+    rooms and the vertical rooms spanning it, with the floor's own report."""
+
+    id: str = Field(description="the floor's id in the problem")
+    name: str = Field(description="the floor's name, else its id")
+    rooms: list[RoomLayout] = Field(default_factory=list)
+    doors: list[Door] = Field(default_factory=list)
+    windows: list[Window] = Field(default_factory=list)
+    report: Report = Field(description="this floor's checks, coverage and circulation, as "
+                           "for a single-floor layout")
+
+
 class Layout(BaseModel):
     name: str = "layout"
     rooms: list[RoomLayout] = Field(default_factory=list)
@@ -213,3 +230,15 @@ class Layout(BaseModel):
         default_factory=list, description="aisles between regions (large layouts); their "
         "doors name them in `between`")
     report: Report
+    floors: list[FloorLayout] | None = Field(
+        None, description="for a problem with `floors`: one layout per floor, in the "
+        "problem's order (the top-level rooms, doors and windows then stay empty and the "
+        "top-level report sums the floors up)")
+
+    @property
+    def all_rooms(self) -> list[RoomLayout]:
+        """Every placed room: the rooms, or with `floors` those of every floor (a vertical
+        room once per floor it spans)."""
+        if self.floors is None:
+            return self.rooms
+        return [room for floor in self.floors for room in floor.rooms]

@@ -269,7 +269,7 @@ DEFAULT_DOOR_POLICY: dict[str, list[str]] = {
 #: Room types that are ends, not passages: no one reaches the hall through a bathroom.
 DEFAULT_NO_PASSAGE = ["bathroom", "wc", "closet", "storage"]
 #: Room types without windows by default.
-DEFAULT_WINDOWLESS = ["storage", "closet", "wc", "stairs", "shaft", "laundry"]
+DEFAULT_WINDOWLESS = ["storage", "closet", "wc", "stairs", "shaft", "lift", "laundry"]
 
 
 class Openings(_Strict):
@@ -360,13 +360,71 @@ class ProblemFields(_Strict):
         return free
 
 
+# --- Several storeys (issue 5, paper Fig. 11) -------------------------------------------
+
+
+class Floor(_Strict):
+    """One storey of a building of several: its own rooms and adjacencies, and where
+    they go. Outline and obstacles default to the problem's top-level ones."""
+
+    id: Annotated[str, Field(min_length=1, max_length=100)] = Field(
+        description="unique among the floors; named by `vertical[].floors`")
+    name: Annotated[str, Field(max_length=200)] | None = Field(
+        None, description="shown on the plan; default the id")
+    boundary: Annotated[list[Point], Field(min_length=4, max_length=1000)] | None = Field(
+        None, description="this floor's outline (axis-aligned, as the top-level `boundary`); "
+        "default the top-level `boundary`, the building's footprint")
+    obstacles: Annotated[list[Obstacle], Field(max_length=1000)] | None = Field(
+        None, description="rectangles no room of this floor may cover (voids, a light well); "
+        "default the top-level `obstacles`")
+    entrance: Point | None = Field(
+        None, description="a point on this floor's outline; the top-level `entrance` "
+        "belongs to the first floor")
+    rooms: Annotated[list[Room], Field(max_length=DEFAULT_MAX_ROOMS)] = Field(
+        default_factory=list, description="the rooms of this floor only; ids unique among "
+        "them and the vertical rooms spanning the floor (another floor may reuse an id)")
+    adjacency: list[Adjacency] = Field(
+        default_factory=list, description="C_adj on this floor; may name its rooms and the "
+        "vertical rooms spanning it")
+
+    @field_validator("boundary", mode="before")
+    @classmethod
+    def _drop_closing_vertex(cls, value: Any) -> Any:
+        if isinstance(value, list) and len(value) > 4 and value[0] == value[-1]:
+            return value[:-1]
+        return value
+
+
+class VerticalRoom(Room):
+    """A room through several floors (stairs, a lift, a shaft): the very same rectangles
+    on every floor it spans. Its constraints are imposed on the floor that places it
+    first; the others take the footprint as it is."""
+
+    floors: Annotated[list[str], Field(max_length=100)] | None = Field(
+        None, description="ids of the floors it spans, at least two; default every floor")
+
+
+# --- end of several storeys -------------------------------------------------------------
+
+
 class Problem(ProblemFields):
     """A layout request: the domain, the rooms and their constraints (DESIGN.md §1).
 
     Input with a ``template`` is a `models.templates.TemplatedProblem`; validating it
-    as a `Problem` expands the template, and the result has no ``template``."""
+    as a `Problem` expands the template, and the result has no ``template``.
 
-    rooms: Annotated[list[Room], Field(min_length=1)]
+    A building of several storeys gives `floors` (and `vertical` rooms) instead of
+    `rooms`; see `models.storeys`."""
+
+    rooms: list[Room] = Field(
+        default_factory=list, description="the rooms to place, at least one; with `floors`, "
+        "omitted or empty (each floor has its own)")
+    floors: Annotated[list[Floor], Field(min_length=1, max_length=100)] | None = Field(
+        None, description="several storeys (paper Fig. 11): each floor its own rooms and "
+        "adjacencies; the answer is one layout per floor (`Layout.floors`)")
+    vertical: Annotated[list[VerticalRoom], Field(max_length=DEFAULT_MAX_ROOMS)] = Field(
+        default_factory=list, description="with `floors`: rooms through several floors "
+        "(stairs, lifts, shafts), the same footprint on every floor they span")
 
     @model_validator(mode="before")
     @classmethod
@@ -381,7 +439,20 @@ class Problem(ProblemFields):
         return expand(TemplatedProblem.model_validate(data, context=info.context))
 
     @model_validator(mode="after")
-    def _check_geometry_and_references(self) -> Self:
+    def _check_geometry_and_references(self, info: ValidationInfo) -> Self:
+        if self.floors is not None or self.vertical:
+            # Imported here: the storeys module builds on this one.
+            from models.storeys import storey_errors
+
+            errors = storey_errors(
+                self, (info.context or {}).get("max_rooms", DEFAULT_MAX_ROOMS))
+            if errors:
+                raise ValidationError.from_exception_data(type(self).__name__, errors)
+            return self
+        if not self.rooms:
+            raise ValidationError.from_exception_data(type(self).__name__, [_error(
+                ("rooms",), self.rooms, "too_short",
+                "at least one room is needed (or `floors`, each with its rooms)")])
         errors = list(_boundary_errors(self.boundary))
         if not errors:
             errors += _placement_errors(self)
@@ -389,6 +460,13 @@ class Problem(ProblemFields):
         if errors:
             raise ValidationError.from_exception_data(type(self).__name__, errors)
         return self
+
+    @property
+    def room_count(self) -> int:
+        """The rooms to lay out: `rooms`, or with `floors` every floor's rooms and each
+        vertical room once."""
+        floors = self.floors or []
+        return len(self.rooms) + sum(len(f.rooms) for f in floors) + len(self.vertical)
 
     def room(self, room_id: str) -> Room:
         for room in self.rooms:

@@ -33,7 +33,7 @@ from solver.conflicts import Diagnosis, diagnose
 from solver.export import MEDIA_TYPES, render
 from solver.geometry import make_domain
 from solver.precheck import find_impossibilities
-from solver.solve import default_time_limit
+from solver.storeys import job_time_limit
 
 #: Longest wait between two looks at the store while streaming events (the backend
 #: wakes the stream sooner when it knows of new events).
@@ -279,7 +279,7 @@ def submit_layout(
     if store.count(JobStatus.QUEUED) >= settings.queue_limit:
         raise ApiError(429, "the queue is full; try again later", kind="queue-full",
                        headers={"Retry-After": str(RETRY_AFTER)})
-    time_limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
+    time_limit = job_time_limit(problem)  # a building's floors each have their share
     digest = hashlib.sha256(
         json.dumps(json.loads(raw), sort_keys=True, separators=(",", ":")).encode()
     ).hexdigest()

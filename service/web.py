@@ -72,7 +72,7 @@ def _examples() -> dict[str, _Example]:
         text = path.read_text(encoding="utf-8")
         problem = LayoutProblem.model_validate_json(text)
         found[path.stem] = _Example(ExampleSummary(
-            name=path.stem, title=problem.name, rooms=len(problem.rooms),
+            name=path.stem, title=problem.name, rooms=problem.room_count,
             obstacles=len(problem.obstacles), href=f"/v1/examples/{path.stem}",
         ), text)
     return found

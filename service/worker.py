@@ -110,7 +110,7 @@ def run_job(
                 if e.rooms is None or now - last_incumbent < INCUMBENT_INTERVAL:
                     return
                 last_incumbent = now
-                layout = draft_layout(problem, e.rooms, e.objective)
+                layout = draft_layout(problem, e.rooms, e.objective, floor=e.floor)
                 messages.put(("incumbent", (progress, layout.model_dump_json())))
             else:
                 messages.put(("progress", progress))

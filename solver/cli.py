@@ -164,17 +164,17 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
         print(summary_line(layout), file=sys.stderr)
     if not written:
         return EXIT_FAILURE
-    if not layout.rooms:
+    if not layout.all_rooms:
         print(no_layout_message(layout), file=sys.stderr)
     elif not layout.report.valid:
         print(invalid_layout_warning(layout), file=sys.stderr)
     elif layout.report.violations and not args.quiet:
         print(soft_violations_note(layout), file=sys.stderr)
     if stopped:
-        what = "the best layout found so far" if layout.rooms else "the report"
+        what = "the best layout found so far" if layout.all_rooms else "the report"
         print(f"{PROG}: interrupted; wrote {what}", file=sys.stderr)
-        return EXIT_OK if layout.rooms else EXIT_INTERRUPTED
-    return EXIT_OK if layout.rooms else EXIT_NO_LAYOUT
+        return EXIT_OK if layout.all_rooms else EXIT_INTERRUPTED
+    return EXIT_OK if layout.all_rooms else EXIT_NO_LAYOUT
 
 
 def write_expanded(args: argparse.Namespace, problem: Problem) -> int:
@@ -191,7 +191,8 @@ def write_expanded(args: argparse.Namespace, problem: Problem) -> int:
         print(f"{PROG}: error: cannot write {args.output}: {err}", file=sys.stderr)
         return EXIT_FAILURE
     if not args.quiet:
-        print(f"{len(problem.rooms)} rooms, {len(problem.adjacency)} adjacencies; "
+        adjacencies = len(problem.adjacency) + sum(len(f.adjacency) for f in problem.floors or [])
+        print(f"{problem.room_count} rooms, {adjacencies} adjacencies; "
               "not solved (--expand)", file=sys.stderr)
     return EXIT_OK
 
@@ -466,9 +467,10 @@ def summary_line(layout: Layout) -> str:
     r = layout.report
     soft = (f"  soft violations {len(r.violations)} ({r.total_shortfall:.2f} m short)"
             if r.violations else "")
-    return (f"{len(layout.rooms)} rooms  coverage {r.coverage:.1%}  levels {r.levels}  "
-            f"termination {r.termination.value}  valid {'yes' if r.valid else 'no'}"
-            f"{soft}  solve time {r.solve_time:.2f} s")
+    floors = f" on {len(layout.floors)} floors" if layout.floors is not None else ""
+    return (f"{len(layout.all_rooms)} rooms{floors}  coverage {r.coverage:.1%}  "
+            f"levels {r.levels}  termination {r.termination.value}  "
+            f"valid {'yes' if r.valid else 'no'}{soft}  solve time {r.solve_time:.2f} s")
 
 
 def invalid_layout_warning(layout: Layout) -> str:
@@ -477,6 +479,7 @@ def invalid_layout_warning(layout: Layout) -> str:
     for c in failed:
         rooms = ", ".join(c.rooms)
         lines.append(f"  {c.kind}{' ' + rooms if rooms else ''}"
+                     f"{' on floor ' + c.floor if c.floor else ''}"
                      f"{': ' + c.detail if c.detail else ''}")
     return "\n".join(lines)
 

@@ -35,8 +35,22 @@ TYPE_COLOURS = {"living": 2, "kitchen": 30, "bedroom": 5, "bathroom": 4, "dining
 def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
     """One Feature per room (Polygon, counter-clockwise) with its id, type, area and
     size error (and region); aisles as Polygon features of kind "aisle"; doors and
-    windows as LineString features; the outline and obstacles as features of their own."""
-    features: list[dict[str, Any]] = [
+    windows as LineString features; the outline and obstacles as features of their own.
+    In a building of several storeys, every feature of a floor has that floor's id as
+    its `floor` property."""
+    if layout.floors is not None and problem.floors is not None:
+        from solver.storeys import floor_view
+
+        features: list[dict[str, Any]] = []
+        for floor in layout.floors:
+            single = _floor_layout(layout, floor.id)
+            for feature in to_geojson(floor_view(problem, floor.id), single)["features"]:
+                feature["properties"]["floor"] = floor.id
+                features.append(feature)
+        collection = to_geojson(problem, Layout(name=layout.name, report=layout.report))
+        collection["features"] = features
+        return collection
+    features = [
         _feature("Polygon", [_ring(problem.boundary)], kind="outline", name=problem.name),
     ]
     for o in problem.obstacles:
@@ -72,22 +86,41 @@ def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
 def to_dxf(problem: Problem, layout: Layout) -> bytes:
     """A DXF drawing in metres: a layer per room type with each room as a closed
     polyline and its label, layers OUTLINE, OBSTACLES, DOORS, WINDOWS and (with
-    regions) AISLES."""
+    regions) AISLES. In a building of several storeys every floor is drawn in place, in
+    layers of its own named after it (``GROUND-OUTLINE``, ``GROUND-ROOM_BEDROOM``), so a
+    CAD user shows one at a time."""
     doc = ezdxf.new("R2010", setup=True)
     doc.units = ezdxf.units.M
+    if layout.floors is not None and problem.floors is not None:
+        from solver.storeys import floor_view
+
+        for floor in layout.floors:
+            _draw_dxf(doc, floor_view(problem, floor.id), _floor_layout(layout, floor.id),
+                      prefix=f"{_layer_name(floor.id).removeprefix('ROOM_')}-")
+    else:
+        _draw_dxf(doc, problem, layout)
+    stream = io.StringIO()
+    doc.write(stream)
+    return stream.getvalue().encode("utf-8")
+
+
+def _draw_dxf(doc: Any, problem: Problem, layout: Layout, prefix: str = "") -> None:
+    """One floor's outline, obstacles, rooms, doors and windows, in layers named with
+    `prefix`."""
     msp = doc.modelspace()
-    doc.layers.add("OUTLINE", color=colors.BLACK, lineweight=50)
-    doc.layers.add("OBSTACLES", color=colors.GRAY)
-    doc.layers.add("DOORS", color=colors.RED)
-    doc.layers.add("WINDOWS", color=colors.BLUE)
-    if layout.aisles:
-        doc.layers.add("AISLES", color=colors.GRAY)
-    msp.add_lwpolyline(problem.boundary, close=True, dxfattribs={"layer": "OUTLINE"})
+    for name, colour in (("OUTLINE", colors.BLACK), ("OBSTACLES", colors.GRAY),
+                         ("DOORS", colors.RED), ("WINDOWS", colors.BLUE),
+                         *((("AISLES", colors.GRAY),) if layout.aisles else ())):
+        if prefix + name not in doc.layers:  # two floor ids may clean to one name
+            doc.layers.add(prefix + name, color=colour, **(
+                {"lineweight": 50} if name == "OUTLINE" else {}))
+    msp.add_lwpolyline(problem.boundary, close=True, dxfattribs={"layer": prefix + "OUTLINE"})
     for o in problem.obstacles:
         msp.add_lwpolyline([(o.x, o.y), (o.x + o.width, o.y), (o.x + o.width, o.y + o.depth),
-                            (o.x, o.y + o.depth)], close=True, dxfattribs={"layer": "OBSTACLES"})
+                            (o.x, o.y + o.depth)], close=True,
+                           dxfattribs={"layer": prefix + "OBSTACLES"})
     for room in layout.rooms:
-        layer = _layer_name(room.type)
+        layer = prefix + _layer_name(room.type)
         if layer not in doc.layers:
             doc.layers.add(layer, color=TYPE_COLOURS.get(room.type, _colour_of(room.type)))
         msp.add_lwpolyline(room.polygon, close=True, dxfattribs={"layer": layer})
@@ -96,14 +129,18 @@ def to_dxf(problem: Problem, layout: Layout) -> bytes:
                              dxfattribs={"layer": layer})
         label.set_placement((x, y), align=TextEntityAlignment.MIDDLE_CENTER)
     for aisle in layout.aisles:
-        msp.add_lwpolyline(aisle.polygon, close=True, dxfattribs={"layer": "AISLES"})
+        msp.add_lwpolyline(aisle.polygon, close=True, dxfattribs={"layer": prefix + "AISLES"})
     for door in layout.doors:
-        msp.add_line(*door.segment, dxfattribs={"layer": "DOORS"})
+        msp.add_line(*door.segment, dxfattribs={"layer": prefix + "DOORS"})
     for window in layout.windows:
-        msp.add_line(*window.segment, dxfattribs={"layer": "WINDOWS"})
-    stream = io.StringIO()
-    doc.write(stream)
-    return stream.getvalue().encode("utf-8")
+        msp.add_line(*window.segment, dxfattribs={"layer": prefix + "WINDOWS"})
+
+
+def _floor_layout(layout: Layout, floor_id: str) -> Layout:
+    """Floor `floor_id` of a building's layout as a single-floor layout."""
+    floor = next(f for f in layout.floors or [] if f.id == floor_id)
+    return Layout(name=floor.name, rooms=floor.rooms, doors=floor.doors,
+                  windows=floor.windows, report=floor.report)
 
 
 def render(problem: Problem, layout: Layout, fmt: Format) -> bytes:

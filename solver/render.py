@@ -89,6 +89,8 @@ def render_svg(problem: Problem, layout: Layout, *, scale: float = 40.0) -> str:
     """The layout of `problem` as an SVG document; `scale` is SVG units per metre."""
     if not (math.isfinite(scale) and scale > 0):
         raise ValueError(f"scale must be a positive number, not {scale}")
+    if layout.floors is not None and problem.floors is not None:
+        return _render_storeys(problem, layout, scale)
     outline = problem.outline()
     min_x, min_y, max_x, max_y = outline.bounds
     frame = _Frame(min_x, max_y, scale, MARGIN, MARGIN + TITLE_BAND)
@@ -122,6 +124,47 @@ def render_svg(problem: Problem, layout: Layout, *, scale: float = 40.0) -> str:
     _add_scale_bar(svg, frame, max_x - min_x, frame.top + plan_h + SCALE_BAND / 2)
     _add_north_arrow(svg, width - MARGIN - 10, MARGIN)
     _indent(svg)
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(svg, encoding="unicode")
+
+
+def _render_storeys(problem: Problem, layout: Layout, scale: float) -> str:
+    """A building of several storeys: each floor's plan, titled with its name, side by
+    side from the first floor on the left, on one page at one scale."""
+    from solver.storeys import floor_view
+
+    ns = f"{{{SVG_NS}}}"
+    plans: list[ET.Element] = []
+    for k, floor in enumerate(layout.floors or []):
+        single = Layout(name=floor.name, rooms=floor.rooms, doors=floor.doors,
+                        windows=floor.windows, report=floor.report)
+        plan = ET.fromstring(render_svg(floor_view(problem, floor.id), single, scale=scale))
+        # One hatch pattern per floor: ids must stay unique in the whole document.
+        for element in plan.iter():
+            if element.get("id") == "fp-hatch":
+                element.set("id", f"fp-hatch-{k}")
+            if element.get("fill") == "url(#fp-hatch)":
+                element.set("fill", f"url(#fp-hatch-{k})")
+        plan.set("class", "floor")
+        plan.set("data-floor", _clean(floor.id))
+        plans.append(plan)
+    x = 0.0
+    for plan in plans:
+        plan.set("x", _num(x))
+        plan.set("y", "0")
+        x += float(plan.get("width", "0"))
+    width = max(x, 1.0)
+    height = max((float(p.get("height", "0")) for p in plans), default=1.0)
+    svg = ET.Element(f"{ns}svg", {
+        "version": "1.1", "width": _num(width), "height": _num(height),
+        "viewBox": f"0 0 {_num(width)} {_num(height)}",
+        "font-family": "Helvetica, Arial, sans-serif",
+    })
+    ET.SubElement(svg, f"{ns}title").text = _clean(problem.name)
+    ET.SubElement(svg, f"{ns}rect", {"width": "100%", "height": "100%", "fill": "white"})
+    svg.extend(plans)
+    _indent(svg)
+    # Parsed plans carry the SVG namespace: written as the default one, not as ns0.
+    ET.register_namespace("", SVG_NS)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(svg, encoding="unicode")
 
 

@@ -144,6 +144,8 @@ class SolveEvent:
     detail: str = ""
     #: With INCUMBENT: the whole current layout, room id -> rectangles.
     rooms: dict[str, list[Box]] | None = None
+    #: In a building of several storeys: the id of the floor being solved.
+    floor: str = ""
 
 
 EventSink = Callable[[SolveEvent], None]
@@ -247,8 +249,14 @@ def solve(
 ) -> Layout:
     """Lay out `problem`: a valid layout, or a report saying why there is none. With
     `subdomains`, the sub-domains of each refinement level are solved at the same time
-    on its executor (solver/parallel.py); without, one after the other. Problems with
-    regions, or more rooms than `options.regions_above`, go through solver/regions.py."""
+    on its executor (solver/parallel.py); without, one after the other. Problems of
+    several storeys go through solver/storeys.py; problems with regions, or more rooms
+    than `options.regions_above` and circulation, through solver/regions.py."""
+    if problem.floors is not None:  # several storeys: a floor at a time (solver/storeys.py)
+        from solver.storeys import solve_storeys
+
+        return solve_storeys(problem, on_event=on_event, should_stop=should_stop,
+                             subdomains=subdomains)
     # Imported here: regions lays out its parts with this very function.
     from solver.regions import regions_apply, solve_regions
 
@@ -712,9 +720,16 @@ def _outline_of(boxes: list[Box]) -> shapely.Polygon:
         return shapely.orient_polygons(max(parts, key=lambda g: g.area))
 
 
-def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float | None) -> Layout:
+def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float | None,
+                 floor: str = "") -> Layout:
     """An incumbent as a layout for progress displays: polygons and coverage, no check
-    (`termination: in_progress`, `valid: false` until the solve ends)."""
+    (`termination: in_progress`, `valid: false` until the solve ends). In a building of
+    several storeys, `floor` names the floor the incumbent is of (`SolveEvent.floor`)."""
+    if problem.floors is not None and floor:
+        from solver.storeys import draft_floor, floor_view
+
+        return draft_floor(problem, floor, draft_layout(floor_view(problem, floor), rooms,
+                                                        objective))
     domain_free = problem.free_area()
     out = []
     for room in problem.rooms:

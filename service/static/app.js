@@ -262,7 +262,7 @@ function onEvent({ type, data }) {
     showProgress(payload);
   } else if (type === "incumbent") {
     showProgress(payload.progress);
-    drawPlan($("plan"), state.job.problem, payload.layout, "incumbent");
+    drawPlan($("plan"), ...oneFloor(state.job.problem, payload.layout), "incumbent");
   }
 }
 
@@ -309,8 +309,31 @@ async function finish(job) {
   } catch (err) {
     if (!(err instanceof ApiProblem && err.doc.status === 404)) showProblem(err);
   }
-  if (layout && layout.rooms.length) drawPlan($("plan"), job.problem, layout, "result");
+  if (layout && allRooms(layout).length) {
+    drawPlan($("plan"), ...oneFloor(job.problem, layout), "result");
+  }
   if (info) showSummary(job, info, layout);
+}
+
+/** Every room of a layout: its rooms, or those of every floor of a building. */
+function allRooms(layout) {
+  return layout.floors ? layout.floors.flatMap((f) => f.rooms) : layout.rooms;
+}
+
+/** What the plan shows: the problem and layout as they are, or for a building of
+ * several storeys its first floor (an incumbent's: the floor being solved), with that
+ * floor's outline, obstacles and entrance. */
+function oneFloor(problem, layout) {
+  if (!layout?.floors?.length || !problem?.floors) return [problem, layout];
+  const shown = layout.floors[0];
+  const index = Math.max(0, problem.floors.findIndex((f) => f.id === shown.id));
+  const floor = problem.floors[index] ?? {};
+  const view = {
+    boundary: floor.boundary ?? problem.boundary,
+    obstacles: floor.obstacles ?? problem.obstacles,
+    entrance: floor.entrance ?? (index === 0 ? problem.entrance : null),
+  };
+  return [view, shown];
 }
 
 function row(list, term, value, verdict = null) {
@@ -329,11 +352,20 @@ function showSummary(job, info, layout) {
   row(list, "status", info.status, info.status === "succeeded");
   row(list, "termination", info.termination ?? "–");
   const report = layout?.report;
-  if (report && layout.rooms.length) {
-    const total = job.problem.rooms?.length ?? layout.rooms.length;
+  const placed = layout ? allRooms(layout) : [];
+  if (report && placed.length) {
+    const floors = job.problem.floors ?? [];
+    const total = (job.problem.rooms?.length ?? 0) +
+      floors.reduce((n, f) => n + (f.rooms?.length ?? 0) +
+        (job.problem.vertical ?? []).filter((v) => !v.floors || v.floors.includes(f.id)).length,
+      0) || placed.length;
     row(list, "coverage", `${(100 * report.coverage).toFixed(1)} %`, report.coverage >= 0.99);
     row(list, "valid", report.valid ? "yes" : "no", report.valid);
-    row(list, "rooms placed", `${layout.rooms.length} of ${total}`);
+    row(list, "rooms placed", `${placed.length} of ${total}`);
+    if (layout.floors) {
+      row(list, "floors", layout.floors.map((f) => `${f.name}${f.report.valid ? "" : " (invalid)"}`)
+        .join(", ") + " (the plan shows the first)");
+    }
     row(list, "objective", fmt(report.objective));
     row(list, "solve time", `${fmt(report.solve_time, 1)} s`);
     row(list, "levels", String(report.levels));
@@ -347,7 +379,8 @@ function showSummary(job, info, layout) {
   failed.replaceChildren();
   for (const check of (report?.constraints ?? []).filter((c) => !c.satisfied)) {
     const li = document.createElement("li");
-    li.textContent = `${check.kind} (${check.rooms.join(", ")})${check.detail ? ": " + check.detail : ""}`;
+    const where = check.floor ? ` on floor ${check.floor}` : "";
+    li.textContent = `${check.kind} (${check.rooms.join(", ")})${where}${check.detail ? ": " + check.detail : ""}`;
     failed.append(li);
   }
   if (info.error) {
@@ -357,7 +390,7 @@ function showSummary(job, info, layout) {
     showMessage({ title: "No layout", detail: report.infeasibility.reason,
                   items: report.infeasibility.findings.map((f) => ["", f]) });
   }
-  setDownloads(job, Boolean(layout && layout.rooms.length));
+  setDownloads(job, placed.length > 0);
   $("summary").hidden = false;
 }
 

@@ -309,7 +309,7 @@ class _Say:
 def summary_line(job: Job, layout: Layout) -> str:
     """E.g. ``2 rooms  coverage 100.0%  termination optimal  valid yes  job 1f0c...``."""
     r = layout.report
-    return (f"{len(layout.rooms)} rooms  coverage {r.coverage:.1%}  "
+    return (f"{len(layout.all_rooms)} rooms  coverage {r.coverage:.1%}  "
             f"termination {r.termination.value}  valid {'yes' if r.valid else 'no'}  "
             f"job {job.id}")
 

@@ -235,7 +235,7 @@ class IncumbentEvent(_Model):
         if objective is None:
             objective = self.layout.report.objective
         value = format_number(objective) if objective is not None else "?"
-        return f"incumbent objective {value}, {len(self.layout.rooms)} rooms"
+        return f"incumbent objective {value}, {len(self.layout.all_rooms)} rooms"
 
 
 #: One event of a job: tell them apart by `kind` (or isinstance).
