@@ -331,10 +331,7 @@ class ProblemFields(_Strict):
     @field_validator("boundary", mode="before")
     @classmethod
     def _drop_closing_vertex(cls, value: Any) -> Any:
-        # GeoJSON-style rings repeat the first vertex; edge k still runs from vertex k.
-        if isinstance(value, list) and len(value) > 4 and value[0] == value[-1]:
-            return value[:-1]
-        return value
+        return open_ring(value)
 
     @field_validator("rooms", mode="before")
     @classmethod
@@ -390,9 +387,7 @@ class Floor(_Strict):
     @field_validator("boundary", mode="before")
     @classmethod
     def _drop_closing_vertex(cls, value: Any) -> Any:
-        if isinstance(value, list) and len(value) > 4 and value[0] == value[-1]:
-            return value[:-1]
-        return value
+        return open_ring(value)
 
 
 class VerticalRoom(Room):
@@ -473,6 +468,14 @@ class Problem(ProblemFields):
             if room.id == room_id:
                 return room
         raise KeyError(room_id)
+
+
+def open_ring(value: Any) -> Any:
+    """A boundary without its repeated closing vertex: GeoJSON-style rings repeat the
+    first vertex, and edge k must still run from vertex k."""
+    if isinstance(value, list) and len(value) > 4 and value[0] == value[-1]:
+        return value[:-1]
+    return value
 
 
 def _error(loc: tuple[str | int, ...], value: Any, kind: str, message: str) -> InitErrorDetails:

@@ -296,6 +296,16 @@ def c_pos(lm: LevelModel) -> None:
             m.addCons(v.y + v.d >= py - s, name=f"pos_n[{r.name},{k}]")
 
 
+def _edge_choice(m: Model, r: Any) -> dict[int, Any]:
+    """Eq. 9's rho_k: a binary per candidate edge of rectangle `r`, at least one chosen;
+    a single candidate is simply 1 (no choice to make)."""
+    if len(r.edges) == 1:
+        return {r.edges[0].index: 1.0}
+    rho = {e.index: m.addVar(f"rho[{r.name},{e.index}]", vtype="B") for e in r.edges}
+    m.addCons(quicksum(rho.values()) >= 1, name=f"boundary[{r.name}]")
+    return rho
+
+
 def c_boundary(lm: LevelModel) -> None:
     """C_boundary (Eq. 9, all four facings): one whole side of the rectangle lies on
     one of the candidate exterior edges; a binary rho_k per candidate edge. Soft, the
@@ -309,13 +319,7 @@ def c_boundary(lm: LevelModel) -> None:
             _soft_boundary(lm, r)
             continue
         v = lm.rects[r.name]
-        rho = {}
-        if len(r.edges) == 1:
-            rho[r.edges[0].index] = 1.0  # one candidate: no choice to make
-        else:
-            for e in r.edges:
-                rho[e.index] = m.addVar(f"rho[{r.name},{e.index}]", vtype="B")
-            m.addCons(quicksum(rho.values()) >= 1, name=f"boundary[{r.name}]")
+        rho = _edge_choice(m, r)
         for e in r.edges:
             off = 1 - rho[e.index]
             lo, hi = e.span
@@ -338,13 +342,7 @@ def _soft_boundary(lm: LevelModel, r: RectSpec) -> None:
     margin less s (the distance `edge_shortfall` measures)."""
     m, v = lm.model, lm.rects[r.name]
     slack = _slack(lm, f"boundary[{r.name}]")
-    rho: dict[int, Any] = {}
-    if len(r.edges) == 1:
-        rho[r.edges[0].index] = 1.0
-    else:
-        for e in r.edges:
-            rho[e.index] = m.addVar(f"rho[{r.name},{e.index}]", vtype="B")
-        m.addCons(quicksum(rho.values()) >= 1, name=f"boundary[{r.name}]")
+    rho = _edge_choice(m, r)
     for e in r.edges:
         off = 1 - rho[e.index]
         lo, hi = e.span
