@@ -598,23 +598,7 @@ def aisle_doors(problem: Problem, rooms: Mapping[str, Polygon],
 def entrance_door(problem: Problem, rooms: Mapping[str, Polygon],
                   aisles: Mapping[str, Polygon]) -> Door | None:
     """The front door, into the aisle at the entrance (else into the room there)."""
-    if problem.entrance is None:
-        return None
-    where = Point(problem.entrance)
-    outline = problem.outline().exterior
-    for aisle_id, shape in aisles.items():
-        walls = shape.exterior.intersection(outline)
-        if walls.is_empty or walls.distance(where) > 1e-3:
-            continue
-        lines = [g for g in getattr(walls, "geoms", [walls]) if isinstance(g, LineString)]
-        if not lines:
-            continue
-        wall = min(lines, key=lambda s: s.distance(where))
-        segment = _door_segment(LineString([wall.coords[0], wall.coords[-1]]),
-                                problem.openings.door_width, centre=where)
-        if segment is not None:
-            return Door(between=(OUTSIDE, aisle_id), segment=segment, opens_into=aisle_id)
-    return front_door(rooms_only(problem), rooms)
+    return front_door(problem, aisles) or front_door(rooms_only(problem), rooms)
 
 
 def through_doors(problem: Problem, rooms: Mapping[str, Polygon],

@@ -53,10 +53,6 @@ class _Row:
     band: Box  # the row as planned; the QP then sets its height
     rooms: list[Room] = field(default_factory=list)
 
-    @property
-    def pinned(self) -> list[Room]:
-        return [r for r in self.rooms if r.positions]
-
 
 def slicing_has_demands(problem: Problem) -> bool:
     """Whether rooms are coupled (adjacency) or tied to the outline (boundary)."""
@@ -442,10 +438,11 @@ def _contact_way(q: _Sizes, plan: RowPlan, a: str, b: str, contact: float) -> Wa
     """Rooms `a` and `b` sharing `contact` metres of wall where the plan has them meet:
     their ranges along the wall overlap by `contact`, i.e. min(a1, b1) - max(a0, b0)
     >= contact, four linear cuts (two of them trivial in one column)."""
-    a0, a1 = q.span_x(a) if plan.along_x(a, b) else q.span_y(a)
-    b0, b1 = q.span_x(b) if plan.along_x(a, b) else q.span_y(b)
     if plan.in_one_column(a, b):
         return [(contact, q.width[a])]
+    along_x = plan.along_x(a, b)
+    a0, a1 = q.span_x(a) if along_x else q.span_y(a)
+    b0, b1 = q.span_x(b) if along_x else q.span_y(b)
     return [(contact + a0, a1), (contact + a0, b1), (contact + b0, a1), (contact + b0, b1)]
 
 
