@@ -383,6 +383,14 @@ def absorb_gaps(problem: Problem, domain: Domain, pieces: Sequence[Piece]) -> li
     return merge_rectangular_pairs(result)
 
 
+def absorbed(problem: Problem, domain: Domain, rooms: dict[str, list[Box]]
+             ) -> dict[str, list[Box]]:
+    """`absorb_gaps` on a layout given as room id -> rectangles."""
+    pieces = [Piece(f"{room_id}#{k}", room_id, b)
+              for room_id, boxes in rooms.items() for k, b in enumerate(boxes)]
+    return room_boxes(absorb_gaps(problem, domain, pieces))
+
+
 def _absorb_cell(problem: Problem, pieces: list[Piece], cell: Box) -> list[Piece]:
     for side in ("south", "north", "west", "east"):
         cuts = _cuts_along(pieces, cell, side)

@@ -25,7 +25,7 @@ from models import (
     RoomLayout,
     Termination,
 )
-from solver.checker import check_layout
+from solver.checker import COVERAGE_GOAL, check_layout
 from solver.conflicts import find_conflict
 from solver.construct import construct
 from solver.formulation import LevelModel, active_families, build_level
@@ -46,6 +46,7 @@ from solver.hierarchy import (
     RefinementPlan,
     SubDomain,
     absorb_gaps,
+    absorbed,
     apply_refinement,
     on_edge,
     plan_refinement,
@@ -174,6 +175,8 @@ class _Run:
     extra: list[ExtraRectangles] = field(default_factory=list)
     #: The layout comes from the soft model: soft constraints carry priced slacks.
     soft: bool = False
+    #: The incumbent of lowest Eq. 12 meeting the coverage goal (gaps absorbed).
+    best: tuple[float, dict[str, list[Box]]] | None = None
 
     def room_of(self, rect: str) -> str:
         """The room a level-1 rectangle belongs to."""
@@ -204,11 +207,29 @@ class _Run:
 
     def incumbent(self, domain: Domain, rooms: dict[str, list[Box]],
                   dual_bound: float | None = None, sub: int = 0, subs: int = 0) -> None:
-        """Announce the whole current layout with its Eq. 12 value, as the report counts it."""
+        """Keep the layout if it is the best covering one so far, and announce it with
+        its Eq. 12 value, as the report counts it: gaps absorbed, as `solve` would
+        return it if stopped now."""
+        rooms = absorbed(self.problem, domain, rooms)
+        objective = layout_objective(self.problem, domain, rooms, soft=self.soft)
+        if _covers(domain, rooms) and (self.best is None or objective < self.best[0]):
+            self.best = (objective, rooms)
         if self.on_event is not None:
             self.emit(Phase.INCUMBENT, subdomain=sub, subdomains=subs, rooms=rooms,
-                      objective=layout_objective(self.problem, domain, rooms, soft=self.soft),
-                      dual_bound=dual_bound)
+                      objective=objective, dual_bound=dual_bound)
+
+    def better_of(self, domain: Domain, pieces: list[Piece]) -> list[Piece]:
+        """The final `pieces`, unless they miss the coverage goal where an earlier
+        incumbent met it, or an earlier covering one scores better: later steps trade
+        coverage against size error, and may lose the bet."""
+        if self.best is None:
+            return pieces
+        rooms = room_boxes(pieces)
+        objective = layout_objective(self.problem, domain, rooms, soft=self.soft)
+        if _covers(domain, rooms) and objective <= self.best[0]:
+            return pieces
+        return [Piece(f"{room_id}#{k}", room_id, b)
+                for room_id, boxes in self.best[1].items() for k, b in enumerate(boxes)]
 
     def run(self, lm: LevelModel, limit: float, *,
             on_incumbent: Callable[[Incumbent], None] | None = None) -> LevelResult:
@@ -294,8 +315,14 @@ def solve(
         assert failure is not None
         return failure
     pieces, levels = _refine(run, domain, pieces, subdomains)
-    pieces = absorb_gaps(problem, domain, pieces)
+    pieces = run.better_of(domain, absorb_gaps(problem, domain, pieces))
     return _layout(run, domain, pieces, levels)
+
+
+def _covers(domain: Domain, rooms: dict[str, list[Box]]) -> bool:
+    """Whether `rooms` meet the checker's coverage goal."""
+    boxes = {f"{k}#{i}": b for k, bs in rooms.items() for i, b in enumerate(bs)}
+    return covered_area(domain, boxes) >= COVERAGE_GOAL * domain.area
 
 
 def _refine(
