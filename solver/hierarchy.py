@@ -436,7 +436,8 @@ def _deepest_strip(
 
 def _cuts_along(pieces: Sequence[Piece], cell: Box, side: str) -> list[tuple[str, Box]] | None:
     """The cell cut perpendicular to `side` where the rooms bordering that side change;
-    None when the side is not bordered by rooms along its whole length."""
+    stretches of the side no room borders are left out (another side, or a later
+    pass, may reach them); None when no room borders it."""
     horizontal = side in ("south", "north")
     line = {"south": cell.y0, "north": cell.y1, "west": cell.x0, "east": cell.x1}[side]
     lo, hi = (cell.x0, cell.x1) if horizontal else (cell.y0, cell.y1)
@@ -452,14 +453,13 @@ def _cuts_along(pieces: Sequence[Piece], cell: Box, side: str) -> list[tuple[str
     spans.sort()
     at, cuts = lo, []
     for s0, s1, room_id in spans:
-        if s0 > at + 1e-6:
-            return None
         if s1 <= at + 1e-6:
             continue
+        at = max(at, s0)
         part = (Box(at, cell.y0, s1, cell.y1) if horizontal else Box(cell.x0, at, cell.x1, s1))
         cuts.append((room_id, part))
         at = s1
-    return cuts if at >= hi - 1e-6 else None
+    return cuts or None
 
 
 def _within_bounds(problem: Problem, room_id: str, boxes: list[Box], now: Box) -> bool:

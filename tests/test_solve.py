@@ -315,3 +315,19 @@ def test_the_best_covering_incumbent_replaces_a_final_layout_that_lost_coverage(
     # A final layout that covers and scores no worse stays.
     assert run.better_of(domain, [Piece("a", "a", Box(0, 0, 2, 2)),
                                   Piece("b", "b", Box(2, 0, 4, 2))])[1].box == Box(2, 0, 4, 2)
+
+
+def test_a_gap_side_bordered_by_a_room_over_part_of_its_length_is_absorbed_there() -> None:
+    from solver.geometry import make_domain
+    from solver.hierarchy import Piece, absorb_gaps, room_boxes
+
+    # The strip above both rooms is one gap cell; only `a` borders part of its south
+    # side, and only `a` may grow (to its maximum depth of 2.5).
+    floor = problem(
+        name="partly", boundary=[[0, 0], [4, 0], [4, 3], [0, 3]],
+        rooms=[{"id": "a", "type": "bedroom", "min_size": [1, 1], "max_size": [2, 2.5]},
+               {"id": "b", "type": "bedroom", "min_size": [1, 1], "max_size": [2, 1.5]}])
+    pieces = [Piece("a", "a", Box(0, 0, 2, 2)), Piece("b", "b", Box(2, 0, 4, 1.5))]
+    grown = room_boxes(absorb_gaps(floor, make_domain(floor), pieces))
+    assert sum(b.area for b in grown["a"]) == pytest.approx(5.0)
+    assert grown["b"] == [Box(2, 0, 4, 1.5)]
