@@ -27,6 +27,8 @@ STEP_LIMIT = 0.5
 MIN_GAIN = 1e-6
 #: Uncovered parts smaller than this (m²) do not attract a neighbourhood.
 GAP_AREA = 1e-3
+#: A mover may be this much (metres) larger than the gap: it pushes its neighbours.
+MOVER_REACH = 0.5
 
 Step = Callable[[LevelModel, float], LevelResult]
 
@@ -51,11 +53,12 @@ def search_neighbourhoods(
     keep_coverage: bool = False,
     patience: int | None = None,
     on_improvement: Callable[[dict[str, Box]], None] | None = None,
+    good_enough: Callable[[dict[str, Box]], bool] | None = None,
 ) -> Incumbent:
     """Improve the layout `rects` of the one-rectangle-per-room level `spec` until
-    `deadline`, or until `patience` steps in a row improved nothing; each accepted step
-    lowers Eq. 12 (under `spec`'s weights) and, with `keep_coverage`, covers no less of
-    the domain."""
+    `deadline`, until `patience` steps in a row improved nothing, or until an
+    incumbent is `good_enough`; each accepted step lowers Eq. 12 (under `spec`'s
+    weights) and, with `keep_coverage`, covers no less of the domain."""
     best = Incumbent(dict(rects), level_objective(spec, rects))
     coverage = covered_area(domain, best.rects)
     size = NEIGHBOURHOOD_SIZE
@@ -68,6 +71,8 @@ def search_neighbourhoods(
     since_improvement = 0
     while time.monotonic() < deadline - 0.05 and not (should_stop and should_stop()):
         if patience is not None and since_improvement >= patience:
+            break
+        if good_enough is not None and since_improvement == 0 and good_enough(best.rects):
             break
         free, gap = choose_neighbourhood(best.rects, domain, rng, size=size,
                                          around_gap=best.steps % 3 != 2, min_sizes=min_sizes,
@@ -197,7 +202,8 @@ def choose_neighbourhood(
     if extra and min_sizes and rng.random() < 0.5:
         gap = extra[0]
         fitting = [r for r in by_distance[size:] if r not in chosen
-                   and min_sizes[r][0] <= gap.width and min_sizes[r][1] <= gap.depth]
+                   and min_sizes[r][0] <= gap.width + MOVER_REACH
+                   and min_sizes[r][1] <= gap.depth + MOVER_REACH]
         if fitting:
             mover = rng.choice(fitting)
             # The rooms it must touch come along, or it could not move at all.
