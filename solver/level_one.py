@@ -6,9 +6,12 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
+from shapely.geometry import LineString, Polygon
+
 from models import Problem, Room
 from solver.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec
-from solver.geometry import Domain, edges_named
+from solver.geometry import Box, Domain, edges_named
+from solver.hierarchy import on_edge
 from solver.soft import adjacency_soft, room_soft
 
 #: Sec. 5.4: with targets, start the size bounds at 90-110 % of the target ...
@@ -156,3 +159,44 @@ def demand_order(problem: Problem) -> list[str]:
     area = {room.id: math.prod(room.target_size or room.max_size or (1.0, 1.0))
             for room in problem.rooms}
     return sorted(load, key=lambda r: (-load[r], -area[r], r))
+
+
+def carve_wing(problem: Problem, domain: Domain, room: Room, main: Box, gap: Polygon
+               ) -> tuple[float, Box, Box] | None:
+    """A start for a wing that may reach into `gap`: the strip `WING_MIN` deep along
+    the side of the room's rectangle `main` that borders the gap, and what is left of
+    `main`, with the length of that border. The room covers what it covered; the rest
+    must still meet the room's minimum size and hold its guide points and exterior
+    wall, which stay with the main rectangle. None when no side borders the gap over
+    `WING_MIN` or more, or the rest would fail."""
+    lo, _ = size_bounds(room, domain, None)
+    edges = edges_named(problem, domain.edges, room.boundary)
+    best: tuple[float, Box, Box] | None = None
+    sides = {
+        "south": (LineString([(main.x0, main.y0), (main.x1, main.y0)]),
+                  Box(main.x0, main.y0, main.x1, main.y0 + WING_MIN),
+                  Box(main.x0, main.y0 + WING_MIN, main.x1, main.y1)),
+        "north": (LineString([(main.x0, main.y1), (main.x1, main.y1)]),
+                  Box(main.x0, main.y1 - WING_MIN, main.x1, main.y1),
+                  Box(main.x0, main.y0, main.x1, main.y1 - WING_MIN)),
+        "west": (LineString([(main.x0, main.y0), (main.x0, main.y1)]),
+                 Box(main.x0, main.y0, main.x0 + WING_MIN, main.y1),
+                 Box(main.x0 + WING_MIN, main.y0, main.x1, main.y1)),
+        "east": (LineString([(main.x1, main.y0), (main.x1, main.y1)]),
+                 Box(main.x1 - WING_MIN, main.y0, main.x1, main.y1),
+                 Box(main.x0, main.y0, main.x1 - WING_MIN, main.y1)),
+    }
+    for side, strip, rest in sides.values():
+        border = side.intersection(gap.buffer(1e-6)).length
+        if border < WING_MIN or min(strip.width, strip.depth) < WING_MIN - 1e-9:
+            continue
+        if max(strip.width, strip.depth) < WING_JOIN or rest.width < lo[0] - 1e-9 \
+                or rest.depth < lo[1] - 1e-9:
+            continue
+        if not all(rest.contains_point(*p) for p in room.positions):
+            continue
+        if edges and not any(on_edge(rest, e) for e in edges):
+            continue
+        if best is None or border > best[0]:
+            best = (border, rest, strip)
+    return best

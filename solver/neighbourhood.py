@@ -54,10 +54,11 @@ def search_neighbourhoods(
     patience: int | None = None,
     on_improvement: Callable[[dict[str, Box]], None] | None = None,
     good_enough: Callable[[dict[str, Box]], bool] | None = None,
+    stall_seconds: float | None = None,
 ) -> Incumbent:
     """Improve the layout `rects` of the one-rectangle-per-room level `spec` until
-    `deadline`, until `patience` steps in a row improved nothing, or until an
-    incumbent is `good_enough`; each accepted step lowers Eq. 12 (under `spec`'s
+    `deadline`, until `patience` steps in a row or `stall_seconds` improved nothing, or
+    until an incumbent is `good_enough`; each accepted step lowers Eq. 12 (under `spec`'s
     weights) and, with `keep_coverage`, covers no less of the domain."""
     best = Incumbent(dict(rects), level_objective(spec, rects))
     coverage = covered_area(domain, best.rects)
@@ -69,10 +70,13 @@ def search_neighbourhoods(
             partners.setdefault(name, set()).update(c.members - {name})
     tried: set[frozenset[str]] = set()  # neighbourhoods already optimal for this incumbent
     since_improvement = 0
+    last_gain = time.monotonic()
     while time.monotonic() < deadline - 0.05 and not (should_stop and should_stop()):
         if patience is not None and since_improvement >= patience:
             break
         if good_enough is not None and since_improvement == 0 and good_enough(best.rects):
+            break
+        if stall_seconds is not None and time.monotonic() - last_gain > stall_seconds:
             break
         free, gap = choose_neighbourhood(best.rects, domain, rng, size=size,
                                          around_gap=best.steps % 3 != 2, min_sizes=min_sizes,
@@ -102,6 +106,7 @@ def search_neighbourhoods(
                          objective if improved else best.objective,
                          best.steps + 1, best.improvements + int(improved))
         since_improvement = 0 if improved else since_improvement + 1
+        last_gain = time.monotonic() if improved else last_gain
         if improved:
             tried.clear()
             size = NEIGHBOURHOOD_SIZE

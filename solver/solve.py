@@ -54,6 +54,7 @@ from solver.hierarchy import (
     select_subdomains,
 )
 from solver.level_one import (
+    carve_wing,
     demand_order,
     level_one_spec,
     windows_to_try,
@@ -115,6 +116,15 @@ STRICT_FIRST_SHARE = 0.5
 #: tolerance is relative, so at 60 m two walls meant to meet may lie 6e-5 m apart.
 #: The same tolerance as the checker's.
 OUTPUT_SNAP = 1e-4
+#: Rooms given a second rectangle at level 1 to reach gaps, at most ...
+GAP_WINGS = 2
+#: ... for gaps larger than this (m²), trying this many rooms per gap.
+GAP_WING_AREA = 0.25
+WING_TRIES = 3
+#: Steps without gain after which a coverage pass gives up (and a gap wing is tried).
+COVER_PATIENCE = 6
+#: ... or after this share of its time without gain.
+COVER_STALL_SHARE = 0.2
 #: Share of the floor a layout must cover beyond the checker's goal to count as
 #: covering while solving.
 COVER_MARGIN = 5e-4
@@ -588,6 +598,47 @@ def _with_wings(run: _Run, domain: Domain, deadline: float, why: str) -> LevelRe
     return None
 
 
+def _gap_wing(
+    run: _Run, domain: Domain, rects: dict[str, Box], deadline: float
+) -> tuple[LevelModel, dict[str, Box]] | None:
+    """The level-1 model with one more wing, for a room beside a gap (the largest gap
+    first, the room bordering it longest first), and its start: the room's rectangle
+    cut into a main part and a strip along the gap (`carve_wing`). None when no room
+    can take one, or no such start is feasible (a contact split between the two)."""
+    problem = run.problem
+    if run.soft:
+        return None
+    union = shapely.union_all([b.to_polygon() for b in rects.values()])
+    rest = domain.free.difference(union)
+    gaps = sorted((g for g in getattr(rest, "geoms", [rest]) if g.area > GAP_WING_AREA),
+                  key=lambda g: -g.area)
+    for gap in gaps:
+        candidates = []
+        for name, box in rects.items():
+            room = problem.room(run.room_of(name))
+            if name != room.id or room.id in run.wings or room.max_rects == 1:
+                continue
+            carved = carve_wing(problem, domain, room, box, gap)
+            if carved is not None:
+                candidates.append((-carved[0], name, carved[1], carved[2]))
+        for _, name, main, strip in sorted(candidates)[:WING_TRIES]:
+            if time.monotonic() >= deadline - 0.1 or run.stopped():
+                return None
+            wings = run.wings | {name: 1}
+            lm = build_level(level_one_spec(problem, domain, window=None, wings=wings))
+            start = complete_start(lm, rects | {name: main, wing_names(name, 1)[0]: strip},
+                                   time_limit=deadline - time.monotonic())
+            if start.rects is None:
+                continue
+            run.wings = wings
+            run.extra.append(ExtraRectangles(
+                room=name, rectangles=2,
+                reason="a gap beside it stayed uncovered with one rectangle per room"))
+            run.emit(Phase.RELAXATION, detail=f"{name} as two rectangles, to reach a gap")
+            return lm, start.rects
+    return None
+
+
 def _slice(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
     """A first layout of rows of rooms filling the floor (solver/slicing.py)."""
     started = time.monotonic()
@@ -648,27 +699,43 @@ def _improve_level_one(
     rng = random.Random(run.problem.options.seed)
     covers = covered_area(domain, start.rects) >= domain.area - GAP_AREA
     middle = time.monotonic() + (deadline - time.monotonic()) * COVERAGE_PHASE_SHARE
-    first_pass = None if covers else search_neighbourhoods(
-        coverage_first(lm.spec), start.rects, domain, deadline=middle, rng=rng,
-        step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
-        on_improvement=improved,
-        # Growth beyond the targets costs size error: stop growing once the layout,
+
+    def good_enough(rects: dict[str, Box]) -> bool:
+        return _covers(domain, absorbed(run.problem, domain, run.by_room(rects)))
+
+    rects, steps, improvements = start.rects, 0, 0
+    stall = (middle - time.monotonic()) * COVER_STALL_SHARE
+    for wing in range(GAP_WINGS + 1):
+        if covers or (wing and (good_enough(rects) or time.monotonic() > middle - 0.1)):
+            break
+        if wing:
+            # The search stalled short of the goal: a room beside the largest gap it
+            # can border gets a second rectangle to reach in with (issue 2).
+            widened = _gap_wing(run, domain, rects, middle)
+            if widened is None:
+                break
+            lm, rects = widened
+        # Growth beyond the targets costs size error: the pass ends once the layout,
         # gaps absorbed, meets the coverage goal.
-        good_enough=lambda rects: _covers(domain, absorbed(
-            run.problem, domain, run.by_room(rects))),
-    )
+        grown = search_neighbourhoods(
+            coverage_first(lm.spec), rects, domain, deadline=middle, rng=rng,
+            step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
+            on_improvement=improved, good_enough=good_enough, patience=COVER_PATIENCE,
+            stall_seconds=stall,
+        )
+        rects, steps, improvements = (grown.rects, steps + grown.steps,
+                                      improvements + grown.improvements)
     best = search_neighbourhoods(
-        lm.spec, start.rects if first_pass is None else first_pass.rects, domain,
+        lm.spec, rects, domain,
         deadline=deadline, rng=rng,
         step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
         keep_coverage=True, patience=STALL_STEPS if covers else None,
         on_improvement=improved,
     )
     run.stalled = covers and time.monotonic() < deadline - 0.05 and not run.stopped()
-    steps = best.steps + (first_pass.steps if first_pass else 0)
-    improvements = best.improvements + (first_pass.improvements if first_pass else 0)
     run.emit(Phase.LEVEL, objective=best.objective,
-             detail=f"neighbourhood search: {improvements} of {steps} steps improved")
+             detail=f"neighbourhood search: {improvements + best.improvements} of "
+                    f"{steps + best.steps} steps improved")
     return best.rects
 
 

@@ -12,8 +12,8 @@ from pydantic import ValidationError
 
 from models import Problem
 from solver.formulation import build_level
-from solver.geometry import make_domain
-from solver.level_one import demand_order, level_one_spec
+from solver.geometry import Box, make_domain
+from solver.level_one import carve_wing, demand_order, level_one_spec
 from solver.scip_run import LevelStatus, run_level
 from solver.solve import solve
 
@@ -45,7 +45,10 @@ def test_an_l_shaped_flat_needs_an_l_shaped_living_room_and_gets_one() -> None:
 def test_a_room_may_ask_to_be_free_from_the_start() -> None:
     layout = solve(example("corridor-flat", time_limit=4))
     assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
-    assert [(e.room, e.reason) for e in layout.report.extra_rectangles] == [("hall", "asked")]
+    extra = [(e.room, e.reason) for e in layout.report.extra_rectangles]
+    assert extra[0] == ("hall", "asked")
+    # Others only where a gap stayed uncovered with one rectangle per room.
+    assert all(reason.startswith("a gap beside it") for _, reason in extra[1:])
     assert layout.report.circulation is not None and layout.report.circulation.reachable
 
 
@@ -61,3 +64,30 @@ def test_shape_requests_are_validated_with_their_field(fields: dict[str, Any]) -
         Problem.model_validate({"boundary": [[0, 0], [4, 0], [4, 4], [0, 4]],
                                 "rooms": [{"id": "a", **fields}]})
     assert err.value.errors()[0]["loc"][:3] == ("rooms", 0, next(iter(fields)))
+
+
+def _room_by_a_gap(**room: Any) -> tuple[Problem, Box]:
+    p = Problem.model_validate({
+        "name": "gap", "boundary": [[0, 0], [4, 0], [4, 4], [0, 4]],
+        "rooms": [{"id": "r", "type": "bedroom", "min_size": [2, 1.5], **room}]})
+    return p, Box(0, 0, 4, 3)
+
+
+def test_a_room_beside_a_gap_is_cut_into_a_main_part_and_a_strip_along_the_gap() -> None:
+    p, main = _room_by_a_gap()
+    gap = Box(0, 3, 2, 4).to_polygon()  # above the west half of the room
+    carved = carve_wing(p, make_domain(p), p.rooms[0], main, gap)
+    assert carved is not None
+    border, rest, strip = carved
+    assert border == pytest.approx(2.0)
+    assert (rest, strip) == (Box(0, 0, 4, 2), Box(0, 2, 4, 3))
+
+
+@pytest.mark.parametrize("room", [
+    {"positions": [[1, 2.5]]},  # the guide point would leave the main part
+    {"boundary": ["north"]},  # the main part must lie on the north wall; it would not
+    {"min_size": [2, 2.5]},  # the rest would be too shallow
+])
+def test_no_strip_is_cut_where_the_main_part_would_break_the_room(room: dict[str, Any]) -> None:
+    p, main = _room_by_a_gap(**room)
+    assert carve_wing(p, make_domain(p), p.rooms[0], main, Box(0, 3, 2, 4).to_polygon()) is None
