@@ -83,14 +83,11 @@ EventSink = Callable[..., None]
 
 def regions_apply(problem: Problem) -> bool:
     """Regions are used when the problem names them, or has more rooms than
-    `options.regions_above` (0: never) and asks for circulation: an entrance or
-    `require_connected`. Aisles are walking space that must lead somewhere; a floor of
-    rooms asked for by size alone is tiled without them (solver/slicing.py), which keeps
-    every room's target reachable instead of giving a fifth of the floor to aisles."""
+    `options.regions_above` (0: never), entrance or not: a floor that large needs
+    walking space to reach its rooms. Without an entrance the aisles form one network
+    touching every region and the facade (its ends are the exits)."""
     above = problem.options.regions_above
-    circulation = problem.entrance is not None or problem.options.require_connected
-    return problem.regions is not None or (
-        above > 0 and len(problem.rooms) > above and circulation)
+    return problem.regions is not None or (above > 0 and len(problem.rooms) > above)
 
 
 def room_adjacency(problem: Problem) -> list[Adjacency]:
