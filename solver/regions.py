@@ -61,10 +61,18 @@ from solver.openings import (
 
 #: Rooms per region the automatic partition aims for (the paper's Fig. 8 blocks).
 REGION_ROOMS = 14
-#: Share of the time limit the region layout may use.
+#: Share of the time limit the region layout may use ...
 REGION_SHARE = 0.2
-#: The least time (s) a room sub-problem is given.
+#: ... and at most this many seconds per region: slicing lays the regions out at once
+#: and the search after it rarely improves on that (measured: 0 of 8 steps on office-154).
+REGION_SECONDS_PER_REGION = 0.25
+#: The least time (s) a room sub-problem is given ...
 MIN_PART_SECONDS = 0.5
+#: ... and at most this many seconds per room on top: a part's rows come from slicing
+#: in a fraction of a second, and its search stalls with at most one step improved.
+PART_SECONDS_PER_ROOM = 0.1
+#: Rounds of dealing an automatic partition's rooms again when a part cannot hold them.
+DEAL_ROUNDS = 3
 #: Time kept per room for merging, doors and the check.
 FINISH_SECONDS_PER_ROOM = 0.01
 #: What a room sub-problem gives up, in turn, when it finds no layout (model fields
@@ -224,12 +232,15 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
     """Regions as the rooms of a first problem. A region's area is its rooms' share of
     the free floor (their target areas, scaled so that all regions fill it: the aisles
     come out of every region in proportion); without a target of its own it is a bar
-    two rooms deep plus an aisle, so that each of its rooms can face an aisle. It covers
-    its own points (else its rooms' points, at most two) and touches its own exterior
-    walls (else those its rooms ask for)."""
+    two rooms deep plus an aisle, so that each of its rooms can face an aisle, the rooms
+    as deep as their targets shrunk by `room_scale` (the aisles' floor then comes out of
+    both sides of every room, not all of it out of their widths). It covers its own
+    points (else its rooms' points, at most two) and touches its own exterior walls
+    (else those its rooms ask for)."""
     typical = _typical_area(problem)
     wanted = {g.id: sum(_room_area(problem.room(r), typical) for r in g.rooms) for g in regions}
     scale = float(problem.free_area().area) / sum(wanted.values())
+    shrink = room_scale(problem, scale)
     rooms = []
     for g in regions:
         members = [problem.room(r) for r in g.rooms]
@@ -239,7 +250,8 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
                       for k in (0, 1))
         target = g.target_size
         if target is None:
-            deep = min(2 * statistics.median(depths) + problem.aisle_width, math.sqrt(area))
+            deep = min(2 * shrink * statistics.median(depths) + problem.aisle_width,
+                       math.sqrt(area))
             target = (max(area / deep, least[0]), max(deep, least[1]))
         points = list(g.positions) or [p for r in members for p in r.positions]
         if len(points) > 2:
@@ -258,6 +270,21 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
     return Problem(name=f"{problem.name} regions", boundary=problem.boundary,
                    obstacles=problem.obstacles, rooms=rooms, adjacency=adjacency,
                    weights=problem.weights, options=options)
+
+
+def room_scale(problem: Problem, scale: float) -> float:
+    """The factor the rooms' sides shrink by when bars two rooms deep, each giving up an
+    aisle's width along its length (half on each side), share the free floor, whose
+    area is `scale` times the rooms' target area: s with s² = scale (1 - a / (2 s d + a))
+    for the median target depth d and aisle width a (a fixed point, found in a few steps)."""
+    typical = _typical_area(problem)
+    depth = statistics.median(
+        (r.target_size or r.min_size or (math.sqrt(typical),) * 2)[1] for r in problem.rooms)
+    a = problem.aisle_width
+    s = math.sqrt(scale)
+    for _ in range(12):
+        s = math.sqrt(scale * (1 - a / (2 * s * depth + a)))
+    return min(1.0, s)
 
 
 # 4. Rooms inside a region.
@@ -419,7 +446,8 @@ def solve_regions(
     regions = partition(problem)
     progress.say(f"regions: {len(regions)} regions of "
                  f"{', '.join(str(len(g.rooms)) for g in regions)} rooms")
-    level_one = region_problem(problem, regions, max(1.0, limit * REGION_SHARE))
+    level_one = region_problem(problem, regions, max(1.0, min(
+        limit * REGION_SHARE, REGION_SECONDS_PER_REGION * len(regions))))
     laid = solve(level_one, on_event=progress.sink("regions", incumbents=False),
                  should_stop=should_stop)
     if not laid.rooms:
@@ -446,7 +474,9 @@ def solve_regions(
     for k, (g, part, rooms) in enumerate(jobs):
         if should_stop is not None and should_stop():
             break
-        share = max(MIN_PART_SECONDS, (deadline - time.monotonic()) * len(rooms) / left_rooms)
+        share = max(MIN_PART_SECONDS, min(
+            (deadline - time.monotonic()) * len(rooms) / left_rooms,
+            MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms)))
         left_rooms -= len(rooms)
         stage = f"region {g.id} {k + 1}/{len(jobs)}"
         progress.say(stage, subdomain=k + 1, subdomains=len(jobs))
@@ -480,17 +510,37 @@ def _jobs(problem: Problem, regions: Sequence[Region],
     """The room sub-problems: per region part, its rooms. The user's regions keep their
     rooms; an automatic partition is only a means, so its rooms are dealt again over
     every part by the area the region layout actually gave (a region that came out
-    smaller than planned gets fewer rooms, not squeezed ones)."""
+    smaller than planned gets fewer rooms, not squeezed ones), and a part that cannot
+    hold what it was dealt (`find_impossibilities`: too narrow for a room's minimum
+    size, say) is left out and the rooms dealt again, up to `DEAL_ROUNDS` times; the
+    floor of a part left out joins the aisle it opens onto (`_with_leftovers`)."""
     if problem.regions is None:
         parts = [(g, part) for g in regions for part in network.parts[g.id]]
-        dealt = assign_to_parts(problem, problem.rooms, [p for _, p in parts])
-        return [(g, part, rooms) for (g, part), rooms in zip(parts, dealt, strict=True)
-                if rooms]
+        for _ in range(DEAL_ROUNDS):
+            dealt = assign_to_parts(problem, problem.rooms, [p for _, p in parts])
+            jobs = [(g, part, rooms) for (g, part), rooms in zip(parts, dealt, strict=True)
+                    if rooms]
+            cannot = [k for k, (_, part, rooms) in enumerate(jobs)
+                      if not _can_hold(problem, part, rooms)]
+            if not cannot or len(cannot) == len(jobs):
+                return jobs
+            left_out = {id(jobs[k][1]) for k in cannot}
+            parts = [(g, part) for g, part in parts if id(part) not in left_out]
+        return jobs
     return [(g, part, rooms) for g in regions
             for part, rooms in zip(network.parts[g.id],
                                    assign_to_parts(problem, [problem.room(r) for r in g.rooms],
                                                    network.parts[g.id]), strict=True)
             if rooms]
+
+
+def _can_hold(problem: Problem, part: Polygon, rooms: Sequence[Room]) -> bool:
+    """No cheap reason (solver/precheck.py) why `rooms` cannot be laid out in `part`."""
+    from solver.geometry import make_domain
+    from solver.precheck import find_impossibilities
+
+    sub = room_problem(problem, part, rooms, 1.0)
+    return not find_impossibilities(sub, make_domain(sub))
 
 
 def _termination(terminations: Sequence[Termination], stopped: bool) -> Termination:
