@@ -15,6 +15,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import statistics
 import time
@@ -272,6 +273,71 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
                    weights=problem.weights, options=options)
 
 
+def band_regions(problem: Problem) -> dict[str, Polygon] | None:
+    """Regions of an automatic partition, planned rather than solved for: the floor cut
+    across its depth (y) into bands, each two rows of rooms deep, whose shared walls
+    become aisles (the facade bands lose half an aisle, the others a whole one). The
+    number of aisles is the one whose rows and room widths come closest to the rooms'
+    targets once the aisles have taken their floor (`_band_error`); each band is cut
+    along x into regions of about `REGION_ROOMS` rooms (walls between them become
+    aisles only where the network needs them: `aisles._without_end_strips`). None when
+    not even one aisle fits."""
+    free = problem.free_area()
+    x0, y0, x1, y1 = free.bounds
+    height = y1 - y0
+    a = problem.aisle_width
+    best: tuple[float, int, float] | None = None
+    for n in range(1, int(height // a) + 1):
+        row = (height - n * a) / (2 * (n + 1))
+        if row <= a:
+            break
+        error = _band_error(problem, n, row)
+        if best is None or error < best[0]:
+            best = (error, n, row)
+    if best is None:
+        return None
+    _, n, row = best
+    walls = [y0 + 2 * row * (k + 1) + a * k + a / 2 for k in range(n)]
+    typical_room = sum(_room_area(r, _typical_area(problem)) for r in problem.rooms) / len(
+        problem.rooms)
+    shapes: dict[str, Polygon] = {}
+    for lo, hi in itertools.pairwise([y0, *walls, y1]):
+        band = free.intersection(shapely.box(x0, lo, x1, hi))
+        for piece in _pieces(band):
+            count = max(1, round(piece.area / typical_room / REGION_ROOMS))
+            px0, _, px1, _ = piece.bounds
+            step = (px1 - px0) / count
+            for j in range(count):
+                cut = piece.intersection(shapely.box(px0 + j * step, lo, px0 + (j + 1) * step, hi))
+                for part in _pieces(cut):
+                    if part.area > 1e-3:
+                        shapes[f"region-{len(shapes) + 1}"] = part
+    return shapes or None
+
+
+def _band_error(problem: Problem, aisles: int, row: float) -> float:
+    """E_size (Eq. 6) the rooms would have, on average, in rows `row` deep beside
+    `aisles` full-width aisles: each room as deep as the row, and as wide as the floor
+    left to the rooms then allows, both against the targets' medians."""
+    free = problem.free_area()
+    x0, y0, x1, y1 = free.bounds
+    share = float(free.area) / ((x1 - x0) * (y1 - y0))
+    typical = _typical_area(problem)
+    wanted = sum(_room_area(r, typical) for r in problem.rooms)
+    left = float(free.area) - aisles * problem.aisle_width * (x1 - x0) * share
+    sides = [r.target_size or (math.sqrt(typical),) * 2 for r in problem.rooms]
+    width = statistics.median(w for w, _ in sides)
+    depth = statistics.median(d for _, d in sides)
+    deep = row / depth
+    wide = (left / wanted) / deep
+    return (width * (wide - 1)) ** 2 + (depth * (deep - 1)) ** 2
+
+
+def _pieces(geometry: object) -> list[Polygon]:
+    return [g for g in getattr(geometry, "geoms", [geometry])
+            if isinstance(g, Polygon) and not g.is_empty]
+
+
 def room_scale(problem: Problem, scale: float) -> float:
     """The factor the rooms' sides shrink by when bars two rooms deep, each giving up an
     aisle's width along its length (half on each side), share the free floor, whose
@@ -443,42 +509,52 @@ def solve_regions(
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
     deadline = started + limit - min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
     progress = _Progress(on_event, started)
-    regions = partition(problem)
-    progress.say(f"regions: {len(regions)} regions of "
-                 f"{', '.join(str(len(g.rooms)) for g in regions)} rooms")
-    level_one = region_problem(problem, regions, max(1.0, min(
-        limit * REGION_SHARE, REGION_SECONDS_PER_REGION * len(regions))))
-    laid = solve(level_one, on_event=progress.sink("regions", incumbents=False),
-                 should_stop=should_stop)
-    if not laid.rooms:
-        if problem.regions is None and not (should_stop and should_stop()):
-            # An automatic partition is only a means: solve flat instead.
-            progress.say("regions: no region layout, solving without regions")
-            return solve(flat.model_copy(update={"options": flat.options.model_copy(
-                update={"time_limit": max(1.0, deadline - time.monotonic())})}),
-                on_event=on_event, should_stop=should_stop)
-        report = laid.report.model_copy(update={"solve_time": time.monotonic() - started})
-        return Layout(name=problem.name, report=report)
-    shapes = {r.id: Polygon(r.polygon) for r in laid.rooms}
-    keep = {g.id: [p for r in g.rooms for p in problem.room(r).positions] for g in regions}
+    bands = band_regions(problem) if problem.regions is None else None
+    terminations: list[Termination] = []
+    levels = 1
+    if bands is not None:
+        # An automatic partition: bars of two rows of rooms along aisles, planned.
+        shapes: dict[str, Polygon] = dict(bands)
+        given: Sequence[Region] = ()
+        progress.say(f"regions: {len(shapes)} bars of two rows along aisles")
+    else:
+        given = partition(problem)
+        progress.say(f"regions: {len(given)} regions of "
+                     f"{', '.join(str(len(g.rooms)) for g in given)} rooms")
+        level_one = region_problem(problem, given, max(1.0, min(
+            limit * REGION_SHARE, REGION_SECONDS_PER_REGION * len(given))))
+        laid = solve(level_one, on_event=progress.sink("regions", incumbents=False),
+                     should_stop=should_stop)
+        if not laid.rooms:
+            if problem.regions is None and not (should_stop and should_stop()):
+                # An automatic partition is only a means: solve flat instead.
+                progress.say("regions: no region layout, solving without regions")
+                return solve(flat.model_copy(update={"options": flat.options.model_copy(
+                    update={"time_limit": max(1.0, deadline - time.monotonic())})}),
+                    on_event=on_event, should_stop=should_stop)
+            report = laid.report.model_copy(
+                update={"solve_time": time.monotonic() - started})
+            return Layout(name=problem.name, report=report)
+        shapes = {r.id: Polygon(r.polygon) for r in laid.rooms}
+        terminations.append(laid.report.termination)
+        levels = laid.report.levels
+    keep = _points_kept(problem, given, shapes)
     network = aisle_network(problem.free_area(), problem.outline(), shapes,
                             problem.aisle_width, entrance=problem.entrance, keep=keep)
     progress.say(f"aisles: {len(network.pieces)} aisle(s), "
                  f"{network.union.area:.1f} m²")
-    jobs = _jobs(problem, regions, network)
+    jobs = _jobs(problem, list(shapes), given, network)
     placed: dict[str, list[Box]] = {}
     owner: dict[str, str] = {}
-    terminations: list[Termination] = [laid.report.termination]
-    levels = laid.report.levels
     left_rooms = len(problem.rooms)
-    for k, (g, part, rooms) in enumerate(jobs):
+    for k, (region_id, part, rooms) in enumerate(jobs):
         if should_stop is not None and should_stop():
             break
         share = max(MIN_PART_SECONDS, min(
             (deadline - time.monotonic()) * len(rooms) / left_rooms,
             MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms)))
         left_rooms -= len(rooms)
-        stage = f"region {g.id} {k + 1}/{len(jobs)}"
+        stage = f"region {region_id} {k + 1}/{len(jobs)}"
         progress.say(stage, subdomain=k + 1, subdomains=len(jobs))
         sub = room_problem(problem, part, rooms, share)
         inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
@@ -498,24 +574,25 @@ def solve_regions(
         levels = max(levels, inner.report.levels)
         for room in inner.rooms:
             placed[room.id] = [Box.of(rect) for rect in room.rectangles]
-            owner[room.id] = g.id
+            owner[room.id] = region_id
         progress.placed = dict(placed)
     stopped = should_stop is not None and should_stop()
-    return _merge(problem, regions, network, placed, owner, _termination(terminations, stopped),
-                  levels, started, progress)
+    return _merge(problem, list(shapes), network, placed, owner,
+                  _termination(terminations, stopped), levels, started, progress)
 
 
-def _jobs(problem: Problem, regions: Sequence[Region],
-          network: AisleNetwork) -> list[tuple[Region, Polygon, list[Room]]]:
-    """The room sub-problems: per region part, its rooms. The user's regions keep their
-    rooms; an automatic partition is only a means, so its rooms are dealt again over
-    every part by the area the region layout actually gave (a region that came out
+def _jobs(problem: Problem, region_ids: Sequence[str], given: Sequence[Region],
+          network: AisleNetwork) -> list[tuple[str, Polygon, list[Room]]]:
+    """The room sub-problems: per region part, its rooms. The user's regions (`given`)
+    keep their rooms; an automatic partition is only a means, so its rooms are dealt
+    over every part by the area the region layout actually gave (a region that came out
     smaller than planned gets fewer rooms, not squeezed ones), and a part that cannot
     hold what it was dealt (`find_impossibilities`: too narrow for a room's minimum
     size, say) is left out and the rooms dealt again, up to `DEAL_ROUNDS` times; the
     floor of a part left out joins the aisle it opens onto (`_with_leftovers`)."""
     if problem.regions is None:
-        parts = [(g, part) for g in regions for part in network.parts[g.id]]
+        parts = [(g, part) for g in region_ids for part in network.parts[g]]
+        jobs: list[tuple[str, Polygon, list[Room]]] = []
         for _ in range(DEAL_ROUNDS):
             dealt = assign_to_parts(problem, problem.rooms, [p for _, p in parts])
             jobs = [(g, part, rooms) for (g, part), rooms in zip(parts, dealt, strict=True)
@@ -527,11 +604,21 @@ def _jobs(problem: Problem, regions: Sequence[Region],
             left_out = {id(jobs[k][1]) for k in cannot}
             parts = [(g, part) for g, part in parts if id(part) not in left_out]
         return jobs
-    return [(g, part, rooms) for g in regions
+    return [(g.id, part, rooms) for g in given
             for part, rooms in zip(network.parts[g.id],
                                    assign_to_parts(problem, [problem.room(r) for r in g.rooms],
                                                    network.parts[g.id]), strict=True)
             if rooms]
+
+
+def _points_kept(problem: Problem, given: Sequence[Region],
+                 shapes: Mapping[str, Polygon]) -> dict[str, list[tuple[float, float]]]:
+    """Per region, the guide points its rooms must cover (an aisle keeps off them): the
+    user's regions' rooms' points; else the points lying in the region's shape."""
+    if given:
+        return {g.id: [p for r in g.rooms for p in problem.room(r).positions] for g in given}
+    return {g: [p for r in problem.rooms for p in r.positions
+                if shape.buffer(1e-6).contains(Point(p))] for g, shape in shapes.items()}
 
 
 def _can_hold(problem: Problem, part: Polygon, rooms: Sequence[Room]) -> bool:
@@ -553,7 +640,7 @@ def _termination(terminations: Sequence[Termination], stopped: bool) -> Terminat
     return Termination.TIME_LIMIT
 
 
-def _merge(problem: Problem, regions: Sequence[Region], network: AisleNetwork,
+def _merge(problem: Problem, region_ids: Sequence[str], network: AisleNetwork,
            placed: Mapping[str, list[Box]], owner: Mapping[str, str],
            termination: Termination, levels: int, started: float,
            progress: _Progress) -> Layout:
@@ -568,7 +655,7 @@ def _merge(problem: Problem, regions: Sequence[Region], network: AisleNetwork,
     aisle_shapes = {a.id: p.polygon for a, p in zip(aisles, network.pieces, strict=True)}
     check = check_layout(flat, placed, aisles=list(aisle_shapes.values()))
     polygons = {r.id: room_polygon(placed[r.id]) for r in problem.rooms if r.id in placed}
-    members = {g.id: [r for r in g.rooms if r in placed] for g in regions}
+    members = {g: [r for r in placed if owner.get(r) == g] for g in region_ids}
     aisle_checks = check_aisles(problem, polygons, aisle_shapes, members)
     doors = requested_doors(flat, polygons)
     doors += aisle_doors(problem, polygons, aisle_shapes)
