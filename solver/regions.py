@@ -72,6 +72,8 @@ MIN_PART_SECONDS = 0.5
 #: ... and at most this many seconds per room on top: a part's rows come from slicing
 #: in a fraction of a second, and its search stalls with at most one step improved.
 PART_SECONDS_PER_ROOM = 0.1
+#: Planned bands (automatic regions) thinner than this share of a row are not kept.
+THINNEST_BAND = 0.75
 #: Rounds of dealing an automatic partition's rooms again when a part cannot hold them.
 DEAL_ROUNDS = 3
 #: Time kept per room for merging, doors and the check.
@@ -284,20 +286,9 @@ def band_regions(problem: Problem) -> dict[str, Polygon] | None:
     not even one aisle fits."""
     free = problem.free_area()
     x0, y0, x1, y1 = free.bounds
-    height = y1 - y0
-    a = problem.aisle_width
-    best: tuple[float, int, float] | None = None
-    for n in range(1, int(height // a) + 1):
-        row = (height - n * a) / (2 * (n + 1))
-        if row <= a:
-            break
-        error = _band_error(problem, n, row)
-        if best is None or error < best[0]:
-            best = (error, n, row)
-    if best is None:
+    walls = _walls(problem, y0, y1)
+    if not walls:
         return None
-    _, n, row = best
-    walls = [y0 + 2 * row * (k + 1) + a * k + a / 2 for k in range(n)]
     typical_room = sum(_room_area(r, _typical_area(problem)) for r in problem.rooms) / len(
         problem.rooms)
     shapes: dict[str, Polygon] = {}
@@ -306,13 +297,75 @@ def band_regions(problem: Problem) -> dict[str, Polygon] | None:
         for piece in _pieces(band):
             count = max(1, round(piece.area / typical_room / REGION_ROOMS))
             px0, _, px1, _ = piece.bounds
-            step = (px1 - px0) / count
-            for j in range(count):
-                cut = piece.intersection(shapely.box(px0 + j * step, lo, px0 + (j + 1) * step, hi))
+            cuts = _cuts(problem, px0, px1, lo, hi, count)
+            for left, right in itertools.pairwise(cuts):
+                cut = piece.intersection(shapely.box(left, lo, right, hi))
                 for part in _pieces(cut):
                     if part.area > 1e-3:
                         shapes[f"region-{len(shapes) + 1}"] = part
     return shapes or None
+
+
+def _cuts(problem: Problem, x0: float, x1: float, lo: float, hi: float,
+          count: int) -> list[float]:
+    """Where a band from `x0` to `x1` (between `lo` and `hi`) is cut into `count`
+    regions: evenly, except that the sides of an obstacle standing in the band are cuts
+    too and an even cut near one (within two aisle widths) moves onto it, so that the
+    regions beside an atrium are rectangles rather than rings around it."""
+    sides = sorted({x for o in problem.obstacles
+                    if o.y < hi - 1e-6 and o.y + o.depth > lo + 1e-6
+                    for x in (o.x, o.x + o.width) if x0 + 1e-6 < x < x1 - 1e-6})
+    near = 2 * problem.aisle_width
+    cuts = set(sides)
+    for j in range(1, count):
+        even = x0 + j * (x1 - x0) / count
+        closest = min(sides, key=lambda x: abs(x - even), default=None)
+        if closest is None or abs(closest - even) > near:
+            cuts.add(even)
+    return [x0, *sorted(cuts), x1]
+
+
+def _walls(problem: Problem, y0: float, y1: float) -> list[float]:
+    """The lines between bands, bottom to top, where the aisles run: evenly spaced,
+    bands two rows deep, as many as give the least `_band_error`; a line whose aisle
+    would cut an atrium moves to its nearer side (`_clear_of_obstacles`), and one that
+    then leaves less than `THINNEST_BAND` of a row between aisles is dropped."""
+    a = problem.aisle_width
+    best: tuple[float, int, float] | None = None
+    for n in range(1, int((y1 - y0) // a) + 1):
+        row = (y1 - y0 - n * a) / (2 * (n + 1))
+        if row <= a:
+            break
+        error = _band_error(problem, n, row)
+        if best is None or error < best[0]:
+            best = (error, n, row)
+    if best is None:
+        return []
+    _, n, row = best
+    least = THINNEST_BAND * row
+    walls: list[float] = []
+    for wall in sorted(_clear_of_obstacles(problem, y0 + 2 * row * (k + 1) + a * k + a / 2)
+                       for k in range(n)):
+        below = wall - a / 2 - (walls[-1] + a / 2 if walls else y0)
+        if below >= least and y1 - wall - a / 2 >= least:
+            walls.append(wall)
+    return walls
+
+
+def _clear_of_obstacles(problem: Problem, wall: float) -> float:
+    """`wall` moved, when its aisle would cut through an obstacle off the facade (an
+    atrium), to the nearer of the obstacle's sides, the aisle then running along it:
+    the bands keep whole rows beside the obstacle instead of rows cut by it."""
+    half = problem.aisle_width / 2
+    outline = problem.outline()
+    for obstacle in problem.obstacles:
+        box = obstacle.to_box()
+        lo, hi = box.bounds[1], box.bounds[3]
+        touches_facade = box.exterior.intersection(outline.exterior).length > 1e-6
+        if touches_facade or not (lo < wall + half and wall - half < hi):
+            continue
+        wall = min((lo - half, hi + half), key=lambda y: abs(y - wall))
+    return wall
 
 
 def _band_error(problem: Problem, aisles: int, row: float) -> float:
