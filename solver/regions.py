@@ -1,10 +1,11 @@
 """Large layouts through regions and aisles (paper Sec. 5.3, end; Fig. 8).
 
 1. The rooms are grouped into regions: the problem's own (`Problem.regions`, rooms in
-   none forming one more region), or, above `options.regions_above` rooms, a balanced
-   partition (`auto_partition`).
-2. The regions are laid out as rooms of a first problem (`region_problem`) by the
-   ordinary `solve`: each gets its rooms' share of the floor, aisles included.
+   none forming one more region), or, above `options.regions_above` rooms, bars two
+   rows of rooms deep planned across the floor (`band_regions`; where not even one
+   aisle fits, a balanced partition, `auto_partition`).
+2. The user's regions are laid out as rooms of a first problem (`region_problem`) by
+   the ordinary `solve`: each gets its rooms' share of the floor, aisles included.
 3. The walls regions share are widened into aisles of `aisle_width`, joined into one
    network reaching the entrance (`solver/aisles.py`).
 4. The rooms of each region are laid out in what is left of it, one ordinary problem
@@ -59,6 +60,7 @@ from solver.openings import (
     place_windows,
     requested_doors,
 )
+from solver.slicing import slicing_has_demands
 
 #: Rooms per region the automatic partition aims for (the paper's Fig. 8 blocks).
 REGION_ROOMS = 14
@@ -68,10 +70,11 @@ REGION_SHARE = 0.2
 #: and the search after it rarely improves on that (measured: 0 of 8 steps on office-154).
 REGION_SECONDS_PER_REGION = 0.25
 #: The least time (s) a room sub-problem is given ...
-MIN_PART_SECONDS = 0.5
-#: ... and at most this many seconds per room on top: a part's rows come from slicing
-#: in a fraction of a second, and its search stalls with at most one step improved.
-PART_SECONDS_PER_ROOM = 0.1
+MIN_PART_SECONDS = 0.3
+#: ... and, when its rooms ask for sizes and guide points only, at most this many
+#: seconds per room on top: slicing lays a part's rows out in a fraction of a second,
+#: and the search after it found nothing better on office-154 or mall-140.
+PART_SECONDS_PER_ROOM = 0.03
 #: Planned bands (automatic regions) thinner than this share of a row are not kept.
 THINNEST_BAND = 0.75
 #: Rounds of dealing an automatic partition's rooms again when a part cannot hold them.
@@ -603,13 +606,16 @@ def solve_regions(
     for k, (region_id, part, rooms) in enumerate(jobs):
         if should_stop is not None and should_stop():
             break
-        share = max(MIN_PART_SECONDS, min(
-            (deadline - time.monotonic()) * len(rooms) / left_rooms,
-            MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms)))
+        share = max(MIN_PART_SECONDS, (deadline - time.monotonic()) * len(rooms) / left_rooms)
         left_rooms -= len(rooms)
         stage = f"region {region_id} {k + 1}/{len(jobs)}"
         progress.say(stage, subdomain=k + 1, subdomains=len(jobs))
         sub = room_problem(problem, part, rooms, share)
+        if not slicing_has_demands(sub):
+            # Sizes alone: slicing lays the rows out at once and the search after it
+            # does not pay for its time (measured: no step improved on office-154).
+            sub = sub.model_copy(update={"options": sub.options.model_copy(update={
+                "time_limit": min(share, MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms))})})
         inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
                       should_stop=should_stop)
         for relax in RELAXATIONS:
