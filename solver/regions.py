@@ -238,15 +238,12 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
     """Regions as the rooms of a first problem. A region's area is its rooms' share of
     the free floor (their target areas, scaled so that all regions fill it: the aisles
     come out of every region in proportion); without a target of its own it is a bar
-    two rooms deep plus an aisle, so that each of its rooms can face an aisle, the rooms
-    as deep as their targets shrunk by `room_scale` (the aisles' floor then comes out of
-    both sides of every room, not all of it out of their widths). It covers its own
-    points (else its rooms' points, at most two) and touches its own exterior walls
-    (else those its rooms ask for)."""
+    two rooms deep plus an aisle, so that each of its rooms can face an aisle. It covers
+    its own points (else its rooms' points, at most two) and touches its own exterior
+    walls (else those its rooms ask for)."""
     typical = _typical_area(problem)
     wanted = {g.id: sum(_room_area(problem.room(r), typical) for r in g.rooms) for g in regions}
     scale = float(problem.free_area().area) / sum(wanted.values())
-    shrink = room_scale(problem, scale)
     rooms = []
     for g in regions:
         members = [problem.room(r) for r in g.rooms]
@@ -256,8 +253,7 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
                       for k in (0, 1))
         target = g.target_size
         if target is None:
-            deep = min(2 * shrink * statistics.median(depths) + problem.aisle_width,
-                       math.sqrt(area))
+            deep = min(2 * statistics.median(depths) + problem.aisle_width, math.sqrt(area))
             target = (max(area / deep, least[0]), max(deep, least[1]))
         points = list(g.positions) or [p for r in members for p in r.positions]
         if len(points) > 2:
@@ -392,21 +388,6 @@ def _band_error(problem: Problem, aisles: int, row: float) -> float:
 def _pieces(geometry: object) -> list[Polygon]:
     return [g for g in getattr(geometry, "geoms", [geometry])
             if isinstance(g, Polygon) and not g.is_empty]
-
-
-def room_scale(problem: Problem, scale: float) -> float:
-    """The factor the rooms' sides shrink by when bars two rooms deep, each giving up an
-    aisle's width along its length (half on each side), share the free floor, whose
-    area is `scale` times the rooms' target area: s with s² = scale (1 - a / (2 s d + a))
-    for the median target depth d and aisle width a (a fixed point, found in a few steps)."""
-    typical = _typical_area(problem)
-    depth = statistics.median(
-        (r.target_size or r.min_size or (math.sqrt(typical),) * 2)[1] for r in problem.rooms)
-    a = problem.aisle_width
-    s = math.sqrt(scale)
-    for _ in range(12):
-        s = math.sqrt(scale * (1 - a / (2 * s * depth + a)))
-    return min(1.0, s)
 
 
 # 4. Rooms inside a region.
