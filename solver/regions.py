@@ -654,11 +654,17 @@ def _jobs(problem: Problem, region_ids: Sequence[str], given: Sequence[Region],
 def _points_kept(problem: Problem, given: Sequence[Region],
                  shapes: Mapping[str, Polygon]) -> dict[str, list[tuple[float, float]]]:
     """Per region, the guide points its rooms must cover (an aisle keeps off them): the
-    user's regions' rooms' points; else the points lying in the region's shape."""
+    user's regions' rooms' points; else the points lying in the region's shape (a point
+    on the wall between two goes to the first only, so the aisle keeps off its side)."""
     if given:
         return {g.id: [p for r in g.rooms for p in problem.room(r).positions] for g in given}
-    return {g: [p for r in problem.rooms for p in r.positions
-                if shape.buffer(1e-6).contains(Point(p))] for g, shape in shapes.items()}
+    kept: dict[str, list[tuple[float, float]]] = {g: [] for g in shapes}
+    for point in (p for r in problem.rooms for p in r.positions):
+        holder = next((g for g, shape in shapes.items()
+                       if shape.buffer(1e-6).contains(Point(point))), None)
+        if holder is not None:
+            kept[holder].append(point)
+    return kept
 
 
 def _can_hold(problem: Problem, part: Polygon, rooms: Sequence[Room]) -> bool:
