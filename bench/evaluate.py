@@ -8,15 +8,17 @@ run, until the first of each kind is found.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 import shapely
+from shapely.geometry.base import BaseGeometry
 
 from bench.solvers import Rooms, Trace
 from models import Problem
-from solver.checker import COVERAGE_GOAL, SOFT_KINDS, CheckResult, check_layout
+from solver.checker import COVERAGE_GOAL, SOFT_KINDS, CheckResult, check_aisles, check_layout
 from solver.geometry import Domain
 from solver.solve import layout_objective
 
@@ -66,18 +68,23 @@ def hard_violations(check: CheckResult) -> int:
 def evaluate(
     problem: Problem, domain: Domain, trace: Trace, *, case: str, repeat: int, seed: int
 ) -> RunRecord:
-    """Every figure of one run, from its trace."""
+    """Every figure of one run, from its trace. A run with aisles (ours through regions)
+    is measured as the solver's own report measures it: the aisles count as covered
+    floor, and their checks (kind `aisle`) count among the hard violations of the final
+    layout. The recorded layouts are checked against the final layout's aisles (the
+    trace carries no others; a region's rooms are placed once, so an incumbent's rooms
+    are final rooms)."""
     first_valid = first_pass = None
     checked = 0
     for elapsed, rooms in trace.layouts:
         if first_valid is not None:
             break
-        if first_pass is not None and _quick_coverage(domain, rooms) < (
+        if first_pass is not None and _quick_coverage(domain, rooms, trace.aisles) < (
                 COVERAGE_GOAL - QUICK_COVERAGE_SLACK):
             continue
         if not _may_pass(domain, rooms):
             continue
-        check = check_layout(problem, rooms)
+        check = check_layout(problem, rooms, aisles=trace.aisles)
         checked += 1
         if not check.valid:
             continue
@@ -88,13 +95,19 @@ def evaluate(
     coverage = violations = size = objective = None
     valid = False
     if trace.final is not None:
-        check = check_layout(problem, trace.final)
+        check = check_layout(problem, trace.final, aisles=trace.aisles)
         checked += 1
         coverage = check.coverage
         violations = hard_violations(check)
         size = sum(check.size_error.values())
         objective = layout_objective(problem, domain, trace.final)
         valid = check.valid and check.coverage >= COVERAGE_GOAL
+        if trace.aisles:
+            failed = _aisle_failures(problem, trace)
+            violations += failed
+            valid = valid and not failed
+            w = problem.weights
+            objective = w.cover * check.uncovered_area + w.size * size
     last = trace.extra.get("last_improvement")
     if last is None and trace.layouts:
         last = _last_change(trace)
@@ -108,6 +121,16 @@ def evaluate(
         layouts_checked=checked,
         extra={k: v for k, v in trace.extra.items() if k != "last_improvement"},
     )
+
+
+def _aisle_failures(problem: Problem, trace: Trace) -> int:
+    """The failed aisle checks of the final layout (solver/checker.py `check_aisles`)."""
+    assert trace.final is not None
+    rooms = {r: shapely.union_all([b.to_polygon() for b in boxes])
+             for r, boxes in trace.final.items()}
+    aisles = {f"aisle-{k + 1}": a for k, a in enumerate(trace.aisles)}
+    checks = check_aisles(problem, rooms, aisles, trace.regions)
+    return sum(1 for c in checks if not c.satisfied and c.kind not in SOFT_KINDS)
 
 
 def _last_change(trace: Trace) -> float:
@@ -145,6 +168,7 @@ def _may_pass(domain: Domain, rooms: Rooms) -> bool:
     return float(overlap.max()) <= QUICK_TOLERANCE
 
 
-def _quick_coverage(domain: Domain, rooms: Rooms) -> float:
-    union = shapely.union_all([b.to_polygon() for boxes in rooms.values() for b in boxes])
+def _quick_coverage(domain: Domain, rooms: Rooms, aisles: Sequence[BaseGeometry] = ()) -> float:
+    union = shapely.union_all([b.to_polygon() for boxes in rooms.values() for b in boxes]
+                              + list(aisles))
     return float(domain.free.intersection(union).area) / domain.area if domain.area else 1.0

@@ -18,6 +18,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 from pyscipopt import SCIP_EVENTTYPE, Model
+from shapely.geometry import Polygon
 
 from bench.anneal import Annealer
 from models import Problem
@@ -53,6 +54,11 @@ class Trace:
     seconds: float = 0.0
     status: str = ""
     extra: dict[str, float | int | str] = field(default_factory=dict)
+    #: The final layout's aisles (ours, through regions): part of the plan, so the
+    #: checker counts them as covered floor, for every recorded layout of the run.
+    aisles: list[Polygon] = field(default_factory=list)
+    #: Region id -> its rooms, for the aisle checks (empty without regions).
+    regions: dict[str, list[str]] = field(default_factory=dict)
 
 
 def our_limit(problem: Problem) -> float:
@@ -106,6 +112,15 @@ def run_ours(problem: Problem, *, seed: int, cap: float = BASELINE_CAP,
     if layout.rooms:
         trace.final = {r.id: [Box.of(rect) for rect in r.rectangles] for r in layout.rooms}
         trace.layouts.append((trace.seconds, trace.final))
+    trace.aisles = [Polygon(a.polygon) for a in layout.aisles]
+    for room in layout.rooms:
+        if room.region is not None:
+            trace.regions.setdefault(room.region, []).append(room.id)
+    if layout.aisles:  # the share of rooms with a door straight onto an aisle
+        through = next((c.rooms for c in layout.report.constraints
+                        if c.kind == "aisle_access"), [])
+        trace.extra["aisle_access"] = round(1 - len(through) / max(1, len(layout.rooms)), 3)
+        trace.extra["aisle_area"] = round(sum(a.area for a in layout.aisles), 1)
     trace.extra["levels"] = layout.report.levels
     # The hierarchy's share: sub-domains solved, and the wall time of the levels.
     trace.extra["subdomains_solved"] = sum(

@@ -245,9 +245,10 @@ class Options(_Strict):
     # Regions and aisles (large layouts, Sec. 5.3 end).
     regions_above: Annotated[int, Field(ge=0, le=10_000)] = Field(
         DEFAULT_REGIONS_ABOVE,
-        description="a problem without `regions`, with more rooms than this and asking "
-        "for circulation (an `entrance` or `require_connected`) is partitioned into "
-        "regions automatically and solved through regions and aisles; 0 never partitions",
+        description="a problem without `regions` and with more rooms than this is "
+        "partitioned into regions automatically and solved through regions and aisles "
+        "(with an entrance or not: without one the aisles reach the facade); 0 never "
+        "partitions",
     )
     strict: bool = Field(
         True, description="false: every constraint that can be relaxed (sizes, aspect "

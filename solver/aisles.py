@@ -73,6 +73,8 @@ def aisle_network(
     extra: list[BaseGeometry] = []
     if entrance is not None:
         extra.append(vestibule(free, outline, entrance, width))
+    strips = _without_end_strips(strips, extra, free, outline, regions, width,
+                                 facade=entrance is None)
     current = _clean(shapely.union_all([s for s, _ in strips] + extra).intersection(free))
     if current.is_empty:
         current = spine(free, outline, entrance, width)
@@ -94,6 +96,57 @@ def aisle_network(
         parts[region_id] = sorted(usable, key=lambda p: -p.area)
     pieces = _disjoint([s for s, _ in strips] + extra, free, regions)
     return AisleNetwork(pieces, parts)
+
+
+def _without_end_strips(
+    strips: Sequence[tuple[BaseGeometry, tuple[str, str]]], extra: Sequence[BaseGeometry],
+    free: BaseGeometry, outline: Polygon, regions: Mapping[str, BaseGeometry], width: float,
+    *, facade: bool,
+) -> list[tuple[BaseGeometry, tuple[str, str]]]:
+    """The strips less those along the short ends of both their regions (two bars end
+    to end) that the network does without: it stays as connected as before, every
+    region keeps at least two aisle widths of wall on it, and (`facade`: no entrance)
+    it still meets the facade. Such a strip gives no room an aisle its row lacks, and
+    takes floor the rooms asked for. Shortest first."""
+    def short_end(strip: BaseGeometry, pair: tuple[str, str]) -> bool:
+        x0, y0, x1, y1 = strip.bounds
+        length = max(x1 - x0, y1 - y0)
+        horizontal = x1 - x0 >= y1 - y0
+        for r in pair:
+            rx0, ry0, rx1, ry1 = regions[r].bounds
+            along, across = (rx1 - rx0, ry1 - ry0) if horizontal else (ry1 - ry0, rx1 - rx0)
+            if along > across + 1e-6 or length < along - width:
+                return False
+        return True
+
+    def network(kept: Sequence[BaseGeometry]) -> BaseGeometry:
+        return _clean(shapely.union_all([*kept, *extra]).intersection(free))
+
+    def parts(shape: BaseGeometry) -> int:
+        return len(_polygons(_clean(shape.buffer(1e-4, join_style="mitre"))))
+
+    def touching(shape: BaseGeometry) -> bool:
+        grown = shape.buffer(1e-4, join_style="mitre")
+        return all(float(region.boundary.intersection(grown).length) >= 2 * width
+                   for region in regions.values())
+
+    kept = list(strips)
+    whole = network([s for s, _ in kept])
+    if whole.is_empty or not touching(whole):
+        return kept
+    count = parts(whole)
+    ends = sorted((k for k, (s, pair) in enumerate(strips) if short_end(s, pair)),
+                  key=lambda k: strips[k][0].area)
+    dropped: set[int] = set()
+    for k in ends:
+        trial = [s for j, (s, _) in enumerate(strips) if j not in dropped | {k}]
+        shape = network(trial)
+        if shape.is_empty or parts(shape) > count or not touching(shape):
+            continue
+        if facade and shape.boundary.intersection(outline.exterior).length < width:
+            continue
+        dropped.add(k)
+    return [strip for j, strip in enumerate(strips) if j not in dropped]
 
 
 def vestibule(

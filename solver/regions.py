@@ -1,10 +1,11 @@
 """Large layouts through regions and aisles (paper Sec. 5.3, end; Fig. 8).
 
 1. The rooms are grouped into regions: the problem's own (`Problem.regions`, rooms in
-   none forming one more region), or, above `options.regions_above` rooms, a balanced
-   partition (`auto_partition`).
-2. The regions are laid out as rooms of a first problem (`region_problem`) by the
-   ordinary `solve`: each gets its rooms' share of the floor, aisles included.
+   none forming one more region), or, above `options.regions_above` rooms, bars two
+   rows of rooms deep planned across the floor (`band_regions`; where not even one
+   aisle fits, a balanced partition, `auto_partition`).
+2. The user's regions are laid out as rooms of a first problem (`region_problem`) by
+   the ordinary `solve`: each gets its rooms' share of the floor, aisles included.
 3. The walls regions share are widened into aisles of `aisle_width`, joined into one
    network reaching the entrance (`solver/aisles.py`).
 4. The rooms of each region are laid out in what is left of it, one ordinary problem
@@ -15,6 +16,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import statistics
 import time
@@ -58,13 +60,25 @@ from solver.openings import (
     place_windows,
     requested_doors,
 )
+from solver.slicing import slicing_has_demands
 
 #: Rooms per region the automatic partition aims for (the paper's Fig. 8 blocks).
 REGION_ROOMS = 14
-#: Share of the time limit the region layout may use.
+#: Share of the time limit the region layout may use ...
 REGION_SHARE = 0.2
-#: The least time (s) a room sub-problem is given.
-MIN_PART_SECONDS = 0.5
+#: ... and at most this many seconds per region: slicing lays the regions out at once
+#: and the search after it rarely improves on that (measured: 0 of 8 steps on office-154).
+REGION_SECONDS_PER_REGION = 0.25
+#: The least time (s) a room sub-problem is given ...
+MIN_PART_SECONDS = 0.3
+#: ... and, when its rooms ask for sizes and guide points only, at most this many
+#: seconds per room on top: slicing lays a part's rows out in a fraction of a second,
+#: and the search after it found nothing better on office-154 or mall-140.
+PART_SECONDS_PER_ROOM = 0.03
+#: Planned bands (automatic regions) thinner than this share of a row are not kept.
+THINNEST_BAND = 0.75
+#: Rounds of dealing an automatic partition's rooms again when a part cannot hold them.
+DEAL_ROUNDS = 3
 #: Time kept per room for merging, doors and the check.
 FINISH_SECONDS_PER_ROOM = 0.01
 #: What a room sub-problem gives up, in turn, when it finds no layout (model fields
@@ -83,14 +97,11 @@ EventSink = Callable[..., None]
 
 def regions_apply(problem: Problem) -> bool:
     """Regions are used when the problem names them, or has more rooms than
-    `options.regions_above` (0: never) and asks for circulation: an entrance or
-    `require_connected`. Aisles are walking space that must lead somewhere; a floor of
-    rooms asked for by size alone is tiled without them (solver/slicing.py), which keeps
-    every room's target reachable instead of giving a fifth of the floor to aisles."""
+    `options.regions_above` (0: never), entrance or not: a floor that large needs
+    walking space to reach its rooms. Without an entrance the aisles form one network
+    touching every region and the facade (its ends are the exits)."""
     above = problem.options.regions_above
-    circulation = problem.entrance is not None or problem.options.require_connected
-    return problem.regions is not None or (
-        above > 0 and len(problem.rooms) > above and circulation)
+    return problem.regions is not None or (above > 0 and len(problem.rooms) > above)
 
 
 def room_adjacency(problem: Problem) -> list[Adjacency]:
@@ -263,6 +274,122 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
                    weights=problem.weights, options=options)
 
 
+def band_regions(problem: Problem) -> dict[str, Polygon] | None:
+    """Regions of an automatic partition, planned rather than solved for: the floor cut
+    across its depth (y) into bands, each two rows of rooms deep, whose shared walls
+    become aisles (the facade bands lose half an aisle, the others a whole one). The
+    number of aisles is the one whose rows and room widths come closest to the rooms'
+    targets once the aisles have taken their floor (`_band_error`); each band is cut
+    along x into regions of about `REGION_ROOMS` rooms (walls between them become
+    aisles only where the network needs them: `aisles._without_end_strips`). None when
+    not even one aisle fits."""
+    free = problem.free_area()
+    x0, y0, x1, y1 = free.bounds
+    walls = _walls(problem, y0, y1)
+    if not walls:
+        return None
+    typical_room = sum(_room_area(r, _typical_area(problem)) for r in problem.rooms) / len(
+        problem.rooms)
+    shapes: dict[str, Polygon] = {}
+    for lo, hi in itertools.pairwise([y0, *walls, y1]):
+        band = free.intersection(shapely.box(x0, lo, x1, hi))
+        for piece in _pieces(band):
+            count = max(1, round(piece.area / typical_room / REGION_ROOMS))
+            px0, _, px1, _ = piece.bounds
+            cuts = _cuts(problem, px0, px1, lo, hi, count)
+            for left, right in itertools.pairwise(cuts):
+                cut = piece.intersection(shapely.box(left, lo, right, hi))
+                for part in _pieces(cut):
+                    if part.area > 1e-3:
+                        shapes[f"region-{len(shapes) + 1}"] = part
+    return shapes or None
+
+
+def _cuts(problem: Problem, x0: float, x1: float, lo: float, hi: float,
+          count: int) -> list[float]:
+    """Where a band from `x0` to `x1` (between `lo` and `hi`) is cut into `count`
+    regions: evenly, except that the sides of an obstacle standing in the band are cuts
+    too and an even cut near one (within two aisle widths) moves onto it, so that the
+    regions beside an atrium are rectangles rather than rings around it."""
+    sides = sorted({x for o in problem.obstacles
+                    if o.y < hi - 1e-6 and o.y + o.depth > lo + 1e-6
+                    for x in (o.x, o.x + o.width) if x0 + 1e-6 < x < x1 - 1e-6})
+    near = 2 * problem.aisle_width
+    cuts = set(sides)
+    for j in range(1, count):
+        even = x0 + j * (x1 - x0) / count
+        closest = min(sides, key=lambda x: abs(x - even), default=None)
+        if closest is None or abs(closest - even) > near:
+            cuts.add(even)
+    return [x0, *sorted(cuts), x1]
+
+
+def _walls(problem: Problem, y0: float, y1: float) -> list[float]:
+    """The lines between bands, bottom to top, where the aisles run: evenly spaced,
+    bands two rows deep, as many as give the least `_band_error`; a line whose aisle
+    would cut an atrium moves to its nearer side (`_clear_of_obstacles`), and one that
+    then leaves less than `THINNEST_BAND` of a row between aisles is dropped."""
+    a = problem.aisle_width
+    best: tuple[float, int, float] | None = None
+    for n in range(1, int((y1 - y0) // a) + 1):
+        row = (y1 - y0 - n * a) / (2 * (n + 1))
+        if row <= a:
+            break
+        error = _band_error(problem, n, row)
+        if best is None or error < best[0]:
+            best = (error, n, row)
+    if best is None:
+        return []
+    _, n, row = best
+    least = THINNEST_BAND * row
+    walls: list[float] = []
+    for wall in sorted(_clear_of_obstacles(problem, y0 + 2 * row * (k + 1) + a * k + a / 2)
+                       for k in range(n)):
+        below = wall - a / 2 - (walls[-1] + a / 2 if walls else y0)
+        if below >= least and y1 - wall - a / 2 >= least:
+            walls.append(wall)
+    return walls
+
+
+def _clear_of_obstacles(problem: Problem, wall: float) -> float:
+    """`wall` moved, when its aisle would cut through an obstacle off the facade (an
+    atrium), to the nearer of the obstacle's sides, the aisle then running along it:
+    the bands keep whole rows beside the obstacle instead of rows cut by it."""
+    half = problem.aisle_width / 2
+    outline = problem.outline()
+    for obstacle in problem.obstacles:
+        box = obstacle.to_box()
+        lo, hi = box.bounds[1], box.bounds[3]
+        touches_facade = box.exterior.intersection(outline.exterior).length > 1e-6
+        if touches_facade or not (lo < wall + half and wall - half < hi):
+            continue
+        wall = min((lo - half, hi + half), key=lambda y: abs(y - wall))
+    return wall
+
+
+def _band_error(problem: Problem, aisles: int, row: float) -> float:
+    """E_size (Eq. 6) the rooms would have, on average, in rows `row` deep beside
+    `aisles` full-width aisles: each room as deep as the row, and as wide as the floor
+    left to the rooms then allows, both against the targets' medians."""
+    free = problem.free_area()
+    x0, y0, x1, y1 = free.bounds
+    share = float(free.area) / ((x1 - x0) * (y1 - y0))
+    typical = _typical_area(problem)
+    wanted = sum(_room_area(r, typical) for r in problem.rooms)
+    left = float(free.area) - aisles * problem.aisle_width * (x1 - x0) * share
+    sides = [r.target_size or (math.sqrt(typical),) * 2 for r in problem.rooms]
+    width = statistics.median(w for w, _ in sides)
+    depth = statistics.median(d for _, d in sides)
+    deep = row / depth
+    wide = (left / wanted) / deep
+    return (width * (wide - 1)) ** 2 + (depth * (deep - 1)) ** 2
+
+
+def _pieces(geometry: object) -> list[Polygon]:
+    return [g for g in getattr(geometry, "geoms", [geometry])
+            if isinstance(g, Polygon) and not g.is_empty]
+
+
 # 4. Rooms inside a region.
 
 
@@ -419,41 +546,57 @@ def solve_regions(
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
     deadline = started + limit - min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
     progress = _Progress(on_event, started)
-    regions = partition(problem)
-    progress.say(f"regions: {len(regions)} regions of "
-                 f"{', '.join(str(len(g.rooms)) for g in regions)} rooms")
-    level_one = region_problem(problem, regions, max(1.0, limit * REGION_SHARE))
-    laid = solve(level_one, on_event=progress.sink("regions", incumbents=False),
-                 should_stop=should_stop)
-    if not laid.rooms:
-        if problem.regions is None and not (should_stop and should_stop()):
-            # An automatic partition is only a means: solve flat instead.
-            progress.say("regions: no region layout, solving without regions")
-            return solve(flat.model_copy(update={"options": flat.options.model_copy(
-                update={"time_limit": max(1.0, deadline - time.monotonic())})}),
-                on_event=on_event, should_stop=should_stop)
-        report = laid.report.model_copy(update={"solve_time": time.monotonic() - started})
-        return Layout(name=problem.name, report=report)
-    shapes = {r.id: Polygon(r.polygon) for r in laid.rooms}
-    keep = {g.id: [p for r in g.rooms for p in problem.room(r).positions] for g in regions}
+    bands = band_regions(problem) if problem.regions is None else None
+    terminations: list[Termination] = []
+    levels = 1
+    if bands is not None:
+        # An automatic partition: bars of two rows of rooms along aisles, planned.
+        shapes: dict[str, Polygon] = dict(bands)
+        given: Sequence[Region] = ()
+        progress.say(f"regions: {len(shapes)} bars of two rows along aisles")
+    else:
+        given = partition(problem)
+        progress.say(f"regions: {len(given)} regions of "
+                     f"{', '.join(str(len(g.rooms)) for g in given)} rooms")
+        level_one = region_problem(problem, given, max(1.0, min(
+            limit * REGION_SHARE, REGION_SECONDS_PER_REGION * len(given))))
+        laid = solve(level_one, on_event=progress.sink("regions", incumbents=False),
+                     should_stop=should_stop)
+        if not laid.rooms:
+            if problem.regions is None and not (should_stop and should_stop()):
+                # An automatic partition is only a means: solve flat instead.
+                progress.say("regions: no region layout, solving without regions")
+                return solve(flat.model_copy(update={"options": flat.options.model_copy(
+                    update={"time_limit": max(1.0, deadline - time.monotonic())})}),
+                    on_event=on_event, should_stop=should_stop)
+            report = laid.report.model_copy(
+                update={"solve_time": time.monotonic() - started})
+            return Layout(name=problem.name, report=report)
+        shapes = {r.id: Polygon(r.polygon) for r in laid.rooms}
+        terminations.append(laid.report.termination)
+        levels = laid.report.levels
+    keep = _points_kept(problem, given, shapes)
     network = aisle_network(problem.free_area(), problem.outline(), shapes,
                             problem.aisle_width, entrance=problem.entrance, keep=keep)
     progress.say(f"aisles: {len(network.pieces)} aisle(s), "
                  f"{network.union.area:.1f} m²")
-    jobs = _jobs(problem, regions, network)
+    jobs = _jobs(problem, list(shapes), given, network)
     placed: dict[str, list[Box]] = {}
     owner: dict[str, str] = {}
-    terminations: list[Termination] = [laid.report.termination]
-    levels = laid.report.levels
     left_rooms = len(problem.rooms)
-    for k, (g, part, rooms) in enumerate(jobs):
+    for k, (region_id, part, rooms) in enumerate(jobs):
         if should_stop is not None and should_stop():
             break
         share = max(MIN_PART_SECONDS, (deadline - time.monotonic()) * len(rooms) / left_rooms)
         left_rooms -= len(rooms)
-        stage = f"region {g.id} {k + 1}/{len(jobs)}"
+        stage = f"region {region_id} {k + 1}/{len(jobs)}"
         progress.say(stage, subdomain=k + 1, subdomains=len(jobs))
         sub = room_problem(problem, part, rooms, share)
+        if not slicing_has_demands(sub):
+            # Sizes alone: slicing lays the rows out at once and the search after it
+            # does not pay for its time (measured: no step improved on office-154).
+            sub = sub.model_copy(update={"options": sub.options.model_copy(update={
+                "time_limit": min(share, MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms))})})
         inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
                       should_stop=should_stop)
         for relax in RELAXATIONS:
@@ -471,29 +614,66 @@ def solve_regions(
         levels = max(levels, inner.report.levels)
         for room in inner.rooms:
             placed[room.id] = [Box.of(rect) for rect in room.rectangles]
-            owner[room.id] = g.id
+            owner[room.id] = region_id
         progress.placed = dict(placed)
     stopped = should_stop is not None and should_stop()
-    return _merge(problem, regions, network, placed, owner, _termination(terminations, stopped),
-                  levels, started, progress)
+    return _merge(problem, list(shapes), network, placed, owner,
+                  _termination(terminations, stopped), levels, started, progress)
 
 
-def _jobs(problem: Problem, regions: Sequence[Region],
-          network: AisleNetwork) -> list[tuple[Region, Polygon, list[Room]]]:
-    """The room sub-problems: per region part, its rooms. The user's regions keep their
-    rooms; an automatic partition is only a means, so its rooms are dealt again over
-    every part by the area the region layout actually gave (a region that came out
-    smaller than planned gets fewer rooms, not squeezed ones)."""
+def _jobs(problem: Problem, region_ids: Sequence[str], given: Sequence[Region],
+          network: AisleNetwork) -> list[tuple[str, Polygon, list[Room]]]:
+    """The room sub-problems: per region part, its rooms. The user's regions (`given`)
+    keep their rooms; an automatic partition is only a means, so its rooms are dealt
+    over every part by the area the region layout actually gave (a region that came out
+    smaller than planned gets fewer rooms, not squeezed ones), and a part that cannot
+    hold what it was dealt (`find_impossibilities`: too narrow for a room's minimum
+    size, say) is left out and the rooms dealt again, up to `DEAL_ROUNDS` times; the
+    floor of a part left out joins the aisle it opens onto (`_with_leftovers`)."""
     if problem.regions is None:
-        parts = [(g, part) for g in regions for part in network.parts[g.id]]
-        dealt = assign_to_parts(problem, problem.rooms, [p for _, p in parts])
-        return [(g, part, rooms) for (g, part), rooms in zip(parts, dealt, strict=True)
-                if rooms]
-    return [(g, part, rooms) for g in regions
+        parts = [(g, part) for g in region_ids for part in network.parts[g]]
+        jobs: list[tuple[str, Polygon, list[Room]]] = []
+        for _ in range(DEAL_ROUNDS):
+            dealt = assign_to_parts(problem, problem.rooms, [p for _, p in parts])
+            jobs = [(g, part, rooms) for (g, part), rooms in zip(parts, dealt, strict=True)
+                    if rooms]
+            cannot = [k for k, (_, part, rooms) in enumerate(jobs)
+                      if not _can_hold(problem, part, rooms)]
+            if not cannot or len(cannot) == len(jobs):
+                return jobs
+            left_out = {id(jobs[k][1]) for k in cannot}
+            parts = [(g, part) for g, part in parts if id(part) not in left_out]
+        return jobs
+    return [(g.id, part, rooms) for g in given
             for part, rooms in zip(network.parts[g.id],
                                    assign_to_parts(problem, [problem.room(r) for r in g.rooms],
                                                    network.parts[g.id]), strict=True)
             if rooms]
+
+
+def _points_kept(problem: Problem, given: Sequence[Region],
+                 shapes: Mapping[str, Polygon]) -> dict[str, list[tuple[float, float]]]:
+    """Per region, the guide points its rooms must cover (an aisle keeps off them): the
+    user's regions' rooms' points; else the points lying in the region's shape (a point
+    on the wall between two goes to the first only, so the aisle keeps off its side)."""
+    if given:
+        return {g.id: [p for r in g.rooms for p in problem.room(r).positions] for g in given}
+    kept: dict[str, list[tuple[float, float]]] = {g: [] for g in shapes}
+    for point in (p for r in problem.rooms for p in r.positions):
+        holder = next((g for g, shape in shapes.items()
+                       if shape.buffer(1e-6).contains(Point(point))), None)
+        if holder is not None:
+            kept[holder].append(point)
+    return kept
+
+
+def _can_hold(problem: Problem, part: Polygon, rooms: Sequence[Room]) -> bool:
+    """No cheap reason (solver/precheck.py) why `rooms` cannot be laid out in `part`."""
+    from solver.geometry import make_domain
+    from solver.precheck import find_impossibilities
+
+    sub = room_problem(problem, part, rooms, 1.0)
+    return not find_impossibilities(sub, make_domain(sub))
 
 
 def _termination(terminations: Sequence[Termination], stopped: bool) -> Termination:
@@ -506,7 +686,7 @@ def _termination(terminations: Sequence[Termination], stopped: bool) -> Terminat
     return Termination.TIME_LIMIT
 
 
-def _merge(problem: Problem, regions: Sequence[Region], network: AisleNetwork,
+def _merge(problem: Problem, region_ids: Sequence[str], network: AisleNetwork,
            placed: Mapping[str, list[Box]], owner: Mapping[str, str],
            termination: Termination, levels: int, started: float,
            progress: _Progress) -> Layout:
@@ -521,7 +701,7 @@ def _merge(problem: Problem, regions: Sequence[Region], network: AisleNetwork,
     aisle_shapes = {a.id: p.polygon for a, p in zip(aisles, network.pieces, strict=True)}
     check = check_layout(flat, placed, aisles=list(aisle_shapes.values()))
     polygons = {r.id: room_polygon(placed[r.id]) for r in problem.rooms if r.id in placed}
-    members = {g.id: [r for r in g.rooms if r in placed] for g in regions}
+    members = {g: [r for r in placed if owner.get(r) == g] for g in region_ids}
     aisle_checks = check_aisles(problem, polygons, aisle_shapes, members)
     doors = requested_doors(flat, polygons)
     doors += aisle_doors(problem, polygons, aisle_shapes)

@@ -285,7 +285,7 @@ def solve(
     `subdomains`, the sub-domains of each refinement level are solved at the same time
     on its executor (solver/parallel.py); without, one after the other. Problems of
     several storeys go through solver/storeys.py; problems with regions, or more rooms
-    than `options.regions_above` and circulation, through solver/regions.py."""
+    than `options.regions_above`, through solver/regions.py."""
     if problem.floors is not None:  # several storeys: a floor at a time (solver/storeys.py)
         from solver.storeys import solve_storeys
 

@@ -68,3 +68,32 @@ def test_complexity_counts_constraints_as_table_1_does() -> None:
     counts = complexity(Problem.model_validate(TINY))
     assert counts == {"size": 3, "overlap": 3, "ratio": 1, "pos": 0, "boundary": 1,
                       "adjacency": 1, "total": 9, "rooms": 3, "complexity": 12}
+
+
+def test_aisles_count_as_covered_floor_and_are_checked() -> None:
+    # Two rooms with a 1.8 m aisle between them: covered only with the aisle, and an
+    # aisle overlapping a room is a hard violation, as in the solver's own report.
+    from shapely.geometry import box
+
+    from bench.evaluate import evaluate
+    from bench.solvers import Trace
+    from solver.geometry import Box, make_domain
+
+    problem = Problem.model_validate({
+        "boundary": [[0, 0], [10, 0], [10, 4], [0, 4]],
+        "rooms": [{"id": "a", "min_size": [2, 2]}, {"id": "b", "min_size": [2, 2]}]})
+    rooms = {"a": [Box(0, 0, 4.1, 4)], "b": [Box(5.9, 0, 10, 4)]}
+    domain = make_domain(problem)
+
+    def run(aisles: list) -> dict:  # type: ignore[type-arg]
+        trace = Trace("ours", 5.0, layouts=[(0.1, rooms)], final=rooms, seconds=0.2,
+                      aisles=aisles, regions={"left": ["a"], "right": ["b"]} if aisles else {})
+        return evaluate(problem, domain, trace, case="c", repeat=0, seed=0).to_json()
+
+    bare = run([])
+    assert bare["coverage"] < 0.99 and bare["first_valid"] is None
+    aisle = run([box(4.1, 0, 5.9, 4)])
+    assert aisle["coverage"] >= 0.999 and aisle["valid"] and aisle["hard_violations"] == 0
+    assert aisle["first_valid"] == 0.1
+    overlapping = run([box(3.9, 0, 5.9, 4)])
+    assert overlapping["hard_violations"] >= 1 and not overlapping["valid"]

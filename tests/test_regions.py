@@ -3,7 +3,11 @@ independently with shapely."""
 
 from __future__ import annotations
 
+import itertools
 import random
+import statistics
+import time
+from pathlib import Path
 
 import pytest
 import shapely
@@ -11,8 +15,13 @@ from pydantic import ValidationError
 from shapely.geometry import Point, Polygon
 
 from models import Layout, Problem
-from solver.regions import auto_partition, regions_apply
-from solver.solve import Phase, SolveEvent, solve
+from solver.aisles import aisle_network
+from solver.checker import check_layout
+from solver.geometry import Box, shared_wall_length
+from solver.regions import auto_partition, band_regions, regions_apply
+from solver.solve import Phase, SolveEvent, default_time_limit, solve
+
+CASES = Path(__file__).resolve().parents[2] / "shared" / "bench" / "cases"
 
 
 def _offices(count: int, seed: int, prefix: str = "o") -> list[dict]:
@@ -108,12 +117,84 @@ def test_regions_above_zero_never_partitions() -> None:
     assert not regions_apply(problem)
 
 
-def test_no_automatic_aisles_without_circulation() -> None:
-    # Rooms asked for by size alone, no entrance: tiled without aisles.
+def test_automatic_regions_with_or_without_an_entrance() -> None:
+    # Above `regions_above` rooms a floor is partitioned whether or not it names an
+    # entrance (the aisles then reach the facade); at or below it, it is not.
     data = {"boundary": [[0, 0], [34, 0], [34, 19], [0, 19]], "rooms": _offices(45, seed=2)}
-    assert not regions_apply(Problem.model_validate(data))
-    connected = data | {"options": {"require_connected": True}}
-    assert regions_apply(Problem.model_validate(connected))
+    assert regions_apply(Problem.model_validate(data))
+    assert regions_apply(Problem.model_validate(data | {"entrance": [17.0, 0.0]}))
+    assert not regions_apply(Problem.model_validate(data | {"rooms": _offices(40, seed=2)}))
+
+
+@pytest.mark.skipif(not CASES.is_dir(), reason=f"no benchmark cases at {CASES}")
+def test_planned_bars_tile_the_floor_and_keep_only_the_aisles_needed() -> None:
+    # Geometry only (no SCIP): office-154 is a plain 66 x 30 m floor of offices about
+    # 3.1 m deep; mall-140 has two 6 x 6 m atria.
+    office = Problem.model_validate_json((CASES / "office-154.json").read_text())
+    bars = band_regions(office)
+    assert bars is not None
+    free = office.free_area()
+    assert shapely.union_all(list(bars.values())).symmetric_difference(free).area <= 1e-6
+    walls = sorted({round(y, 6) for g in bars.values() for y in (g.bounds[1], g.bounds[3])}
+                   - {0.0, 30.0})
+    depth = statistics.median(r.target_size[1] for r in office.rooms if r.target_size)
+    a = office.aisle_width
+    for lo, hi in itertools.pairwise([0.0, *walls, 30.0]):
+        rows = (hi - lo - a / 2 * ((lo > 0) + (hi < 30))) / 2
+        assert abs(rows / depth - 1) <= 0.1, (lo, hi)
+    network = aisle_network(free, office.outline(), bars, a)
+    # One aisle along each wall between bands and one spine through each inner band:
+    # the strips between bars end to end are left out.
+    inner = [hi - lo for lo, hi in itertools.pairwise(walls)]
+    assert network.union.area <= (len(walls) * 66 + sum(inner)) * a + 1e-6
+    grown = network.union.buffer(1e-4, join_style="mitre")
+    assert grown.geom_type == "Polygon"
+    mall = Problem.model_validate_json((CASES / "mall-140.json").read_text())
+    bars = band_regions(mall)
+    assert bars is not None
+    # The bands' edges, read off the bars along the west facade.
+    edges = {round(y, 6) for g in bars.values() if g.bounds[0] <= 1e-6
+             for y in (g.bounds[1], g.bounds[3])}
+    assert len(edges) >= 4
+    for atrium in (o for o in mall.obstacles if o.label == "atrium"):
+        # No aisle line through an atrium, and the bars beside one are rectangles.
+        assert not any(atrium.y < y + a / 2 and y - a / 2 < atrium.y + atrium.depth
+                       for y in edges - {0.0, 34.0})
+        beside = [g for g in bars.values() if g.distance(atrium.to_box()) <= 1e-6]
+        assert beside and all(abs(g.area - g.envelope.area) <= 1e-6 for g in beside)
+
+
+@pytest.mark.skipif(not CASES.is_dir(), reason=f"no benchmark cases at {CASES}")
+@pytest.mark.parametrize("case", ["office-154", "mall-140"])
+def test_large_bench_cases_are_solved_through_regions(case: str) -> None:
+    # The bench's large floors (no entrance, no regions) at their default time limit.
+    problem = Problem.model_validate_json((CASES / f"{case}.json").read_text())
+    assert problem.entrance is None and problem.regions is None
+    limit = default_time_limit(len(problem.rooms))
+    started = time.monotonic()
+    layout = solve(problem)
+    wall = time.monotonic() - started
+    assert wall <= limit, f"{wall:.1f} s against a limit of {limit:.1f} s"
+    assert len(layout.rooms) == len(problem.rooms)
+    report = layout.report
+    assert report.valid, [c.detail for c in report.constraints if not c.satisfied]
+    # Coverage counts the aisles, as the checker does; recomputed here from the shapes.
+    aisles = [Polygon(a.polygon) for a in layout.aisles]
+    rooms = {r.id: [Box.of(rect) for rect in r.rectangles] for r in layout.rooms}
+    check = check_layout(problem, rooms, aisles=aisles)
+    assert check.valid and check.coverage >= 0.99, check.coverage
+    assert abs(check.coverage - report.coverage) <= 1e-6
+    # One network of aisles, reaching the facade (the exits, without an entrance).
+    grown = shapely.union_all([a.buffer(1e-4, join_style="mitre") for a in aisles])
+    assert grown.geom_type == "Polygon"
+    network = shapely.union_all(aisles)
+    assert network.boundary.intersection(problem.outline().exterior).length >= 0.9
+    # Every region's rooms share at least a door's width of wall with an aisle.
+    regions = {r.region for r in layout.rooms}
+    assert None not in regions and len(regions) >= 2
+    for region in regions:
+        block = _union([r.polygon for r in layout.rooms if r.region == region])
+        assert shared_wall_length(block, network) >= problem.openings.door_width, region
 
 
 @pytest.mark.parametrize(("change", "field"), [
