@@ -70,11 +70,11 @@ REGION_SHARE = 0.2
 #: and the search after it rarely improves on that (measured: 0 of 8 steps on office-154).
 REGION_SECONDS_PER_REGION = 0.25
 #: The least time (s) a room sub-problem is given ...
-MIN_PART_SECONDS = 0.3
+MIN_PART_SECONDS = 0.15
 #: ... and, when its rooms ask for sizes and guide points only, at most this many
 #: seconds per room on top: slicing lays a part's rows out in a fraction of a second,
 #: and the search after it found nothing better on office-154 or mall-140.
-PART_SECONDS_PER_ROOM = 0.03
+PART_SECONDS_PER_ROOM = 0.01
 #: Planned bands (automatic regions) thinner than this share of a row are not kept.
 THINNEST_BAND = 0.75
 #: Rounds of dealing an automatic partition's rooms again when a part cannot hold them.
