@@ -75,6 +75,10 @@ MIN_PART_SECONDS = 0.15
 #: seconds per room on top: slicing lays a part's rows out in a fraction of a second,
 #: and the search after it found nothing better on office-154 or mall-140.
 PART_SECONDS_PER_ROOM = 0.01
+#: What a band plan pays, in estimated E_size per room (m²), for having all its rows
+#: off the aisles (in proportion for a share of them): without a price the fewest
+#: aisles would always win, rooms being largest there.
+ACCESS_PRICE = 1.0
 #: Planned bands (automatic regions) thinner than this share of a row are not kept.
 THINNEST_BAND = 0.75
 #: Rounds of dealing an automatic partition's rooms again when a part cannot hold them.
@@ -278,8 +282,7 @@ def band_regions(problem: Problem) -> dict[str, Polygon] | None:
     """Regions of an automatic partition, planned rather than solved for: the floor cut
     across its depth (y) into bands, each two rows of rooms deep, whose shared walls
     become aisles (the facade bands lose half an aisle, the others a whole one). The
-    number of aisles is the one whose rows and room widths come closest to the rooms'
-    targets once the aisles have taken their floor (`_band_error`); each band is cut
+    number of aisles and the facade bands' depth are chosen by `_walls`; each band is cut
     along x into regions of about `REGION_ROOMS` rooms (walls between them become
     aisles only where the network needs them: `aisles._without_end_strips`). None when
     not even one aisle fits."""
@@ -325,30 +328,61 @@ def _cuts(problem: Problem, x0: float, x1: float, lo: float, hi: float,
 
 
 def _walls(problem: Problem, y0: float, y1: float) -> list[float]:
-    """The lines between bands, bottom to top, where the aisles run: evenly spaced,
-    bands two rows deep, as many as give the least `_band_error`; a line whose aisle
-    would cut an atrium moves to its nearer side (`_clear_of_obstacles`), and one that
-    then leaves less than `THINNEST_BAND` of a row between aisles is dropped."""
+    """The lines between bands, bottom to top, where the aisles run. Plans: n aisles
+    evenly spaced, bands two rows deep, each facade band one or two rows deep (one:
+    every row on an aisle), a line whose aisle would cut an atrium moved to its nearer
+    side (`_clear_of_obstacles`) and one then leaving less than `THINNEST_BAND` of a
+    row between aisles dropped. Each plan is judged as laid out (`_plan_score`): the
+    one of least estimated size error per room plus `ACCESS_PRICE` times its share of
+    rows off the aisles wins."""
     a = problem.aisle_width
-    best: tuple[float, int, float] | None = None
+    plans: list[tuple[float, float, list[float]]] = []  # error, rows off aisles, walls
     for n in range(1, int((y1 - y0) // a) + 1):
-        row = (y1 - y0 - n * a) / (2 * (n + 1))
-        if row <= a:
-            break
-        error = _band_error(problem, n, row)
-        if best is None or error < best[0]:
-            best = (error, n, row)
-    if best is None:
+        for bottom, top in ((2, 2), (1, 2), (1, 1)):
+            row = (y1 - y0 - n * a) / (2 * (n - 1) + bottom + top)
+            if row <= a:
+                continue
+            walls: list[float] = []
+            for wall in sorted(_clear_of_obstacles(problem, y0 + bottom * row + 2 * row * k
+                                                   + a * k + a / 2) for k in range(n)):
+                below = wall - a / 2 - (walls[-1] + a / 2 if walls else y0)
+                if min(below, y1 - wall - a / 2) >= THINNEST_BAND * row:
+                    walls.append(wall)
+            if walls:
+                plans.append((*_plan_score(problem, walls, y0, y1), walls))
+    if not plans:
         return []
-    _, n, row = best
-    least = THINNEST_BAND * row
-    walls: list[float] = []
-    for wall in sorted(_clear_of_obstacles(problem, y0 + 2 * row * (k + 1) + a * k + a / 2)
-                       for k in range(n)):
-        below = wall - a / 2 - (walls[-1] + a / 2 if walls else y0)
-        if below >= least and y1 - wall - a / 2 >= least:
-            walls.append(wall)
-    return walls
+    return min(plans, key=lambda p: p[0] + ACCESS_PRICE * p[1])[2]
+
+
+def _plan_score(problem: Problem, walls: Sequence[float], y0: float,
+                y1: float) -> tuple[float, float]:
+    """A band plan's estimated mean E_size per room (Eq. 6) and share of rows off the
+    aisles. Each band holds the whole number of rows whose depth comes closest to the
+    median target depth; the rooms share the floor the aisles leave evenly, so a room
+    is as deep as its row and as wide as its share of that floor then allows."""
+    free = problem.free_area()
+    x0, _, x1, _ = free.bounds
+    a = problem.aisle_width
+    share = float(free.area) / ((x1 - x0) * (y1 - y0))
+    typical = _typical_area(problem)
+    wanted = sum(_room_area(r, typical) for r in problem.rooms)
+    left = float(free.area) - len(walls) * a * (x1 - x0) * share
+    sides = [r.target_size or (math.sqrt(typical),) * 2 for r in problem.rooms]
+    width = statistics.median(w for w, _ in sides)
+    depth = statistics.median(d for _, d in sides)
+    edges = [y0, *walls, y1]
+    error = off = total = 0.0
+    for k, (lo, hi) in enumerate(itertools.pairwise(edges)):
+        on_aisles = (k > 0) + (k < len(walls))
+        height = hi - lo - a / 2 * on_aisles
+        rows = min(range(1, 9), key=lambda r: abs(height / r / depth - 1))
+        deep = height / rows / depth
+        wide = (left / wanted) / deep
+        error += height * ((width * (wide - 1)) ** 2 + (depth * (deep - 1)) ** 2)
+        off += height * max(0, rows - on_aisles) / rows
+        total += height
+    return error / total, off / total
 
 
 def _clear_of_obstacles(problem: Problem, wall: float) -> float:
@@ -365,24 +399,6 @@ def _clear_of_obstacles(problem: Problem, wall: float) -> float:
             continue
         wall = min((lo - half, hi + half), key=lambda y: abs(y - wall))
     return wall
-
-
-def _band_error(problem: Problem, aisles: int, row: float) -> float:
-    """E_size (Eq. 6) the rooms would have, on average, in rows `row` deep beside
-    `aisles` full-width aisles: each room as deep as the row, and as wide as the floor
-    left to the rooms then allows, both against the targets' medians."""
-    free = problem.free_area()
-    x0, y0, x1, y1 = free.bounds
-    share = float(free.area) / ((x1 - x0) * (y1 - y0))
-    typical = _typical_area(problem)
-    wanted = sum(_room_area(r, typical) for r in problem.rooms)
-    left = float(free.area) - aisles * problem.aisle_width * (x1 - x0) * share
-    sides = [r.target_size or (math.sqrt(typical),) * 2 for r in problem.rooms]
-    width = statistics.median(w for w, _ in sides)
-    depth = statistics.median(d for _, d in sides)
-    deep = row / depth
-    wide = (left / wanted) / deep
-    return (width * (wide - 1)) ** 2 + (depth * (deep - 1)) ** 2
 
 
 def _pieces(geometry: object) -> list[Polygon]:

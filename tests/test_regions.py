@@ -139,9 +139,16 @@ def test_planned_bars_tile_the_floor_and_keep_only_the_aisles_needed() -> None:
                    - {0.0, 30.0})
     depth = statistics.median(r.target_size[1] for r in office.rooms if r.target_size)
     a = office.aisle_width
+    rows = []
     for lo, hi in itertools.pairwise([0.0, *walls, 30.0]):
-        rows = (hi - lo - a / 2 * ((lo > 0) + (hi < 30))) / 2
-        assert abs(rows / depth - 1) <= 0.1, (lo, hi)
+        # Inner bands are two rows deep, one on each aisle; a facade band one row, so
+        # that its rooms open onto the aisle too, or two, when that scores better.
+        height = hi - lo - a / 2 * ((lo > 0) + (hi < 30))
+        counts = (1, 2) if lo == 0.0 or hi == 30.0 else (2,)
+        rows.append(min((height / k for k in counts), key=lambda row: abs(row - rows[0])
+                        if rows else abs(row / depth - 1)))
+    # Rows of one depth, near the offices' (the aisles take their share of the floor).
+    assert max(rows) - min(rows) <= 0.01 and abs(rows[0] / depth - 1) <= 0.25, rows
     network = aisle_network(free, office.outline(), bars, a)
     # One aisle along each wall between bands and one spine through each inner band:
     # the strips between bars end to end are left out.
@@ -195,6 +202,9 @@ def test_large_bench_cases_are_solved_through_regions(case: str) -> None:
     for region in regions:
         block = _union([r.polygon for r in layout.rooms if r.region == region])
         assert shared_wall_length(block, network) >= problem.openings.door_width, region
+    # Most rooms open straight onto an aisle (all of the mall's shops, at this writing).
+    through = next((c.rooms for c in report.constraints if c.kind == "aisle_access"), [])
+    assert len(through) <= 0.15 * len(layout.rooms), len(through)
 
 
 @pytest.mark.parametrize(("change", "field"), [
