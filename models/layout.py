@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from enum import StrEnum
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -27,6 +28,19 @@ class Termination(StrEnum):
     """The time ran out before any layout was found; feasibility is unknown."""
     IN_PROGRESS = "in_progress"
     """An incumbent of a solve still running, shown as it is: not yet checked."""
+
+    @classmethod
+    def of_parts(cls, parts: Sequence[Termination], *, interrupted: bool) -> Termination:
+        """The termination of a solve made of several (regions, floors): interrupted if
+        it was; optimal when every part was; stalled when every part was optimal or
+        stalled; else the time limit."""
+        if interrupted:
+            return cls.INTERRUPTED
+        if all(t is cls.OPTIMAL for t in parts):
+            return cls.OPTIMAL
+        if all(t in (cls.OPTIMAL, cls.STALLED) for t in parts):
+            return cls.STALLED
+        return cls.TIME_LIMIT
 
 
 class Rect(BaseModel):

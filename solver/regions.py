@@ -634,7 +634,8 @@ def solve_regions(
         progress.placed = dict(placed)
     stopped = should_stop is not None and should_stop()
     return _merge(problem, list(shapes), network, placed, owner,
-                  _termination(terminations, stopped), levels, started, progress)
+                  Termination.of_parts(terminations, interrupted=stopped), levels, started,
+                  progress)
 
 
 def _jobs(problem: Problem, region_ids: Sequence[str], given: Sequence[Region],
@@ -690,16 +691,6 @@ def _can_hold(problem: Problem, part: Polygon, rooms: Sequence[Room]) -> bool:
 
     sub = room_problem(problem, part, rooms, 1.0)
     return not find_impossibilities(sub, make_domain(sub))
-
-
-def _termination(terminations: Sequence[Termination], stopped: bool) -> Termination:
-    if stopped:
-        return Termination.INTERRUPTED
-    if all(t is Termination.OPTIMAL for t in terminations):
-        return Termination.OPTIMAL
-    if all(t in (Termination.OPTIMAL, Termination.STALLED) for t in terminations):
-        return Termination.STALLED
-    return Termination.TIME_LIMIT
 
 
 def _merge(problem: Problem, region_ids: Sequence[str], network: AisleNetwork,

@@ -378,6 +378,7 @@ def _building_layout(
     constraints = [*verticals, *(c.model_copy(update={"floor": f.id})
                                  for f in floors for c in f.report.constraints)]
     complete = len(floors) == len(problem.floors)
+    each = [r.termination for r in reports]
     valid = complete and all(r.valid for r in reports) and all(c.satisfied for c in verticals)
     objectives = [r.objective for r in reports]
     report = Report(
@@ -390,7 +391,8 @@ def _building_layout(
             o for o in objectives if o is not None),
         levels=max((r.levels for r in reports), default=0),
         solve_time=time.monotonic() - started,
-        termination=_termination([r.termination for r in reports], should_stop, complete),
+        termination=Termination.of_parts(each, interrupted=_stopped(should_stop) or (
+            Termination.INTERRUPTED in each) or not complete),
         valid=valid,
         infeasibility=failure,
         extra_rectangles=[e.model_copy(update={"room": f"{f.id}/{e.room}"})
@@ -400,18 +402,6 @@ def _building_layout(
         total_shortfall=sum(f.report.total_shortfall for f in floors),
     )
     return Layout(name=problem.name, report=report, floors=floors)
-
-
-def _termination(
-    each: list[Termination], should_stop: Callable[[], bool] | None, complete: bool
-) -> Termination:
-    if _stopped(should_stop) or Termination.INTERRUPTED in each or not complete:
-        return Termination.INTERRUPTED
-    if all(t is Termination.OPTIMAL for t in each):
-        return Termination.OPTIMAL
-    if all(t in (Termination.OPTIMAL, Termination.STALLED) for t in each):
-        return Termination.STALLED
-    return Termination.TIME_LIMIT
 
 
 def _proven_infeasible(attempt: _Attempt) -> bool:
