@@ -106,6 +106,13 @@ class Domain:
     def area(self) -> float:
         return float(self.free.area)
 
+    def gaps(self, boxes: Iterable[Box], larger_than: float) -> list[Polygon]:
+        """The parts of the free area none of `boxes` covers, each larger than
+        `larger_than` m²."""
+        rest = self.free.difference(shapely.union_all([b.to_polygon() for b in boxes]))
+        return [g for g in getattr(rest, "geoms", [rest])
+                if isinstance(g, Polygon) and g.area > larger_than]
+
 
 def boundary_edges(boundary: Sequence[tuple[float, float]]) -> tuple[Edge, ...]:
     """Edges of an axis-aligned ring with the compass direction of their outward normal.

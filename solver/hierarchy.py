@@ -59,15 +59,9 @@ class SubDomain:
     rooms: frozenset[str]
 
 
-def covered(pieces: Iterable[Piece]) -> BaseGeometry:
-    return shapely.union_all([p.box.to_polygon() for p in pieces])
-
-
 def uncovered_gaps(domain: Domain, pieces: Sequence[Piece]) -> list[Polygon]:
     """The parts of the free area no room covers, each a polygon."""
-    rest = domain.free.difference(covered(pieces))
-    parts = getattr(rest, "geoms", [rest])
-    return [g for g in parts if isinstance(g, Polygon) and g.area > GAP_AREA]
+    return domain.gaps((p.box for p in pieces), GAP_AREA)
 
 
 def _touching(a: BaseGeometry, b: BaseGeometry) -> bool:

@@ -191,8 +191,7 @@ def choose_neighbourhood(
     is often filled only by a small room moving in."""
     centre, extra = None, ()
     if around_gap:
-        rest = domain.free.difference(shapely.union_all([b.to_polygon() for b in rects.values()]))
-        gaps = [g for g in getattr(rest, "geoms", [rest]) if g.area > GAP_AREA]
+        gaps = domain.gaps(rects.values(), GAP_AREA)
         if gaps:
             centre = rng.choices(gaps, weights=[g.area for g in gaps])[0]
             extra = (Box(*centre.bounds),)

@@ -608,10 +608,7 @@ def _gap_wing(
     problem = run.problem
     if run.soft:
         return None
-    union = shapely.union_all([b.to_polygon() for b in rects.values()])
-    rest = domain.free.difference(union)
-    gaps = sorted((g for g in getattr(rest, "geoms", [rest]) if g.area > GAP_WING_AREA),
-                  key=lambda g: -g.area)
+    gaps = sorted(domain.gaps(rects.values(), GAP_WING_AREA), key=lambda g: -g.area)
     for gap in gaps:
         candidates = []
         for name, box in rects.items():
