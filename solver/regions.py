@@ -1,8 +1,8 @@
 """Large layouts through regions and aisles (paper Sec. 5.3, end; Fig. 8).
 
 1. The rooms are grouped into regions: the problem's own (`Problem.regions`, rooms in
-   none forming one more region), or, above `options.regions_above` rooms, bars two
-   rows of rooms deep planned across the floor (`band_regions`; where not even one
+   none forming one more region), or, above `options.regions_above` rooms, bars of
+   rooms planned across the floor along the aisles (`band_regions`; where not even one
    aisle fits, a balanced partition, `auto_partition`).
 2. The user's regions are laid out as rooms of a first problem (`region_problem`) by
    the ordinary `solve`: each gets its rooms' share of the floor, aisles included.
@@ -280,12 +280,12 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
 
 def band_regions(problem: Problem) -> dict[str, Polygon] | None:
     """Regions of an automatic partition, planned rather than solved for: the floor cut
-    across its depth (y) into bands, each two rows of rooms deep, whose shared walls
-    become aisles (the facade bands lose half an aisle, the others a whole one). The
-    number of aisles and the facade bands' depth are chosen by `_walls`; each band is cut
-    along x into regions of about `REGION_ROOMS` rooms (walls between them become
-    aisles only where the network needs them: `aisles._without_end_strips`). None when
-    not even one aisle fits."""
+    across its depth (y) into bands, two rows of rooms deep (a facade band may be one),
+    whose shared walls become aisles (the facade bands lose half an aisle, the others a
+    whole one). The number of aisles and the facade bands' depth are chosen by `_walls`;
+    each band is cut along x into regions of about `REGION_ROOMS` rooms (walls between
+    them become aisles only where the network needs them: `aisles._without_end_strips`).
+    None when not even one aisle fits."""
     free = problem.free_area()
     x0, y0, x1, y1 = free.bounds
     walls = _walls(problem, y0, y1)
@@ -566,10 +566,10 @@ def solve_regions(
     terminations: list[Termination] = []
     levels = 1
     if bands is not None:
-        # An automatic partition: bars of two rows of rooms along aisles, planned.
+        # An automatic partition: bars of rooms along aisles, planned.
         shapes: dict[str, Polygon] = dict(bands)
         given: Sequence[Region] = ()
-        progress.say(f"regions: {len(shapes)} bars of two rows along aisles")
+        progress.say(f"regions: {len(shapes)} bars of rooms along aisles")
     else:
         given = partition(problem)
         progress.say(f"regions: {len(given)} regions of "
