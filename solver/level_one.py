@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from shapely.geometry import LineString, Polygon
+from shapely.geometry import Polygon
 
 from models import Problem, Room
 from solver.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec
@@ -161,42 +161,75 @@ def demand_order(problem: Problem) -> list[str]:
     return sorted(load, key=lambda r: (-load[r], -area[r], r))
 
 
-def carve_wing(problem: Problem, domain: Domain, room: Room, main: Box, gap: Polygon
+def reach_wing(problem: Problem, domain: Domain, room: Room, main: Box, gap: Polygon
                ) -> tuple[float, Box, Box] | None:
-    """A start for a wing that may reach into `gap`: the strip `WING_MIN` deep along
-    the side of the room's rectangle `main` that borders the gap, and what is left of
-    `main`, with the length of that border. The room covers what it covered; the rest
-    must still meet the room's minimum size and hold its guide points and exterior
-    wall, which stay with the main rectangle. None when no side borders the gap over
-    `WING_MIN` or more, or the rest would fail."""
-    lo, _ = size_bounds(room, domain, None)
+    """A start for a wing of `room` reaching into `gap` from its rectangle `main`: the
+    largest rectangle of the gap along one side of `main` (at least `WING_JOIN` long and
+    `WING_MIN` deep), with `main` shortened on its far side just enough for the room's
+    bounding box to keep within its maximum. The floor `main` gives up lies open, where
+    neighbours can grow, unlike a pocket beside a shaft. Returns the area gained (the
+    wing's less what `main` gives up), the shortened `main` and the wing; None when no
+    side borders the gap so, or the shortened part would lose the room's minimum size,
+    a guide point or its exterior wall."""
+    lo, hi = size_bounds(room, domain, None)
     edges = edges_named(problem, domain.edges, room.boundary)
-    best: tuple[float, Box, Box] | None = None
-    sides = {
-        "south": (LineString([(main.x0, main.y0), (main.x1, main.y0)]),
-                  Box(main.x0, main.y0, main.x1, main.y0 + WING_MIN),
-                  Box(main.x0, main.y0 + WING_MIN, main.x1, main.y1)),
-        "north": (LineString([(main.x0, main.y1), (main.x1, main.y1)]),
-                  Box(main.x0, main.y1 - WING_MIN, main.x1, main.y1),
-                  Box(main.x0, main.y0, main.x1, main.y1 - WING_MIN)),
-        "west": (LineString([(main.x0, main.y0), (main.x0, main.y1)]),
-                 Box(main.x0, main.y0, main.x0 + WING_MIN, main.y1),
-                 Box(main.x0 + WING_MIN, main.y0, main.x1, main.y1)),
-        "east": (LineString([(main.x1, main.y0), (main.x1, main.y1)]),
-                 Box(main.x1 - WING_MIN, main.y0, main.x1, main.y1),
-                 Box(main.x0, main.y0, main.x1 - WING_MIN, main.y1)),
-    }
-    for side, strip, rest in sides.values():
-        border = side.intersection(gap.buffer(1e-6)).length
-        if border < WING_MIN or min(strip.width, strip.depth) < WING_MIN - 1e-9:
+    inside = gap.buffer(1e-6)
+    rings = [gap.exterior, *gap.interiors]
+    xs = sorted({x for ring in rings for x, _ in ring.coords})
+    ys = sorted({y for ring in rings for _, y in ring.coords})
+    best: tuple[float, float, Box, Box] | None = None
+    for wing in _wings_along(main, xs, ys, reach=(hi[0] - lo[0], hi[1] - lo[1])):
+        if not inside.contains(wing.to_polygon()):
             continue
-        if max(strip.width, strip.depth) < WING_JOIN or rest.width < lo[0] - 1e-9 \
-                or rest.depth < lo[1] - 1e-9:
+        rest = _kept_within(main, wing, hi)
+        if rest.width < lo[0] - 1e-9 or rest.depth < lo[1] - 1e-9:
             continue
         if not all(rest.contains_point(*p) for p in room.positions):
             continue
         if edges and not any(on_edge(rest, e) for e in edges):
             continue
-        if best is None or border > best[0]:
-            best = (border, rest, strip)
-    return best
+        gained = wing.area - (main.area - rest.area)
+        if best is None or (gained, wing.area) > best[:2]:
+            best = (gained, wing.area, rest, wing)
+    return None if best is None else (best[0], best[2], best[3])
+
+
+def _wings_along(main: Box, xs: list[float], ys: list[float], reach: tuple[float, float]
+                 ) -> list[Box]:
+    """Every candidate wing on a side of `main`: spans between the
+    gap's vertex coordinates along the side, depths to its coordinates across, each
+    at most `reach` (the room's maximum less its minimum on that axis)."""
+    def spans(cuts: list[float], lo: float, hi: float) -> list[tuple[float, float]]:
+        inner = sorted({lo, hi, *(c for c in cuts if lo < c < hi)})
+        return [(a, b) for i, a in enumerate(inner) for b in inner[i + 1:]
+                if b - a >= WING_JOIN - 1e-9]
+
+    def depths(cuts: list[float], limit: float) -> list[float]:
+        return [d for d in cuts if WING_MIN - 1e-9 <= d <= limit + 1e-9]
+
+    found = []
+    for a, b in spans(xs, main.x0, main.x1):
+        found += [Box(a, main.y1, b, main.y1 + d)
+                  for d in depths([y - main.y1 for y in ys], reach[1])]
+        found += [Box(a, main.y0 - d, b, main.y0)
+                  for d in depths([main.y0 - y for y in ys], reach[1])]
+    for a, b in spans(ys, main.y0, main.y1):
+        found += [Box(main.x1, a, main.x1 + d, b)
+                  for d in depths([x - main.x1 for x in xs], reach[0])]
+        found += [Box(main.x0 - d, a, main.x0, b)
+                  for d in depths([main.x0 - x for x in xs], reach[0])]
+    return found
+
+
+def _kept_within(main: Box, wing: Box, hi: tuple[float, float]) -> Box:
+    """`main` shortened on the side away from `wing` until both fit in `hi`."""
+    x0, y0, x1, y1 = main.x0, main.y0, main.x1, main.y1
+    if wing.y0 >= main.y1 - 1e-9:
+        y0 = max(y0, wing.y1 - hi[1])
+    elif wing.y1 <= main.y0 + 1e-9:
+        y1 = min(y1, wing.y0 + hi[1])
+    elif wing.x0 >= main.x1 - 1e-9:
+        x0 = max(x0, wing.x1 - hi[0])
+    else:
+        x1 = min(x1, wing.x0 + hi[0])
+    return Box(x0, y0, x1, y1)

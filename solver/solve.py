@@ -54,9 +54,9 @@ from solver.hierarchy import (
     select_subdomains,
 )
 from solver.level_one import (
-    carve_wing,
     demand_order,
     level_one_spec,
+    reach_wing,
     windows_to_try,
     wing_names,
     wings_wanted,
@@ -125,6 +125,10 @@ WING_TRIES = 3
 COVER_PATIENCE = 6
 #: ... or after this share of its time without gain.
 COVER_STALL_SHARE = 0.2
+#: A coverage pass that may be followed by a gap wing ends at this share of the
+#: coverage time left: a pocket beside a shaft, between rooms at their maximum, is
+#: filled by a wing, not by more steps, and the wing needs time to settle.
+WING_PASS_SHARE = 0.4
 #: Share of the floor a layout must cover beyond the checker's goal to count as
 #: covering while solving.
 COVER_MARGIN = 5e-4
@@ -602,9 +606,9 @@ def _gap_wing(
     run: _Run, domain: Domain, rects: dict[str, Box], deadline: float
 ) -> tuple[LevelModel, dict[str, Box]] | None:
     """The level-1 model with one more wing, for a room beside a gap (the largest gap
-    first, the room bordering it longest first), and its start: the room's rectangle
-    cut into a main part and a strip along the gap (`carve_wing`). None when no room
-    can take one, or no such start is feasible (a contact split between the two)."""
+    first, the room gaining most first), and its start: the wing in the gap, the room's
+    rectangle shortened where its maximum size demands (`reach_wing`). None when no room
+    can take one, or no such start is feasible (a contact lost with the shortening)."""
     problem = run.problem
     if run.soft:
         return None
@@ -615,15 +619,15 @@ def _gap_wing(
             room = problem.room(run.room_of(name))
             if name != room.id or room.id in run.wings or room.max_rects == 1:
                 continue
-            carved = carve_wing(problem, domain, room, box, gap)
-            if carved is not None:
-                candidates.append((-carved[0], name, carved[1], carved[2]))
-        for _, name, main, strip in sorted(candidates)[:WING_TRIES]:
+            reached = reach_wing(problem, domain, room, box, gap)
+            if reached is not None:
+                candidates.append((-reached[0], name, reached[1], reached[2]))
+        for _, name, main, wing in sorted(candidates)[:WING_TRIES]:
             if time.monotonic() >= deadline - 0.1 or run.stopped():
                 return None
             wings = run.wings | {name: 1}
             lm = build_level(level_one_spec(problem, domain, window=None, wings=wings))
-            start = complete_start(lm, rects | {name: main, wing_names(name, 1)[0]: strip},
+            start = complete_start(lm, rects | {name: main, wing_names(name, 1)[0]: wing},
                                    time_limit=deadline - time.monotonic())
             if start.rects is None:
                 continue
@@ -702,26 +706,33 @@ def _improve_level_one(
 
     rects, steps, improvements = start.rects, 0, 0
     stall = (middle - time.monotonic()) * COVER_STALL_SHARE
-    for wing in range(GAP_WINGS + 1):
-        if covers or (wing and (good_enough(rects) or time.monotonic() > middle - 0.1)):
-            break
-        if wing:
-            # The search stalled short of the goal: a room beside the largest gap it
-            # can border gets a second rectangle to reach in with (issue 2).
-            widened = _gap_wing(run, domain, rects, middle)
-            if widened is None:
-                break
-            lm, rects = widened
+    wings = 0 if not run.soft else GAP_WINGS
+    while not covers:
+        # Each pass that may still be followed by a gap wing has a share of the time
+        # left, so that a wing is tried while there is time to use it.
+        last = wings >= GAP_WINGS
+        now = time.monotonic()
+        pass_end = middle if last else now + (middle - now) * WING_PASS_SHARE
         # Growth beyond the targets costs size error: the pass ends once the layout,
         # gaps absorbed, meets the coverage goal.
         grown = search_neighbourhoods(
-            coverage_first(lm.spec), rects, domain, deadline=middle, rng=rng,
+            coverage_first(lm.spec), rects, domain, deadline=pass_end, rng=rng,
             step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
             on_improvement=improved, good_enough=good_enough, patience=COVER_PATIENCE,
             stall_seconds=stall,
         )
         rects, steps, improvements = (grown.rects, steps + grown.steps,
                                       improvements + grown.improvements)
+        if last or good_enough(rects) or time.monotonic() > middle - 0.1 or run.stopped():
+            break
+        # Short of the goal: a room beside the largest gap it can border gets a second
+        # rectangle to reach in with (issue 2); when none can, one last pass.
+        widened = _gap_wing(run, domain, rects, middle)
+        if widened is None:
+            wings = GAP_WINGS
+            continue
+        lm, rects = widened
+        wings += 1
     best = search_neighbourhoods(
         lm.spec, rects, domain,
         deadline=deadline, rng=rng,

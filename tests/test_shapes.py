@@ -13,7 +13,7 @@ from pydantic import ValidationError
 from models import Problem
 from solver.formulation import build_level
 from solver.geometry import Box, make_domain
-from solver.level_one import carve_wing, demand_order, level_one_spec
+from solver.level_one import demand_order, level_one_spec, reach_wing
 from solver.scip_run import LevelStatus, run_level
 from solver.solve import solve
 
@@ -73,21 +73,32 @@ def _room_by_a_gap(**room: Any) -> tuple[Problem, Box]:
     return p, Box(0, 0, 4, 3)
 
 
-def test_a_room_beside_a_gap_is_cut_into_a_main_part_and_a_strip_along_the_gap() -> None:
-    p, main = _room_by_a_gap()
+def test_a_wing_reaches_into_a_gap_beside_the_room() -> None:
+    p, main = _room_by_a_gap(max_size=[4, 4])
     gap = Box(0, 3, 2, 4).to_polygon()  # above the west half of the room
-    carved = carve_wing(p, make_domain(p), p.rooms[0], main, gap)
-    assert carved is not None
-    border, rest, strip = carved
-    assert border == pytest.approx(2.0)
-    assert (rest, strip) == (Box(0, 0, 4, 2), Box(0, 2, 4, 3))
+    reached = reach_wing(p, make_domain(p), p.rooms[0], main, gap)
+    assert reached is not None
+    gained, rest, wing = reached
+    # The room's box has room to grow: the whole gap is gained, the room keeps its floor.
+    assert (rest, wing) == (main, Box(0, 3, 2, 4))
+    assert gained == pytest.approx(2.0)
+
+
+def test_a_room_at_its_maximum_gives_up_its_far_side_for_the_wing() -> None:
+    p, main = _room_by_a_gap(max_size=[4, 3])
+    reached = reach_wing(p, make_domain(p), p.rooms[0], main, Box(0, 3, 2, 4).to_polygon())
+    assert reached is not None
+    gained, rest, wing = reached
+    # Depth 3 at most: the main part leaves its south metre, open floor for others.
+    assert (rest, wing) == (Box(0, 1, 4, 3), Box(0, 3, 2, 4))
+    assert gained == pytest.approx(2.0 - 4.0)
 
 
 @pytest.mark.parametrize("room", [
-    {"positions": [[1, 2.5]]},  # the guide point would leave the main part
-    {"boundary": ["north"]},  # the main part must lie on the north wall; it would not
-    {"min_size": [2, 2.5]},  # the rest would be too shallow
+    {"positions": [[1, 0.5]], "max_size": [4, 3]},  # the guide point would be given up
+    {"boundary": ["south"], "max_size": [4, 3]},  # the main part would leave the wall
+    {"min_size": [2, 2.5], "max_size": [4, 3]},  # the main part would be too shallow
 ])
-def test_no_strip_is_cut_where_the_main_part_would_break_the_room(room: dict[str, Any]) -> None:
+def test_no_wing_where_the_main_part_would_break_the_room(room: dict[str, Any]) -> None:
     p, main = _room_by_a_gap(**room)
-    assert carve_wing(p, make_domain(p), p.rooms[0], main, Box(0, 3, 2, 4).to_polygon()) is None
+    assert reach_wing(p, make_domain(p), p.rooms[0], main, Box(0, 3, 2, 4).to_polygon()) is None
