@@ -141,9 +141,10 @@ def run_ours_parallel(problem: Problem, *, seed: int, cap: float = BASELINE_CAP)
 
 def flat_model(problem: Problem) -> LevelModel:
     """Level 1 of the paper as one SCIP model: every constraint family, the objective of
-    Eq. 12 through the epigraph, the user's own size bounds; SCIP's default settings."""
+    Eq. 12 through the epigraph, the user's own size bounds; SCIP's default settings.
+    Obstacles are blocked as the paper has them: no room wraps around one."""
     domain = make_domain(problem)
-    return build_level(level_one_spec(problem, domain, window=None))
+    return build_level(level_one_spec(problem, domain, window=None, wrap=False))
 
 
 def run_flat(problem: Problem, *, seed: int, cap: float = BASELINE_CAP) -> Trace:

@@ -21,7 +21,7 @@ from typing import Any, Literal
 
 from pyscipopt import Model, Variable, quicksum
 
-from solver.geometry import EPS, Box, Edge, bounding_box
+from solver.geometry import EPS, Box, Edge, Notch, bounding_box, encloses
 from solver.soft import (
     SOFT_EDGE_CONTACT,
     contact_shortfall,
@@ -127,6 +127,9 @@ class LevelSpec:
     growth_weight: float = 0.0
     #: Price per metre of slack of a soft constraint (`Weights.violation`).
     violation_weight: float = 0.0
+    #: Obstacles on the outline a rectangle may enclose (the room wraps around them);
+    #: not among `blocked`.
+    notches: tuple[Notch, ...] = ()
 
 
 def free_rects(spec: LevelSpec) -> list[RectSpec]:
@@ -152,6 +155,9 @@ class LevelModel:
     families: list[str] = field(default_factory=list)
     #: The slack variables of soft constraints, each priced in the objective.
     slacks: list[Variable] = field(default_factory=list)
+    #: Binaries of rectangles enclosing a notch, with its area: the rectangle's area
+    #: counts that much less as covered floor.
+    enclosures: list[tuple[Variable, float]] = field(default_factory=list)
     #: Event callbacks of the current solve; SCIP takes each handler once per model, so
     #: the runner installs handlers once and swaps what they call.
     hooks: dict[str, Any] = field(default_factory=dict)
@@ -222,7 +228,8 @@ def _slack(lm: LevelModel, name: str) -> Variable:
 
 def c_inside(lm: LevelModel) -> None:
     """C_inside (Eq. 1) for the region's bounding box, plus no overlap with any blocked
-    box (obstacles, the box outside the outline, fixed rooms): Eq. 2 against constants."""
+    box (obstacles, the box outside the outline, fixed rooms): Eq. 2 against constants;
+    a notch may instead be enclosed (`_clear_or_wrap`)."""
     m, spec = lm.model, lm.spec
     for r in free_rects(spec):
         v = lm.rects[r.name]
@@ -238,6 +245,29 @@ def c_inside(lm: LevelModel) -> None:
             m.addCons(v.y + v.d <= b.y0 + my * (1 - sides[2]), name=f"clear_s[{r.name},{k}]")
             m.addCons(v.y >= b.y1 - my * (1 - sides[3]), name=f"clear_n[{r.name},{k}]")
             m.addCons(quicksum(sides) >= 1, name=f"clear[{r.name},{k}]")
+        for k, n in enumerate(spec.notches):
+            _clear_or_wrap(lm, r, v, k, n)
+
+
+def _clear_or_wrap(lm: LevelModel, r: RectSpec, v: RectVars, k: int, n: Notch) -> None:
+    """Eq. 2 against a notch, with a fifth way out: the rectangle encloses its hull,
+    and the room wraps around the obstacle (`Notch`)."""
+    m, b, h = lm.model, n.obstacle, n.hull
+    if not _may_intersect(r, lm.spec.region, b):
+        return
+    mx, my = lm.big_m_x, lm.big_m_y
+    sides = [m.addVar(f"clear[{r.name},n{k},{s}]", vtype="B") for s in range(4)]
+    m.addCons(v.x + v.w <= b.x0 + mx * (1 - sides[0]), name=f"clear_w[{r.name},n{k}]")
+    m.addCons(v.x >= b.x1 - mx * (1 - sides[1]), name=f"clear_e[{r.name},n{k}]")
+    m.addCons(v.y + v.d <= b.y0 + my * (1 - sides[2]), name=f"clear_s[{r.name},n{k}]")
+    m.addCons(v.y >= b.y1 - my * (1 - sides[3]), name=f"clear_n[{r.name},n{k}]")
+    wrap = m.addVar(f"wrap[{r.name},n{k}]", vtype="B")
+    m.addCons(v.x <= h.x0 + mx * (1 - wrap), name=f"wrap_w[{r.name},n{k}]")
+    m.addCons(v.x + v.w >= h.x1 - mx * (1 - wrap), name=f"wrap_e[{r.name},n{k}]")
+    m.addCons(v.y <= h.y0 + my * (1 - wrap), name=f"wrap_s[{r.name},n{k}]")
+    m.addCons(v.y + v.d >= h.y1 - my * (1 - wrap), name=f"wrap_n[{r.name},n{k}]")
+    m.addCons(quicksum(sides) + wrap >= 1, name=f"clear[{r.name},n{k}]")
+    lm.enclosures.append((wrap, b.area))
 
 
 def c_overlap(lm: LevelModel) -> None:
@@ -534,7 +564,10 @@ def e_objective(lm: LevelModel) -> None:
             name=f"energy_epigraph[{r.name}]",
         )
         terms.append(z)
-    m.setObjective(quicksum(terms) + e_violation(lm) + lc * spec.free_area, "minimize")
+    # A wrapped obstacle is inside the rectangle but no floor of the room's.
+    wrapped = quicksum(lc * area * wrap for wrap, area in lm.enclosures)
+    m.setObjective(quicksum(terms) + wrapped + e_violation(lm) + lc * spec.free_area,
+                   "minimize")
 
 
 def e_violation(lm: LevelModel) -> Any:
@@ -620,6 +653,8 @@ def level_objective(spec: LevelSpec, boxes: dict[str, Box]) -> float:
         total += spec.size_weight * ((b.width - tw) ** 2 + (b.depth - td) ** 2)
         total -= spec.cover_weight * b.width * b.depth
         total -= spec.growth_weight * (td * b.width + tw * b.depth)
+        total += spec.cover_weight * sum(n.obstacle.area for n in spec.notches
+                                         if encloses(b, n.obstacle))
     return total + spec.violation_weight * spec_shortfall(spec, boxes)
 
 

@@ -10,7 +10,7 @@ from typing import Literal
 
 import numpy as np
 import shapely
-from shapely.geometry import MultiPolygon, Polygon, box
+from shapely.geometry import LineString, MultiPolygon, Polygon, box
 from shapely.geometry.base import BaseGeometry
 
 from models import Problem, Rect
@@ -19,6 +19,10 @@ from models import Problem, Rect
 GRID = 1e-6
 #: Lengths and areas below this count as zero.
 EPS = 1e-6
+#: A room wrapping an obstacle keeps at least this much floor (metres) beside each side
+#: of it away from the outline: a usable strip with walls of its own, never a wall
+#: shared with the obstacle's that an adjacency could count as contact.
+WRAP_MARGIN = 0.5
 
 Facing = Literal["north", "south", "east", "west"]
 
@@ -93,14 +97,28 @@ class Edge:
 
 
 @dataclass(frozen=True)
+class Notch:
+    """An obstacle standing on the outline (a shaft, a chimney breast), which one
+    room's rectangle may enclose: the room then wraps around it, as a bedroom does
+    around a shaft in its corner, and a pocket between the obstacle and a wall needs no
+    room of its own. `hull` is what the rectangle must then contain: the obstacle and
+    `WRAP_MARGIN` beyond each side not on the outline."""
+
+    obstacle: Box
+    hull: Box
+
+
+@dataclass(frozen=True)
 class Domain:
     """Where rooms go: the bounding box minus `blocked` rectangles (obstacles and the
-    parts of the box outside the outline)."""
+    parts of the box outside the outline). The obstacles among them that a room may
+    wrap around are also `notches`."""
 
     bbox: Box
     free: Polygon | MultiPolygon
     blocked: tuple[Box, ...]
     edges: tuple[Edge, ...]
+    notches: tuple[Notch, ...] = ()
 
     @property
     def area(self) -> float:
@@ -252,7 +270,56 @@ def make_domain(problem: Problem) -> Domain:
         free=problem.free_area(),
         blocked=tuple(obstacles + outside),
         edges=boundary_edges(problem.boundary),
+        notches=notches_of(outline, obstacles, bbox),
     )
+
+
+def notches_of(outline: Polygon, obstacles: Sequence[Box], bbox: Box) -> tuple[Notch, ...]:
+    """The obstacles with a side on the outline, as notches a room may wrap around;
+    not those standing on two opposite walls (a room around one would fall in two),
+    nor those whose hull leaves the bounding box.
+
+    >>> [n.hull for n in notches_of(box(0, 0, 10, 8), [Box(4, 7, 5, 8.0), Box(4, 3, 5, 4)],
+    ...                             Box(0, 0, 10, 8))]
+    [Box(x0=3.5, y0=6.5, x1=5.5, y1=8.0)]
+    """
+    wall = outline.exterior.buffer(EPS)
+    found = []
+    for b in obstacles:
+        sides = {
+            "west": ((b.x0, b.y0), (b.x0, b.y1)), "east": ((b.x1, b.y0), (b.x1, b.y1)),
+            "south": ((b.x0, b.y0), (b.x1, b.y0)), "north": ((b.x0, b.y1), (b.x1, b.y1)),
+        }
+        on = {side for side, ends in sides.items() if wall.contains(LineString(ends))}
+        if not on or {"west", "east"} <= on or {"south", "north"} <= on:
+            continue
+        m = WRAP_MARGIN
+        hull = Box(b.x0 - (0 if "west" in on else m), b.y0 - (0 if "south" in on else m),
+                   b.x1 + (0 if "east" in on else m), b.y1 + (0 if "north" in on else m))
+        if (hull.x0 >= bbox.x0 - EPS and hull.y0 >= bbox.y0 - EPS
+                and hull.x1 <= bbox.x1 + EPS and hull.y1 <= bbox.y1 + EPS):
+            found.append(Notch(b, hull))
+    return tuple(found)
+
+
+def encloses(b: Box, inner: Box) -> bool:
+    return (b.x0 <= inner.x0 + EPS and b.y0 <= inner.y0 + EPS
+            and b.x1 >= inner.x1 - EPS and b.y1 >= inner.y1 - EPS)
+
+
+def unwrapped(b: Box, notches: Sequence[Notch]) -> list[Box]:
+    """A room's rectangle as the rectangles of its floor: itself, or, where it encloses
+    notches, what is left around them, largest first.
+
+    >>> unwrapped(Box(0, 0, 4, 3), [Notch(Box(1, 2, 2, 3), Box(0, 1, 3, 3))])
+    [Box(x0=0.0, y0=0.0, x1=4.0, y1=2.0), Box(x0=2.0, y0=2.0, x1=4.0, y1=3.0), \
+Box(x0=0.0, y0=2.0, x1=1.0, y1=3.0)]
+    """
+    inside = [n.obstacle.to_polygon() for n in notches if encloses(b, n.obstacle)]
+    if not inside:
+        return [b]
+    rest = b.to_polygon().difference(shapely.union_all(inside))
+    return sorted(rectangles_of(rest), key=lambda r: -r.area)
 
 
 def shared_wall_length(a: BaseGeometry, b: BaseGeometry) -> float:

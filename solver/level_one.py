@@ -71,14 +71,15 @@ def windows_to_try(problem: Problem) -> list[float | None]:
 
 def level_one_spec(
     problem: Problem, domain: Domain, *, window: float | None,
-    wings: Mapping[str, int] | None = None, soft: bool = False,
+    wings: Mapping[str, int] | None = None, soft: bool = False, wrap: bool = True,
 ) -> LevelSpec:
     """Level 1: every room one rectangle, every constraint of the request; a room in
     `wings` gets that many more rectangles (issue 8), each sharing at least
     `WING_JOIN` metres of wall with the room's main rectangle, which answers for the
     room's guide points, boundary and target, while its size maximum and aspect ratio
     hold on the bounding box of all of them (an exact envelope). With `soft`, the
-    problem's soft constraints get slacks priced at `Weights.violation` per metre."""
+    problem's soft constraints get slacks priced at `Weights.violation` per metre. With
+    `wrap`, a room may wrap around an obstacle on the outline (`Notch`)."""
     wings = wings or {}
     rects = []
     contacts: list[ContactSpec] = []
@@ -121,10 +122,13 @@ def level_one_spec(
         )
         for k, adj in enumerate(problem.adjacency)
     ]
+    notches = domain.notches if wrap else ()
+    wrapped = {n.obstacle for n in notches}
     return LevelSpec(
         name=f"{problem.name}/level1",
         region=domain.bbox,
-        blocked=domain.blocked,
+        blocked=tuple(b for b in domain.blocked if b not in wrapped),
+        notches=notches,
         free_area=domain.area,
         rects=tuple(rects),
         contacts=tuple(contacts),

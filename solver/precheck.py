@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 
+import shapely
 from shapely import affinity
 from shapely.geometry.base import BaseGeometry
 
@@ -32,7 +33,8 @@ def find_impossibilities(
 
 def _total_area(problem: Problem, domain: Domain) -> list[str]:
     need = sum(r.min_size[0] * r.min_size[1] for r in problem.rooms if r.min_size)
-    if need > domain.area + EPS:
+    # A room wrapped around an obstacle counts it within its minimum size.
+    if need > domain.area + sum(n.obstacle.area for n in domain.notches) + EPS:
         return [f"the rooms' minimum sizes need {need:.2f} m² but the free area is "
                 f"{domain.area:.2f} m²"]
     return []
@@ -40,11 +42,13 @@ def _total_area(problem: Problem, domain: Domain) -> list[str]:
 
 def _room_fits(room: Room, domain: Domain) -> list[str]:
     """A w x d rectangle fits in the free area iff, with x scaled by 1/w and y by 1/d,
-    the area eroded by half a unit is not empty."""
+    the area eroded by half a unit is not empty. The obstacles a room may wrap around
+    count as free here: a room enclosing one is still a rectangle of its size."""
     if not room.min_size or min(room.min_size) <= EPS:
         return []
     w, d = room.min_size
-    if not _fits_somewhere(domain.free, w, d):
+    usable = shapely.union_all([domain.free, *(n.obstacle.to_polygon() for n in domain.notches)])
+    if not _fits_somewhere(usable, w, d):
         return [f"room '{room.id}' needs at least {w:g} x {d:g} m, which fits nowhere in the "
                 "free area"]
     return []

@@ -130,7 +130,7 @@ def edge_shortfall(boxes: Sequence[Box], edges: Sequence[Edge], contact: float =
             along = max(0.0, lo + margin - a1, a0 - (hi - margin))
             across = max(0.0, c0 - e.line, e.line - c1)
             best = min(best, max(along, across))
-    return 0.0 if best == float("inf") else best
+    return 0.0 if best == float("inf") else float(best)
 
 
 def contact_shortfall(a: Sequence[Box], partners: Sequence[Sequence[Box]],
@@ -153,4 +153,4 @@ def contact_shortfall(a: Sequence[Box], partners: Sequence[Sequence[Box]],
                 horizontal = max(0.0, min_contact - along_x, -along_y)
                 vertical = max(0.0, min_contact - along_y, -along_x)
                 best = min(best, horizontal, vertical)
-    return 0.0 if best == float("inf") else round(best, 9)
+    return 0.0 if best == float("inf") else round(float(best), 9)

@@ -33,6 +33,7 @@ from solver.geometry import (
     Box,
     Domain,
     GeometryError,
+    Notch,
     bounding_box,
     domain_lines,
     edges_named,
@@ -40,6 +41,7 @@ from solver.geometry import (
     polygon_coords,
     room_polygon,
     snap_rooms,
+    unwrapped,
 )
 from solver.hierarchy import (
     Piece,
@@ -116,6 +118,8 @@ STRICT_FIRST_SHARE = 0.5
 #: tolerance is relative, so at 60 m two walls meant to meet may lie 6e-5 m apart.
 #: The same tolerance as the checker's.
 OUTPUT_SNAP = 1e-4
+#: Separates a room's id from the number of a rectangle around an obstacle it wraps.
+WRAP_MARK = "~around"
 #: Rooms given a second rectangle at level 1 to reach gaps, at most ...
 GAP_WINGS = 2
 #: ... for gaps larger than this (m²), trying this many rooms per gap.
@@ -194,6 +198,8 @@ class _Run:
     soft: bool = False
     #: The incumbent of lowest Eq. 12 meeting the coverage goal (gaps absorbed).
     best: tuple[float, dict[str, list[Box]]] | None = None
+    #: Obstacles a level-1 rectangle may enclose, its room wrapping around them.
+    notches: tuple[Notch, ...] = ()
 
     def room_of(self, rect: str) -> str:
         """The room a level-1 rectangle belongs to."""
@@ -203,10 +209,29 @@ class _Run:
         return rect
 
     def by_room(self, rects: dict[str, Box]) -> dict[str, list[Box]]:
+        """Level-1 rectangles as each room's floor: a rectangle enclosing an obstacle
+        is the rectangles around it."""
         rooms: dict[str, list[Box]] = {}
         for name, b in rects.items():
-            rooms.setdefault(self.room_of(name), []).append(b)
+            rooms.setdefault(self.room_of(name), []).extend(unwrapped(b, self.notches))
         return rooms
+
+    def pieces(self, domain: Domain, rects: dict[str, Box]) -> list[Piece]:
+        """Level-1 rectangles as the hierarchy's pieces. Of a rectangle wrapped around an
+        obstacle, the part holding the room's guide points on one of its walls answers
+        for the room (the largest such), the others for nothing alone."""
+        pieces = []
+        for name, b in rects.items():
+            room = self.problem.room(self.room_of(name))
+            parts = unwrapped(b, self.notches)
+            edges = edges_named(self.problem, domain.edges, room.boundary)
+            main = max(parts, key=lambda p: (
+                all(p.contains_point(*q) for q in room.positions),
+                not edges or any(on_edge(p, e) for e in edges), p.area))
+            pieces.append(_piece(self.problem, domain, room.id, name, main))
+            pieces += [Piece(f"{name}{WRAP_MARK}{k}", room.id, p)
+                       for k, p in enumerate((p for p in parts if p != main), 1)]
+        return pieces
 
     def remaining(self) -> float:
         return self.deadline - time.monotonic()
@@ -309,6 +334,7 @@ def solve(
     reserve = min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
     run = _Run(problem, started + limit - reserve, started, on_event, should_stop, asked=asked)
     domain = make_domain(problem)
+    run.notches = domain.notches
     findings = find_impossibilities(problem, domain)  # soft constraints never refuse
     if findings:
         return _no_layout(run, Termination.INFEASIBLE, _explained(run, domain, Infeasibility(
@@ -527,8 +553,7 @@ def _level_one(
     assert first.rects is not None
     run.incumbent(domain, run.by_room(first.rects))
     boxes = _improve_level_one(run, domain, first.rects, improve_by)
-    return [_piece(problem, domain, run.room_of(name), name, box)
-            for name, box in boxes.items()], None
+    return run.pieces(domain, boxes), None
 
 
 def _soft_level_one(
@@ -569,8 +594,7 @@ def _soft_level_one(
             active_families=active_families(spec), relaxations_tried=run.relaxations))
     run.incumbent(domain, run.by_room(rects))
     boxes = _improve_level_one(run, domain, rects, deadline)
-    return [_piece(problem, domain, run.room_of(name), name, box)
-            for name, box in boxes.items()], None
+    return run.pieces(domain, boxes), None
 
 
 def _with_wings(run: _Run, domain: Domain, deadline: float, why: str) -> LevelResult | None:

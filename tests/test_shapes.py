@@ -11,7 +11,7 @@ import pytest
 from pydantic import ValidationError
 
 from models import Problem
-from solver.formulation import build_level
+from solver.formulation import build_level, level_objective
 from solver.geometry import Box, make_domain
 from solver.level_one import demand_order, level_one_spec, reach_wing
 from solver.scip_run import LevelStatus, run_level
@@ -102,3 +102,39 @@ def test_a_room_at_its_maximum_gives_up_its_far_side_for_the_wing() -> None:
 def test_no_wing_where_the_main_part_would_break_the_room(room: dict[str, Any]) -> None:
     p, main = _room_by_a_gap(**room)
     assert reach_wing(p, make_domain(p), p.rooms[0], main, Box(0, 3, 2, 4).to_polygon()) is None
+
+
+def _room_around_a_shaft(**room: Any) -> Problem:
+    # A shaft on the north wall, and one room as large as the floor.
+    return Problem.model_validate({
+        "name": "shaft", "boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],
+        "obstacles": [{"x": 2.5, "y": 3, "width": 1, "depth": 1, "label": "shaft"}],
+        "rooms": [{"id": "a", "type": "living", "min_size": [5.9, 3.9], "max_size": [6, 4],
+                   **room}],
+        "options": {"time_limit": 3}})
+
+
+def test_a_room_wraps_around_an_obstacle_on_the_outline() -> None:
+    p = _room_around_a_shaft()
+    domain = make_domain(p)
+    # As the paper blocks obstacles, no rectangle of 6 x 4 fits beside the shaft ...
+    blocked = run_level(build_level(level_one_spec(p, domain, window=None, wrap=False),
+                                    feasibility=True), time_limit=5)
+    assert blocked.status is LevelStatus.INFEASIBLE
+    # ... while a room may enclose it: the room's floor is the rectangle less the shaft.
+    layout = solve(p)
+    assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
+    assert layout.report.coverage == pytest.approx(1.0)
+    room = layout.rooms[0]
+    assert room.area == pytest.approx(23.0)
+    assert len(room.polygon) == 8  # a notch in the north wall
+
+
+def test_a_wrapped_obstacle_is_no_covered_floor_in_the_objective() -> None:
+    p = _room_around_a_shaft(target_size=[6, 4])
+    spec = level_one_spec(p, make_domain(p), window=None)
+    assert [n.obstacle for n in spec.notches] == [Box(2.5, 3, 3.5, 4)]
+    assert Box(2.5, 3, 3.5, 4) not in spec.blocked
+    # On target and covering the whole floor: Eq. 12 is zero, not less (the shaft's
+    # square metre inside the rectangle is no floor to cover).
+    assert level_objective(spec, {"a": Box(0, 0, 6, 4)}) == pytest.approx(0.0)
