@@ -129,10 +129,6 @@ WING_TRIES = 3
 COVER_PATIENCE = 6
 #: ... or after this share of its time without gain.
 COVER_STALL_SHARE = 0.2
-#: A coverage pass that may be followed by a gap wing ends at this share of the
-#: coverage time left: a pocket beside a shaft, between rooms at their maximum, is
-#: filled by a wing, not by more steps, and the wing needs time to settle.
-WING_PASS_SHARE = 0.4
 #: Share of the floor a layout must cover beyond the checker's goal to count as
 #: covering while solving.
 COVER_MARGIN = 5e-4
@@ -360,6 +356,13 @@ def solve(
     pieces, levels = _refine(run, domain, pieces, subdomains)
     pieces = run.better_of(domain, absorb_gaps(problem, domain, pieces))
     return _layout(run, domain, pieces, levels)
+
+
+def _cover(run: _Run, domain: Domain, rects: dict[str, Box]) -> float:
+    """The floor level-1 rectangles cover once gaps are absorbed, as `solve` returns it."""
+    rooms = absorbed(run.problem, domain, run.by_room(rects))
+    return covered_area(domain, {f"{k}#{i}": b for k, bs in rooms.items()
+                                 for i, b in enumerate(bs)})
 
 
 def _covers(domain: Domain, rooms: dict[str, list[Box]]) -> bool:
@@ -731,29 +734,33 @@ def _improve_level_one(
     rects, steps, improvements = start.rects, 0, 0
     stall = (middle - time.monotonic()) * COVER_STALL_SHARE
     wings = 0 if not run.soft else GAP_WINGS
+    # The layout before the last wing, with its coverage (gaps absorbed) and the wings.
+    unwinged: tuple[LevelModel, dict[str, Box], float, dict[str, int],
+                    list[ExtraRectangles]] | None = None
     while not covers:
-        # Each pass that may still be followed by a gap wing has a share of the time
-        # left, so that a wing is tried while there is time to use it.
         last = wings >= GAP_WINGS
-        now = time.monotonic()
-        pass_end = middle if last else now + (middle - now) * WING_PASS_SHARE
         # Growth beyond the targets costs size error: the pass ends once the layout,
-        # gaps absorbed, meets the coverage goal.
+        # gaps absorbed, meets the coverage goal, or when it stalls.
         grown = search_neighbourhoods(
-            coverage_first(lm.spec), rects, domain, deadline=pass_end, rng=rng,
+            coverage_first(lm.spec), rects, domain, deadline=middle, rng=rng,
             step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
             on_improvement=improved, good_enough=good_enough, patience=COVER_PATIENCE,
             stall_seconds=stall,
         )
         rects, steps, improvements = (grown.rects, steps + grown.steps,
                                       improvements + grown.improvements)
+        if unwinged is not None and _cover(run, domain, rects) < unwinged[2] - GAP_AREA:
+            # The wing's pass lost floor the layout before it covered: back to that one.
+            lm, rects, run.wings, run.extra = unwinged[0], unwinged[1], unwinged[3], unwinged[4]
+            break
         if last or good_enough(rects) or time.monotonic() > middle - 0.1 or run.stopped():
             break
         # Short of the goal: a room beside the largest gap it can border gets a second
         # rectangle to reach in with (issue 2); when none can, one last pass.
+        unwinged = (lm, rects, _cover(run, domain, rects), dict(run.wings), list(run.extra))
         widened = _gap_wing(run, domain, rects, middle)
         if widened is None:
-            wings = GAP_WINGS
+            wings, unwinged = GAP_WINGS, None
             continue
         lm, rects = widened
         wings += 1
