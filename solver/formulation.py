@@ -69,6 +69,9 @@ class RectSpec:
     #: Hard lower bounds on width and depth under a soft minimum (or none): a room that
     #: yields to its neighbours still stays a room.
     floor: tuple[float, float] = (0.0, 0.0)
+    #: The rectangle may enclose one of the level's notches (`LevelSpec.notches`);
+    #: not for a room that must stay one rectangle (`max_rects: 1`).
+    may_wrap: bool = True
 
 
 @dataclass(frozen=True)
@@ -261,6 +264,9 @@ def _clear_or_wrap(lm: LevelModel, r: RectSpec, v: RectVars, k: int, n: Notch) -
     m.addCons(v.x >= b.x1 - mx * (1 - sides[1]), name=f"clear_e[{r.name},n{k}]")
     m.addCons(v.y + v.d <= b.y0 + my * (1 - sides[2]), name=f"clear_s[{r.name},n{k}]")
     m.addCons(v.y >= b.y1 - my * (1 - sides[3]), name=f"clear_n[{r.name},n{k}]")
+    if not r.may_wrap:
+        m.addCons(quicksum(sides) >= 1, name=f"clear[{r.name},n{k}]")
+        return
     wrap = m.addVar(f"wrap[{r.name},n{k}]", vtype="B")
     m.addCons(v.x <= h.x0 + mx * (1 - wrap), name=f"wrap_w[{r.name},n{k}]")
     m.addCons(v.x + v.w >= h.x1 - mx * (1 - wrap), name=f"wrap_e[{r.name},n{k}]")

@@ -99,6 +99,7 @@ def level_one_spec(
             edges=tuple(edges_named(problem, domain.edges, room.boundary)),
             soft=frozenset(relaxed),
             floor=(min(SOFT_FLOOR, hi[0]), min(SOFT_FLOOR, hi[1])) if soft else (0.0, 0.0),
+            may_wrap=room.max_rects != 1,
         ))
         for name in extra:
             rects.append(RectSpec(name=name, room=room.id, min_size=(WING_MIN, WING_MIN),

@@ -130,6 +130,13 @@ def test_a_room_wraps_around_an_obstacle_on_the_outline() -> None:
     assert len(room.polygon) == 8  # a notch in the north wall
 
 
+def test_a_room_that_must_stay_a_rectangle_never_wraps() -> None:
+    p = _room_around_a_shaft(max_rects=1)
+    spec = level_one_spec(p, make_domain(p), window=None)
+    assert run_level(build_level(spec, feasibility=True), time_limit=5).status \
+        is LevelStatus.INFEASIBLE
+
+
 def test_a_wrapped_obstacle_is_no_covered_floor_in_the_objective() -> None:
     p = _room_around_a_shaft(target_size=[6, 4])
     spec = level_one_spec(p, make_domain(p), window=None)
