@@ -239,17 +239,24 @@ def c_inside(lm: LevelModel) -> None:
         m.addCons(v.x + v.w <= spec.region.x1, name=f"inside_x[{r.name}]")
         m.addCons(v.y + v.d <= spec.region.y1, name=f"inside_y[{r.name}]")
         for k, b in enumerate(spec.blocked):
-            if not _may_intersect(r, spec.region, b):
-                continue
-            sides = [m.addVar(f"clear[{r.name},{k},{s}]", vtype="B") for s in range(4)]
-            mx, my = lm.big_m_x, lm.big_m_y
-            m.addCons(v.x + v.w <= b.x0 + mx * (1 - sides[0]), name=f"clear_w[{r.name},{k}]")
-            m.addCons(v.x >= b.x1 - mx * (1 - sides[1]), name=f"clear_e[{r.name},{k}]")
-            m.addCons(v.y + v.d <= b.y0 + my * (1 - sides[2]), name=f"clear_s[{r.name},{k}]")
-            m.addCons(v.y >= b.y1 - my * (1 - sides[3]), name=f"clear_n[{r.name},{k}]")
-            m.addCons(quicksum(sides) >= 1, name=f"clear[{r.name},{k}]")
+            if _may_intersect(r, spec.region, b):
+                sides = _clear_sides(lm, r.name, v, b, tag=f"{k}")
+                m.addCons(quicksum(sides) >= 1, name=f"clear[{r.name},{k}]")
         for k, n in enumerate(spec.notches):
             _clear_or_wrap(lm, r, v, k, n)
+
+
+def _clear_sides(lm: LevelModel, name: str, v: RectVars, b: Box, tag: str) -> list[Variable]:
+    """Eq. 2 against the constant box `b`: four binaries, each, when set, keeping the
+    rectangle west, east, south or north of it. The caller demands one of them (or
+    another way out)."""
+    m, mx, my = lm.model, lm.big_m_x, lm.big_m_y
+    sides = [m.addVar(f"clear[{name},{tag},{s}]", vtype="B") for s in range(4)]
+    m.addCons(v.x + v.w <= b.x0 + mx * (1 - sides[0]), name=f"clear_w[{name},{tag}]")
+    m.addCons(v.x >= b.x1 - mx * (1 - sides[1]), name=f"clear_e[{name},{tag}]")
+    m.addCons(v.y + v.d <= b.y0 + my * (1 - sides[2]), name=f"clear_s[{name},{tag}]")
+    m.addCons(v.y >= b.y1 - my * (1 - sides[3]), name=f"clear_n[{name},{tag}]")
+    return sides
 
 
 def _clear_or_wrap(lm: LevelModel, r: RectSpec, v: RectVars, k: int, n: Notch) -> None:
@@ -258,15 +265,11 @@ def _clear_or_wrap(lm: LevelModel, r: RectSpec, v: RectVars, k: int, n: Notch) -
     m, b, h = lm.model, n.obstacle, n.hull
     if not _may_intersect(r, lm.spec.region, b):
         return
-    mx, my = lm.big_m_x, lm.big_m_y
-    sides = [m.addVar(f"clear[{r.name},n{k},{s}]", vtype="B") for s in range(4)]
-    m.addCons(v.x + v.w <= b.x0 + mx * (1 - sides[0]), name=f"clear_w[{r.name},n{k}]")
-    m.addCons(v.x >= b.x1 - mx * (1 - sides[1]), name=f"clear_e[{r.name},n{k}]")
-    m.addCons(v.y + v.d <= b.y0 + my * (1 - sides[2]), name=f"clear_s[{r.name},n{k}]")
-    m.addCons(v.y >= b.y1 - my * (1 - sides[3]), name=f"clear_n[{r.name},n{k}]")
+    sides = _clear_sides(lm, r.name, v, b, tag=f"n{k}")
     if not r.may_wrap:
         m.addCons(quicksum(sides) >= 1, name=f"clear[{r.name},n{k}]")
         return
+    mx, my = lm.big_m_x, lm.big_m_y
     wrap = m.addVar(f"wrap[{r.name},n{k}]", vtype="B")
     m.addCons(v.x <= h.x0 + mx * (1 - wrap), name=f"wrap_w[{r.name},n{k}]")
     m.addCons(v.x + v.w >= h.x1 - mx * (1 - wrap), name=f"wrap_e[{r.name},n{k}]")
