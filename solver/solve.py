@@ -33,7 +33,6 @@ from solver.geometry import (
     Box,
     Domain,
     GeometryError,
-    Notch,
     bounding_box,
     domain_lines,
     edges_named,
@@ -194,8 +193,6 @@ class _Run:
     soft: bool = False
     #: The incumbent of lowest Eq. 12 meeting the coverage goal (gaps absorbed).
     best: tuple[float, dict[str, list[Box]]] | None = None
-    #: Obstacles a level-1 rectangle may enclose, its room wrapping around them.
-    notches: tuple[Notch, ...] = ()
 
     def room_of(self, rect: str) -> str:
         """The room a level-1 rectangle belongs to."""
@@ -204,12 +201,12 @@ class _Run:
                 return room_id
         return rect
 
-    def by_room(self, rects: dict[str, Box]) -> dict[str, list[Box]]:
+    def by_room(self, domain: Domain, rects: dict[str, Box]) -> dict[str, list[Box]]:
         """Level-1 rectangles as each room's floor: a rectangle enclosing an obstacle
         is the rectangles around it."""
         rooms: dict[str, list[Box]] = {}
         for name, b in rects.items():
-            rooms.setdefault(self.room_of(name), []).extend(unwrapped(b, self.notches))
+            rooms.setdefault(self.room_of(name), []).extend(unwrapped(b, domain.notches))
         return rooms
 
     def pieces(self, domain: Domain, rects: dict[str, Box]) -> list[Piece]:
@@ -219,7 +216,7 @@ class _Run:
         pieces = []
         for name, b in rects.items():
             room = self.problem.room(self.room_of(name))
-            parts = unwrapped(b, self.notches)
+            parts = unwrapped(b, domain.notches)
             edges = edges_named(self.problem, domain.edges, room.boundary)
             main = max(parts, key=lambda p: (
                 all(p.contains_point(*q) for q in room.positions),
@@ -330,7 +327,6 @@ def solve(
     reserve = min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
     run = _Run(problem, started + limit - reserve, started, on_event, should_stop, asked=asked)
     domain = make_domain(problem)
-    run.notches = domain.notches
     findings = find_impossibilities(problem, domain)  # soft constraints never refuse
     if findings:
         return _no_layout(run, Termination.INFEASIBLE, _explained(run, domain, Infeasibility(
@@ -360,16 +356,23 @@ def solve(
 
 def _cover(run: _Run, domain: Domain, rects: dict[str, Box]) -> float:
     """The floor level-1 rectangles cover once gaps are absorbed, as `solve` returns it."""
-    rooms = absorbed(run.problem, domain, run.by_room(rects))
-    return covered_area(domain, {f"{k}#{i}": b for k, bs in rooms.items()
-                                 for i, b in enumerate(bs)})
+    return _covered(domain, absorbed(run.problem, domain, run.by_room(domain, rects)))
+
+
+def _covered(domain: Domain, rooms: dict[str, list[Box]]) -> float:
+    boxes = {f"{k}#{i}": b for k, bs in rooms.items() for i, b in enumerate(bs)}
+    return covered_area(domain, boxes)
+
+
+def _goal_area(domain: Domain) -> float:
+    """The floor the checker's coverage goal asks for, with a margin for the snapping of
+    the output walls."""
+    return (COVERAGE_GOAL + COVER_MARGIN) * domain.area
 
 
 def _covers(domain: Domain, rooms: dict[str, list[Box]]) -> bool:
-    """Whether `rooms` meet the checker's coverage goal, with a margin for the
-    snapping of the output walls."""
-    boxes = {f"{k}#{i}": b for k, bs in rooms.items() for i, b in enumerate(bs)}
-    return covered_area(domain, boxes) >= (COVERAGE_GOAL + COVER_MARGIN) * domain.area
+    """Whether `rooms` meet the coverage goal (`_goal_area`)."""
+    return _covered(domain, rooms) >= _goal_area(domain)
 
 
 def _refine(
@@ -554,7 +557,7 @@ def _level_one(
             reason=reason, active_families=active_families(spec),
             relaxations_tried=run.relaxations))
     assert first.rects is not None
-    run.incumbent(domain, run.by_room(first.rects))
+    run.incumbent(domain, run.by_room(domain, first.rects))
     boxes = _improve_level_one(run, domain, first.rects, improve_by)
     return run.pieces(domain, boxes), None
 
@@ -595,7 +598,7 @@ def _soft_level_one(
             reason="stopped on request before any layout was found" if run.stopped() else
             "no layout was found within the time limit; feasibility is unknown",
             active_families=active_families(spec), relaxations_tried=run.relaxations))
-    run.incumbent(domain, run.by_room(rects))
+    run.incumbent(domain, run.by_room(domain, rects))
     boxes = _improve_level_one(run, domain, rects, deadline)
     return run.pieces(domain, boxes), None
 
@@ -713,12 +716,12 @@ def _improve_level_one(
     if len(run.problem.rooms) <= NEIGHBOURHOOD_SIZE:
         # One neighbourhood would be the whole model: solve it outright.
         def announce(inc: Incumbent) -> None:
-            run.incumbent(domain, run.by_room(inc.rects), inc.dual_bound)
+            run.incumbent(domain, run.by_room(domain, inc.rects), inc.dual_bound)
 
         direct = run.run(lm, deadline - time.monotonic(), on_incumbent=announce)
         return direct.rects if direct.rects is not None else start.rects
     def improved(rects: dict[str, Box]) -> None:
-        run.incumbent(domain, run.by_room(rects))
+        run.incumbent(domain, run.by_room(domain, rects))
 
     # Coverage first (what users judge a plan by), then the user's own weights without
     # giving coverage back. A start that covers everything skips the first phase, and
@@ -729,7 +732,7 @@ def _improve_level_one(
     middle = time.monotonic() + (deadline - time.monotonic()) * COVERAGE_PHASE_SHARE
 
     def good_enough(rects: dict[str, Box]) -> bool:
-        return _covers(domain, absorbed(run.problem, domain, run.by_room(rects)))
+        return _cover(run, domain, rects) >= _goal_area(domain)
 
     rects, steps, improvements = start.rects, 0, 0
     stall = (middle - time.monotonic()) * COVER_STALL_SHARE
@@ -749,15 +752,17 @@ def _improve_level_one(
         )
         rects, steps, improvements = (grown.rects, steps + grown.steps,
                                       improvements + grown.improvements)
-        if unwinged is not None and _cover(run, domain, rects) < unwinged[2] - GAP_AREA:
+        cover = _cover(run, domain, rects)
+        if unwinged is not None and cover < unwinged[2] - GAP_AREA:
             # The wing's pass lost floor the layout before it covered: back to that one.
             lm, rects, run.wings, run.extra = unwinged[0], unwinged[1], unwinged[3], unwinged[4]
             break
-        if last or good_enough(rects) or time.monotonic() > middle - 0.1 or run.stopped():
+        if (last or cover >= _goal_area(domain) or time.monotonic() > middle - 0.1
+                or run.stopped()):
             break
         # Short of the goal: a room beside the largest gap it can border gets a second
         # rectangle to reach in with (issue 2); when none can, one last pass.
-        unwinged = (lm, rects, _cover(run, domain, rects), dict(run.wings), list(run.extra))
+        unwinged = (lm, rects, cover, dict(run.wings), list(run.extra))
         widened = _gap_wing(run, domain, rects, middle)
         if widened is None:
             wings, unwinged = GAP_WINGS, None
