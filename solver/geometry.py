@@ -6,6 +6,7 @@ from __future__ import annotations
 import bisect
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -123,6 +124,13 @@ class Domain:
     @property
     def area(self) -> float:
         return float(self.free.area)
+
+    @cached_property
+    def spannable(self) -> BaseGeometry:
+        """The floor a room's rectangle may span: the free area and the notches."""
+        if not self.notches:
+            return self.free
+        return shapely.union_all([self.free, *(n.obstacle.to_polygon() for n in self.notches)])
 
     def gaps(self, boxes: Iterable[Box], larger_than: float) -> list[Polygon]:
         """The parts of the free area none of `boxes` covers, each larger than

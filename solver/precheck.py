@@ -5,7 +5,6 @@ from __future__ import annotations
 
 from functools import lru_cache
 
-import shapely
 from shapely import affinity
 from shapely.geometry.base import BaseGeometry
 
@@ -34,7 +33,7 @@ def find_impossibilities(
 def _total_area(problem: Problem, domain: Domain) -> list[str]:
     need = sum(r.min_size[0] * r.min_size[1] for r in problem.rooms if r.min_size)
     # A room wrapped around an obstacle counts it within its minimum size.
-    if need > domain.area + sum(n.obstacle.area for n in domain.notches) + EPS:
+    if need > domain.spannable.area + EPS:
         return [f"the rooms' minimum sizes need {need:.2f} m² but the free area is "
                 f"{domain.area:.2f} m²"]
     return []
@@ -47,8 +46,7 @@ def _room_fits(room: Room, domain: Domain) -> list[str]:
     if not room.min_size or min(room.min_size) <= EPS:
         return []
     w, d = room.min_size
-    usable = shapely.union_all([domain.free, *(n.obstacle.to_polygon() for n in domain.notches)])
-    if not _fits_somewhere(usable, w, d):
+    if not _fits_somewhere(domain.spannable, w, d):
         return [f"room '{room.id}' needs at least {w:g} x {d:g} m, which fits nowhere in the "
                 "free area"]
     return []
