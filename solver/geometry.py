@@ -186,15 +186,7 @@ def rectangles_of(region: BaseGeometry) -> list[Box]:
     """
     if region.is_empty or region.area <= EPS:
         return []
-    coords = shapely.get_coordinates(shapely.boundary(region))
-    xs = sorted({round(float(c), 9) for c in coords[:, 0]})
-    ys = sorted({round(float(c), 9) for c in coords[:, 1]})
-    # Which cells of the grid the region's vertices span are inside, all at once.
-    cx = (np.array(xs[:-1]) + np.array(xs[1:])) / 2
-    cy = (np.array(ys[:-1]) + np.array(ys[1:])) / 2
-    shapely.prepare(region)
-    grid_x, grid_y = np.meshgrid(cx, cy)
-    cells = shapely.contains_xy(region, grid_x, grid_y)
+    xs, ys, cells = _grid_cells(region)
     # Horizontal runs of inside cells per row.
     rows: list[list[tuple[float, float]]] = []
     for j in range(len(ys) - 1):
@@ -223,6 +215,67 @@ def rectangles_of(region: BaseGeometry) -> list[Box]:
     for run, y0 in open_runs.items():
         result.append(Box(run[0], y0, run[1], ys[-1]))
     return result
+
+
+def _grid_cells(region: BaseGeometry) -> tuple[list[float], list[float], np.ndarray]:
+    """The grid the region's vertex coordinates span, and which of its cells (row by
+    y, column by x) are inside the region, tested all at once."""
+    coords = shapely.get_coordinates(shapely.boundary(region))
+    xs = sorted({round(float(c), 9) for c in coords[:, 0]})
+    ys = sorted({round(float(c), 9) for c in coords[:, 1]})
+    cx = (np.array(xs[:-1]) + np.array(xs[1:])) / 2
+    cy = (np.array(ys[:-1]) + np.array(ys[1:])) / 2
+    shapely.prepare(region)
+    grid_x, grid_y = np.meshgrid(cx, cy)
+    return xs, ys, shapely.contains_xy(region, grid_x, grid_y)
+
+
+def largest_box_around(region: BaseGeometry, x: float, y: float) -> Box | None:
+    """The largest rectangle inside a rectilinear region that holds the point (x, y);
+    None when the point is outside. Every span of grid columns around the point is
+    tried, each as deep as all its columns reach.
+
+    >>> l_shape = box(0, 0, 10, 2).union(box(0, 2, 3, 4))
+    >>> largest_box_around(l_shape, 1, 3)
+    Box(x0=0.0, y0=0.0, x1=3.0, y1=4.0)
+    >>> largest_box_around(l_shape, 8, 1)
+    Box(x0=0.0, y0=0.0, x1=10.0, y1=2.0)
+    """
+    if region.is_empty or not region.intersects(shapely.Point(x, y)):
+        return None
+    xs, ys, cells = _grid_cells(region)
+    col = min(max(bisect.bisect_right(xs, x) - 1, 0), len(xs) - 2)
+    row = min(max(bisect.bisect_right(ys, y) - 1, 0), len(ys) - 2)
+    if not cells[row, col]:
+        return None
+
+    def reach(i: int) -> tuple[int, int]:
+        """Rows [low, high) of the inside run of column i through the point's row."""
+        if not cells[row, i]:
+            return row, row
+        low, high = row, row + 1
+        while low > 0 and cells[low - 1, i]:
+            low -= 1
+        while high < len(ys) - 1 and cells[high, i]:
+            high += 1
+        return low, high
+
+    runs = [reach(i) for i in range(len(xs) - 1)]
+    best: Box | None = None
+    for first in range(col, -1, -1):
+        if runs[first][0] == runs[first][1]:
+            break
+        low, high = 0, len(ys) - 1
+        for last in range(first, len(xs) - 1):
+            if runs[last][0] == runs[last][1]:
+                break
+            low, high = max(low, runs[last][0]), min(high, runs[last][1])
+            if last < col:
+                continue
+            found = Box(xs[first], ys[low], xs[last + 1], ys[high])
+            if best is None or found.area > best.area:
+                best = found
+    return best
 
 
 def bounding_box(boxes: Sequence[Box]) -> Box:

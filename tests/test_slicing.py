@@ -56,6 +56,38 @@ def test_rows_fill_the_floor_and_honour_sizes_and_guide_points() -> None:
     assert sum(check.size_error.values()) / len(p.rooms) < 0.2
 
 
+def _strip_rooms(count: int, **first: Any) -> list[dict[str, Any]]:
+    return [{"id": f"s{i}", "type": "shop", "min_size": [2, 2], "max_size": [8, 8],
+             "target_size": [3, 3], **(first if i == 0 else {})} for i in range(count)]
+
+
+def test_a_guide_point_beside_a_notch_gets_a_region_that_reaches_it() -> None:
+    # The point lies in the 1 m strip above the 20 x 3 m bar, too shallow to be a row
+    # of its own: the rows are cut from the 6 x 4 m rectangle around it and the rest.
+    p = Problem.model_validate({
+        "boundary": [[0, 0], [20, 0], [20, 3], [6, 3], [6, 4], [0, 4]],
+        "rooms": _strip_rooms(7, positions=[[1.0, 3.6]])})
+    rects = slicing_layout(p, make_domain(p), deadline=time.monotonic() + 5)
+    assert rects is not None
+    assert rects["s0"].contains_point(1.0, 3.6)
+    check = check_layout(p, {k: [b] for k, b in rects.items()})
+    assert check.valid, [c for c in check.constraints if not c.satisfied]
+    assert check.coverage > 0.999
+
+
+def test_a_loose_room_is_not_dealt_between_guide_points_it_cannot_fit_between() -> None:
+    # Even spreading would put s2 (at least 2 m wide) between the points of s0 and s1,
+    # 1 m apart, where no row order can hold it.
+    rooms = _strip_rooms(4)
+    rooms[0]["positions"], rooms[1]["positions"] = [[2.5, 1.5]], [[3.5, 1.5]]
+    p = Problem.model_validate({"boundary": [[0, 0], [12, 0], [12, 3], [0, 3]],
+                                "rooms": rooms})
+    rects = slicing_layout(p, make_domain(p), deadline=time.monotonic() + 5)
+    assert rects is not None
+    assert rects["s0"].contains_point(2.5, 1.5) and rects["s1"].contains_point(3.5, 1.5)
+    assert check_layout(p, {k: [b] for k, b in rects.items()}).valid
+
+
 def test_no_row_plan_when_the_bounds_cannot_fill_the_floor() -> None:
     # Three rooms of at most 3 x 3 m cannot fill 288 m² edge to edge.
     p = offices(3)
