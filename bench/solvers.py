@@ -77,8 +77,7 @@ def run_ours(problem: Problem, *, seed: int, cap: float = BASELINE_CAP,
     `subdomain_processes` > 1, each refinement level's sub-domains solved at once in a
     process pool of that many (started and warmed up before the clock starts, as the
     service starts it while level 1 runs)."""
-    problem = problem.model_copy(update={"options": problem.options.model_copy(
-        update={"seed": seed})})
+    problem = problem.with_options(seed=seed)
     name = "ours" if subdomain_processes <= 1 else "ours-parallel"
     trace = Trace(name, our_limit(problem))
     pool = None

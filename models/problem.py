@@ -464,6 +464,11 @@ class Problem(ProblemFields):
         floors = self.floors or []
         return len(self.rooms) + sum(len(f.rooms) for f in floors) + len(self.vertical)
 
+    def with_options(self, **changes: Any) -> Problem:
+        """This problem with the given options changed, as the solver derives its own
+        sub-problems (not validated again: the values are the solver's, not a user's)."""
+        return self.model_copy(update={"options": self.options.model_copy(update=changes)})
+
     def room(self, room_id: str) -> Room:
         for room in self.rooms:
             if room.id == room_id:

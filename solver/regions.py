@@ -582,9 +582,8 @@ def solve_regions(
             if problem.regions is None and not (should_stop and should_stop()):
                 # An automatic partition is only a means: solve flat instead.
                 progress.say("regions: no region layout, solving without regions")
-                return solve(flat.model_copy(update={"options": flat.options.model_copy(
-                    update={"time_limit": max(1.0, deadline - time.monotonic())})}),
-                    on_event=on_event, should_stop=should_stop)
+                return solve(flat.with_options(time_limit=max(1.0, deadline - time.monotonic())),
+                             on_event=on_event, should_stop=should_stop)
             report = laid.report.model_copy(
                 update={"solve_time": time.monotonic() - started})
             return Layout(name=problem.name, report=report)
@@ -611,10 +610,21 @@ def solve_regions(
         if not slicing_has_demands(sub):
             # Sizes alone: slicing lays the rows out at once and the search after it
             # does not pay for its time (measured: no step improved on office-154).
-            sub = sub.model_copy(update={"options": sub.options.model_copy(update={
-                "time_limit": min(share, MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms))})})
+            sub = sub.with_options(time_limit=min(
+                share, MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms)))
         inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
                       should_stop=should_stop)
+        longer = max(share, (deadline - time.monotonic()) * len(rooms)
+                     / (left_rooms + len(rooms)))
+        if (not inner.rooms and inner.report.termination is Termination.NO_SOLUTION
+                and longer > sub.options.time_limit
+                and not (should_stop is not None and should_stop())):
+            # The time ran out, not the constraints (a loaded machine, a part slicing
+            # cannot lay out): the part's whole share before anything is given up.
+            progress.say(f"{stage}: no layout yet, retrying with {longer:.1f} s")
+            sub = sub.with_options(time_limit=longer)
+            inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
+                          should_stop=should_stop)
         for relax in RELAXATIONS:
             if inner.rooms or (should_stop is not None and should_stop()):
                 break
@@ -623,8 +633,7 @@ def solve_regions(
             progress.say(f"{stage}: no layout, retrying without {', '.join(relax)}")
             sub = sub.model_copy(update={"rooms": [
                 r.model_copy(update=dict.fromkeys(relax)) for r in sub.rooms]})
-            sub = sub.model_copy(update={"options": sub.options.model_copy(
-                update={"time_limit": max(MIN_PART_SECONDS, share / 2)})})
+            sub = sub.with_options(time_limit=max(MIN_PART_SECONDS, share / 2))
             inner = solve(sub, should_stop=should_stop)
         terminations.append(inner.report.termination)
         levels = max(levels, inner.report.levels)

@@ -107,8 +107,7 @@ def solve_storeys(
     started = time.monotonic()
     deadline = started + job_time_limit(problem)
     floors = [floor_problem(problem, i) for i in range(len(problem.floors))]
-    weights = [job_time_limit(f.model_copy(update={"options": f.options.model_copy(
-        update={"time_limit": None})})) for f in floors]
+    weights = [job_time_limit(f.with_options(time_limit=None)) for f in floors]
     tried: list[str] = []
     attempts: list[_Attempt] = []
     for anchor in _anchor_order(problem, floors):
@@ -183,8 +182,7 @@ def _run_attempt(
             attempt.failed, attempt.why = i, misfit
             return
         floor = _pinned(floors[i], pins)
-        floor = floor.model_copy(update={"options": floor.options.model_copy(
-            update={"time_limit": budget, "seed": attempt.seed})})
+        floor = floor.with_options(time_limit=budget, seed=attempt.seed)
         layout = _solve_floor(floor, floor_id, started, on_event, should_stop, subdomains)
         if not layout.rooms:
             attempt.failed, attempt.failure = i, layout

@@ -243,3 +243,26 @@ def test_layout_with_aisles_round_trips() -> None:
     layout = solve(problem)
     again = Layout.model_validate_json(layout.model_dump_json())
     assert again.aisles == layout.aisles
+
+
+def test_a_part_out_of_time_is_retried_with_its_share_before_anything_is_relaxed(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # A loaded machine, made certain: the parts' short slicing budget (the minimum plus
+    # a little per room) is cut to about a millisecond, which finds nothing. Each such
+    # part must get its whole share of the time with every constraint kept, and the
+    # layout honour every minimum size (it once came back relaxed and invalid).
+    import solver.regions as regions
+
+    monkeypatch.setattr(regions, "MIN_PART_SECONDS", 1e-3)
+    monkeypatch.setattr(regions, "PART_SECONDS_PER_ROOM", 1e-6)
+    problem = Problem.model_validate({
+        "boundary": [[0, 0], [34, 0], [34, 19], [0, 19]], "rooms": _offices(45, seed=2),
+        "options": {"time_limit": 5, "seed": 0}})
+    said: list[str] = []
+    layout = solve(problem, on_event=lambda e: said.append(e.detail))
+    retried = [d for d in said if "no layout yet, retrying with" in d]
+    assert retried, said
+    assert not [d for d in said if "retrying without" in d]
+    assert len(layout.rooms) == len(problem.rooms)
+    assert layout.report.valid, [c.detail for c in layout.report.constraints
+                                 if not c.satisfied]
