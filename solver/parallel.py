@@ -9,6 +9,11 @@ every sub-domain of a level from the level's layout, solves them at once with
 touch one gap may both grow into it: a result overlapping rooms placed meanwhile is
 dropped (its rooms keep their rectangles), so the layout stays valid.
 
+The same executor runs a second level-1 search alongside the solve's own, under
+another seed (`LevelOneTask`, `solver.solve.level_one_alone`); the better of the two
+layouts goes on to the hierarchy. A remote executor that runs only sub-domains refuses
+it, and the solve goes on alone.
+
 What crosses to the executor is plain data (a `LevelSpec`, boxes, numbers), so tasks
 pickle; the solver knows nothing of who runs them.
 """
@@ -21,8 +26,10 @@ from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor
 from dataclasses import dataclass
 
+from models import ExtraRectangles, Problem
 from solver.formulation import LevelSpec, build_level
 from solver.geometry import Box
+from solver.hierarchy import Piece
 from solver.scip_run import complete_start, run_level
 
 #: Overlap (m²) below which two rectangles count as touching, not overlapping.
@@ -60,6 +67,29 @@ class SubdomainTask:
 
 
 @dataclass(frozen=True)
+class LevelOneTask:
+    """A second level-1 search (`solver.solve.level_one_alone`): the problem, under
+    another seed, and the wall clock time (epoch) by which it must end."""
+
+    problem: Problem
+    deadline: float
+
+
+@dataclass(frozen=True)
+class LevelOneOutcome:
+    """What a level-1 search ends with: its pieces (None: no layout), the extra
+    rectangles it gave rooms, its size window, whether soft constraints were priced,
+    and the relaxations it tried."""
+
+    pieces: list[Piece] | None
+    wings: dict[str, int]
+    extra: list[ExtraRectangles]
+    window: float | None
+    soft: bool
+    relaxations: list[str]
+
+
+@dataclass(frozen=True)
 class SubdomainOutcome:
     status: str  # a LevelStatus value, or why the start was refused
     rects: dict[str, Box] | None
@@ -88,8 +118,10 @@ def solve_subdomain(task: SubdomainTask) -> SubdomainOutcome:
 
 
 def warm_up() -> None:
-    """Nothing to do: submitted once per pool process, so that it imports this module
-    (and SCIP, shapely) while level 1 runs, not when the first sub-domain waits."""
+    """Submitted once per pool process, so that it imports this module (and SCIP,
+    shapely) while level 1 runs, not when the first sub-domain waits; and the solve
+    module, which a second level-1 search runs from."""
+    import solver.solve  # noqa: F401
 
 
 def overlaps_others(rooms: Mapping[str, Iterable[Box]], own: set[str],

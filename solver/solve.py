@@ -72,6 +72,8 @@ from solver.neighbourhood import (
 from solver.openings import add_openings, connection_demands
 from solver.parallel import (
     LATE_SECONDS,
+    LevelOneOutcome,
+    LevelOneTask,
     SubdomainExecutor,
     SubdomainOutcome,
     SubdomainTask,
@@ -94,6 +96,8 @@ BASE_TIME = 5.0
 BASE_ROOMS = 20
 #: Share of the time limit level 1 may use.
 LEVEL_ONE_SHARE = 0.9
+#: The second level-1 search of a portfolio runs under the seed plus this.
+SECOND_SEED_STEP = 1_000_003
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
 #: Time kept per room for closing the last gaps and checking the layout.
@@ -333,25 +337,106 @@ def solve(
             reason="the problem is infeasible before any solving", findings=findings)))
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
     level_one_end = started + (run.deadline - started) * LEVEL_ONE_SHARE
-    if not has_soft(problem):
-        pieces, failure = _level_one(run, domain, level_one_end)
-    else:
-        # Issue 8: a layout meeting every constraint, soft ones too, is looked for first
-        # (no price per metre makes a violating layout reliably lose to it); the soft
-        # model takes over when there is none, or none found in its share of the time.
-        pieces, failure = None, None
-        if not find_impossibilities(problem, domain, ignore_soft=False):
-            pieces, failure = _level_one(
-                run, domain, level_one_end, explain=False,
-                first_by=started + (level_one_end - started) * STRICT_FIRST_SHARE)
-        if pieces is None and not run.stopped():
-            pieces, failure = _soft_level_one(run, domain, level_one_end)
+    second = _second_start(problem, subdomains, level_one_end)
+    pieces, failure = _first_level(run, domain, level_one_end)
+    if second is not None:
+        proven = failure is not None and failure.report.termination is Termination.INFEASIBLE
+        if proven or run.stopped():  # nothing the second search finds can be used
+            second.cancel()
+        else:
+            pieces = _better_start(run, domain, pieces, second, level_one_end)
     if pieces is None:
         assert failure is not None
         return failure
     pieces, levels = _refine(run, domain, pieces, subdomains)
     pieces = run.better_of(domain, absorb_gaps(problem, domain, pieces))
     return _layout(run, domain, pieces, levels)
+
+
+def _first_level(
+    run: _Run, domain: Domain, deadline: float
+) -> tuple[list[Piece] | None, Layout | None]:
+    """Level 1 until `deadline`: the pieces of the first layout, improved, or the
+    report of why there is none."""
+    problem = run.problem
+    if not has_soft(problem):
+        return _level_one(run, domain, deadline)
+    # Issue 8: a layout meeting every constraint, soft ones too, is looked for first
+    # (no price per metre makes a violating layout reliably lose to it); the soft
+    # model takes over when there is none, or none found in its share of the time.
+    pieces, failure = None, None
+    if not find_impossibilities(problem, domain, ignore_soft=False):
+        pieces, failure = _level_one(
+            run, domain, deadline, explain=False,
+            first_by=run.started + (deadline - run.started) * STRICT_FIRST_SHARE)
+    if pieces is None and not run.stopped():
+        pieces, failure = _soft_level_one(run, domain, deadline)
+    return pieces, failure
+
+
+def _second_start(
+    problem: Problem, subdomains: SubdomainExecutor | None, deadline: float
+) -> Future[LevelOneOutcome] | None:
+    """With an executor of two slots or more, a second level-1 search under another
+    seed, alongside this one (`level_one_alone`): level 1's neighbourhood search is a
+    local search, and two independent ones end in a better layout more often than one
+    (measured in bench/NOTES.md). None when there is no such executor, or it runs
+    only sub-domains (a remote one)."""
+    if subdomains is None or subdomains.slots < 2:
+        return None
+    seed = (problem.options.seed + SECOND_SEED_STEP) % 2**31
+    task = LevelOneTask(problem.with_options(seed=seed),
+                        deadline=time.time() + (deadline - time.monotonic()))
+    try:
+        return subdomains.executor.submit(level_one_alone, task)
+    except (ValueError, RuntimeError):  # an executor for sub-domains only, or shut down
+        return None
+
+
+def level_one_alone(task: LevelOneTask) -> LevelOneOutcome:
+    """Level 1 of `task.problem` (its demands already added) in whatever process the
+    executor uses, without events or stop flag: it ends by `task.deadline` (epoch)."""
+    started = time.monotonic()
+    deadline = started + (task.deadline - time.time())
+    run = _Run(task.problem, deadline, started, None, None)
+    domain = make_domain(task.problem)
+    pieces, _ = _first_level(run, domain, deadline)
+    return LevelOneOutcome(pieces, run.wings, run.extra, run.window, run.soft,
+                           run.relaxations)
+
+
+def _better_start(
+    run: _Run, domain: Domain, pieces: list[Piece] | None,
+    second: Future[LevelOneOutcome], deadline: float,
+) -> list[Piece] | None:
+    """This level 1's pieces, or the second search's when they are better: a layout
+    meeting every constraint before one pricing soft ones, then one meeting the
+    coverage goal (gaps absorbed), then the lower Eq. 12. The second search is waited
+    for until `deadline`, and a little after."""
+    while not second.done() and not run.stopped() and (
+            time.monotonic() < deadline + LATE_SECONDS):
+        wait([second], timeout=0.05)
+    try:
+        other = second.result(timeout=0)
+    except Exception:  # late, stopped, lost or failed: it costs its chance, not the layout
+        second.cancel()
+        return pieces
+    if other.pieces is None or run.stopped():
+        return pieces
+
+    def rank(candidate: list[Piece], soft: bool) -> tuple[bool, bool, float]:
+        rooms = absorbed(run.problem, domain, room_boxes(candidate))
+        return (soft, not _covers(domain, rooms),
+                layout_objective(run.problem, domain, rooms, soft=soft))
+
+    if pieces is not None and rank(pieces, run.soft) <= rank(other.pieces, other.soft):
+        return pieces
+    run.wings, run.extra, run.window, run.soft = (other.wings, other.extra, other.window,
+                                                  other.soft)
+    run.relaxations.append("a second level-1 search, under another seed, ended better")
+    run.emit(Phase.LEVEL, detail="level 1: the second search (another seed) ended better")
+    run.incumbent(domain, room_boxes(other.pieces))
+    return other.pieces
 
 
 def _cover(run: _Run, domain: Domain, rects: dict[str, Box]) -> float:

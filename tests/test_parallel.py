@@ -7,8 +7,10 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import time
 from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -17,10 +19,20 @@ import pytest
 
 from models import Problem
 from service.worker import run_job
-from solver.geometry import Box
-from solver.hierarchy import SubDomain
-from solver.parallel import SubdomainExecutor, overlaps_others
-from solver.solve import Phase, SolveEvent, _disjoint_batches, solve
+from solver.checker import check_layout
+from solver.geometry import Box, make_domain
+from solver.hierarchy import SubDomain, room_boxes
+from solver.openings import connection_demands
+from solver.parallel import LevelOneOutcome, LevelOneTask, SubdomainExecutor, overlaps_others
+from solver.solve import (
+    Phase,
+    SolveEvent,
+    _better_start,
+    _disjoint_batches,
+    _Run,
+    level_one_alone,
+    solve,
+)
 from tests.servers import Server
 from tests.test_service import submit, wait
 
@@ -71,6 +83,37 @@ def test_a_level_s_sub_domains_are_solved_at_once_in_a_process_pool(
     sequential = solve(Problem.model_validate(TWO_WINGS))
     assert sequential.report.valid
     assert layout.report.coverage >= sequential.report.coverage - 1e-6
+
+
+def test_a_second_level_one_search_runs_in_the_pool_and_the_better_start_wins(
+    pool: ProcessPoolExecutor,
+) -> None:
+    problem = connection_demands(Problem.model_validate(TWO_WINGS))
+    domain = make_domain(problem)
+    outcome = pool.submit(level_one_alone, LevelOneTask(
+        problem, deadline=time.time() + 2)).result(timeout=10)
+    assert outcome.pieces is not None and not outcome.soft
+    rooms = room_boxes(outcome.pieces)
+    assert set(rooms) == {"a", "b", "c", "d"}
+    assert check_layout(problem, rooms).valid
+
+    def finished(**changes: Any) -> Future[LevelOneOutcome]:
+        done: Future[LevelOneOutcome] = Future()
+        done.set_result(replace(outcome, **changes))
+        return done
+
+    events: list[SolveEvent] = []
+    run = _Run(problem, time.monotonic() + 5, time.monotonic(), events.append, None)
+    # A tie keeps this search's layout, and says nothing.
+    kept = _better_start(run, domain, outcome.pieces, finished(), time.monotonic())
+    assert kept is outcome.pieces and not events
+    # No layout here: the second search's is taken, and said so.
+    other = _better_start(run, domain, None, finished(), time.monotonic())
+    assert other is outcome.pieces
+    assert any("second search" in e.detail for e in events)
+    # A second search that is still running when level 1 ends is not waited for.
+    running: Future[LevelOneOutcome] = Future()
+    assert _better_start(run, domain, None, running, time.monotonic() - 1) is None
 
 
 def test_a_solve_process_runs_its_sub_domains_in_a_pool_and_ends_it() -> None:
