@@ -20,6 +20,9 @@ STANDBY_POLL = 1.0
 #: Seconds between two incumbent layouts sent to the parent: building one costs
 #: geometry, and the event stream shows at most two a second anyway.
 INCUMBENT_INTERVAL = 0.5
+#: Seconds to wait for a killed pool to be reaped: a SIGKILL takes effect at once, so
+#: this bounds only a wedged manager thread.
+END_POOL_SECONDS = 5.0
 
 
 def subdomain_pool(processes: int) -> ProcessPoolExecutor | None:
@@ -46,11 +49,17 @@ def end_pool(pool: ProcessPoolExecutor | None) -> None:
     if pool is None:
         return
     processes = list(getattr(pool, "_processes", {}).values())
+    manager = getattr(pool, "_executor_manager_thread", None)
     pool.shutdown(wait=False, cancel_futures=True)
     for process in processes:
         process.kill()
+    # The pool's manager thread reaps the killed workers too. Had we reaped one first,
+    # its own wait would fail and leave the Process alive in appearance until the
+    # manager sets its exit code, so let the manager finish before looking.
+    if manager is not None:
+        manager.join(timeout=END_POOL_SECONDS)
     for process in processes:
-        process.join(timeout=1)
+        process.join(timeout=END_POOL_SECONDS)
 
 
 def subdomain_executor(processes: int, remote: bool) -> tuple[Executor | None, int]:
