@@ -6,7 +6,6 @@ module is imported afresh in the child and must stay light at import time.
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor
@@ -20,46 +19,6 @@ STANDBY_POLL = 1.0
 #: Seconds between two incumbent layouts sent to the parent: building one costs
 #: geometry, and the event stream shows at most two a second anyway.
 INCUMBENT_INTERVAL = 0.5
-#: Seconds to wait for a killed pool to be reaped: a SIGKILL takes effect at once, so
-#: this bounds only a wedged manager thread.
-END_POOL_SECONDS = 5.0
-
-
-def subdomain_pool(processes: int) -> ProcessPoolExecutor | None:
-    """A pool of `processes` spawned processes for the sub-domains of a refinement level
-    (None for one: they are then solved one after the other), started and warmed up now,
-    while level 1 runs."""
-    if processes <= 1:
-        return None
-    from solver.parallel import warm_up
-
-    # This solve process is a daemon (it must not outlive the service); daemons may not
-    # have children unless they say otherwise. The pool is ended explicitly below.
-    multiprocessing.current_process().daemon = False
-    pool = ProcessPoolExecutor(processes, mp_context=multiprocessing.get_context("spawn"))
-    for _ in range(processes):
-        pool.submit(warm_up)
-    return pool
-
-
-def end_pool(pool: ProcessPoolExecutor | None) -> None:
-    """Stop the pool now: a sub-domain still running after a stop must not hold up the
-    job's result (ProcessPoolExecutor has no public way to end busy workers before
-    Python 3.14's terminate_workers)."""
-    if pool is None:
-        return
-    processes = list(getattr(pool, "_processes", {}).values())
-    manager = getattr(pool, "_executor_manager_thread", None)
-    pool.shutdown(wait=False, cancel_futures=True)
-    for process in processes:
-        process.kill()
-    # The pool's manager thread reaps the killed workers too. Had we reaped one first,
-    # its own wait would fail and leave the Process alive in appearance until the
-    # manager sets its exit code, so let the manager finish before looking.
-    if manager is not None:
-        manager.join(timeout=END_POOL_SECONDS)
-    for process in processes:
-        process.join(timeout=END_POOL_SECONDS)
 
 
 def subdomain_executor(processes: int, remote: bool) -> tuple[Executor | None, int]:
@@ -73,11 +32,15 @@ def subdomain_executor(processes: int, remote: bool) -> tuple[Executor | None, i
         executor = celery_executor(get_settings())
         if executor is not None:
             return executor, executor.slots
+    from solver.parallel import subdomain_pool
+
     return subdomain_pool(processes), processes
 
 
 def end_executor(executor: Executor | None) -> None:
     if isinstance(executor, ProcessPoolExecutor):
+        from solver.parallel import end_pool
+
         end_pool(executor)
     elif executor is not None:
         executor.shutdown(wait=False, cancel_futures=True)

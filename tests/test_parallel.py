@@ -23,7 +23,14 @@ from solver.checker import check_layout
 from solver.geometry import Box, make_domain
 from solver.hierarchy import SubDomain, room_boxes
 from solver.openings import connection_demands
-from solver.parallel import LevelOneOutcome, LevelOneTask, SubdomainExecutor, overlaps_others
+from solver.parallel import (
+    PARENT_POLL,
+    LevelOneOutcome,
+    LevelOneTask,
+    SubdomainExecutor,
+    overlaps_others,
+    subdomain_pool,
+)
 from solver.solve import (
     Phase,
     SolveEvent,
@@ -130,6 +137,43 @@ def test_a_solve_process_runs_its_sub_domains_in_a_pool_and_ends_it() -> None:
     assert details and all(" in " in d for d in details)  # solved by the pool
     assert json.loads(message[1])["report"]["valid"]
     assert set(multiprocessing.active_children()) <= before  # its pool is gone with it
+
+
+def _pool_pid(seconds: float) -> int:
+    time.sleep(seconds)  # both workers get one: neither is idle when the other is asked
+    return os.getpid()
+
+
+def _start_a_pool_and_die(pids: multiprocessing.Queue[list[int]]) -> None:
+    pool = subdomain_pool(2)
+    assert pool is not None
+    pids.put([f.result(timeout=60) for f in [pool.submit(_pool_pid, 1.0) for _ in range(2)]])
+    pids.close()
+    pids.join_thread()  # os._exit would not wait for the queue's feeder thread
+    os._exit(0)  # as a hard kill or a second Ctrl-C would: end_pool never runs
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().rsplit(")", 1)[1].split()[0] != "Z"  # a zombie is gone
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="reads /proc")
+def test_a_pool_whose_parent_dies_ends_itself() -> None:
+    pids: multiprocessing.Queue[list[int]] = multiprocessing.get_context("spawn").Queue()
+    parent = multiprocessing.get_context("spawn").Process(target=_start_a_pool_and_die,
+                                                          args=(pids,))
+    parent.start()
+    workers = pids.get(timeout=90)
+    parent.join(timeout=10)
+    assert len(set(workers)) == 2 and parent.exitcode == 0
+    give_up = time.monotonic() + 10 * PARENT_POLL + 5
+    while any(_alive(pid) for pid in workers) and time.monotonic() < give_up:
+        time.sleep(0.1)
+    assert not any(_alive(pid) for pid in workers)
 
 
 def test_the_service_with_a_sub_domain_pool_per_solve(tmp_path: Path) -> None:
