@@ -1,7 +1,7 @@
 """The `floorplan` command line: solve a problem file from the shell.
 
     floorplan solve PROBLEM.json -o LAYOUT.json [--svg PLAN.svg] [--time-limit S]
-                    [--seed K] [--max-levels N] [--quiet] [--expand]
+                    [--seed K] [--max-levels N] [--processes N] [--quiet] [--expand]
 
 Progress goes to stderr (one line per solver event, new incumbents at most a few
 times a second), then a one-line summary; the layout JSON goes to ``-o`` (stdout when
@@ -114,6 +114,11 @@ def _add_solve(commands: Any) -> None:
     p.add_argument("--seed", type=int, metavar="K", help="random seed (overrides options.seed)")
     p.add_argument("--max-levels", type=int, metavar="N",
                    help="deepest hierarchy level (overrides options.max_levels)")
+    p.add_argument("--processes", type=_process_count, default=1, metavar="N",
+                   help="processes for this solve (default 1). With 2 or more, a second "
+                   "level-1 search runs under another seed and the better start goes on, "
+                   "and the independent sub-domains of each refinement level are solved "
+                   "at once")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress or summary on stderr; warnings and errors only")
     p.add_argument("--expand", action="store_true",
@@ -121,6 +126,16 @@ def _add_solve(commands: Any) -> None:
                    "sizes, adjacencies and exterior walls, options overridden) to -o "
                    "instead of solving; edit it and solve that file")
     p.set_defaults(func=cmd_solve)
+
+
+def _process_count(text: str) -> int:
+    try:
+        count = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if count < 1:
+        raise argparse.ArgumentTypeError(f"at least 1, got {count}")
+    return count
 
 
 def main(argv: list[str] | None = None, extra: Sequence[CommandAdder] = ()) -> int:
@@ -152,12 +167,23 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
         return write_expanded(args, problem)
 
     from models import Termination
+    from solver.parallel import SubdomainExecutor, end_pool, subdomain_pool
     from solver.solve import solve
 
     for target in (args.output, args.svg):
         _check_writable(target)
     progress = None if args.quiet else ProgressPrinter(sys.stderr)
-    layout = solve(problem, on_event=progress, should_stop=interrupted)
+    # The pool's processes ignore Ctrl-C; a second one, which ends this process at once,
+    # leaves the pool to end itself (solver.parallel.pool_process_init).
+    pool = subdomain_pool(args.processes)
+    if pool is not None:
+        keep_sigint_blocked()
+    try:
+        layout = solve(problem, on_event=progress, should_stop=interrupted,
+                       subdomains=None if pool is None else SubdomainExecutor(pool,
+                                                                              args.processes))
+    finally:
+        end_pool(pool)
     stopped = interrupted() or layout.report.termination is Termination.INTERRUPTED
     written = _write_outputs(args, problem, layout)
     if not args.quiet:
@@ -363,6 +389,16 @@ def sigint_flag() -> Iterator[Callable[[], bool]]:
     finally:
         watcher.stop()
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+def keep_sigint_blocked() -> None:
+    """Block SIGINT in this thread again, within `sigint_flag`. Starting a process pool
+    starts multiprocessing's resource tracker, which unblocks SIGINT in the calling
+    thread once the tracker runs; SCIP's handler or a KeyboardInterrupt would then
+    take the next Ctrl-C instead of the watcher."""
+    if threading.current_thread() is threading.main_thread() and hasattr(
+            signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
 
 
 class _SigintWatcher:

@@ -26,6 +26,7 @@ from solver.cli import (
 )
 from solver.cli import progress_line as format_progress
 from solver.solve import Phase, SolveEvent
+from tests.test_parallel import TWO_WINGS
 
 ROOT = Path(__file__).resolve().parents[1]
 # A 6 x 4 flat, two rooms side by side: solved in well under a second.
@@ -129,6 +130,23 @@ def test_missing_file_and_bad_override_exit_2(tmp_path: Path) -> None:
     assert "options.time_limit" in bad_limit.stderr
 
 
+def test_processes_solve_the_sub_domains_in_a_pool(tmp_path: Path) -> None:
+    problem = write_problem(tmp_path, TWO_WINGS)
+    done = floorplan("solve", problem, "-o", "layout.json", "--processes", "2", cwd=tmp_path)
+    assert done.returncode == EXIT_OK, done.stderr
+    assert Layout.model_validate_json((tmp_path / "layout.json").read_text()).report.valid
+    solved = [line for line in done.stderr.splitlines()
+              if re.search(r" sub \d+/\d+ .*rooms ", line)]
+    # A sub-domain solved in the pool says how long it took there.
+    assert solved and all(re.search(r" in [\d.]+ s$", line) for line in solved), done.stderr
+    alone = floorplan("solve", problem, "-o", "alone.json", cwd=tmp_path)
+    assert alone.returncode == EXIT_OK, alone.stderr
+    assert not re.search(r" in [\d.]+ s$", alone.stderr, re.MULTILINE)
+    for bad in ("0", "two"):
+        refused = floorplan("solve", problem, "--processes", bad, cwd=tmp_path)
+        assert refused.returncode == EXIT_INVALID and "--processes" in refused.stderr
+
+
 def test_infeasible_problem_exits_3_and_the_json_says_why(tmp_path: Path) -> None:
     too_big = {
         "name": "too-big",
@@ -147,11 +165,12 @@ def test_infeasible_problem_exits_3_and_the_json_says_why(tmp_path: Path) -> Non
 
 
 @pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="POSIX signals")
-def test_ctrl_c_stops_the_solve_and_writes_the_layout(tmp_path: Path) -> None:
+@pytest.mark.parametrize("processes", ["1", "2"])  # a pool's start once unblocked SIGINT
+def test_ctrl_c_stops_the_solve_and_writes_the_layout(tmp_path: Path, processes: str) -> None:
     problem = ROOT / "examples" / "apartment-15-obstacles.json"
     proc = subprocess.Popen(
         [sys.executable, "-m", "solver", "solve", str(problem), "-o", "layout.json",
-         "--time-limit", "30"],
+         "--time-limit", "30", "--processes", processes],
         cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
         env=_env(),
         # A shell may start background jobs with SIGINT ignored; give the child the default.
