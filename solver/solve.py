@@ -785,6 +785,18 @@ def _construct(run: _Run, domain: Domain, deadline: float) -> LevelResult | None
     return LevelResult(LevelStatus.FEASIBLE, rects, None, None, 0.0)
 
 
+@dataclass(frozen=True)
+class _BeforeWing:
+    """Level 1 as it stood before a gap wing: its model, rectangles, the floor they
+    cover (gaps absorbed) and the run's wings then, to return to if the wing loses."""
+
+    model: LevelModel
+    rects: dict[str, Box]
+    cover: float
+    wings: dict[str, int]
+    extra: list[ExtraRectangles]
+
+
 def _improve_level_one(
     run: _Run, domain: Domain, first: dict[str, Box], deadline: float
 ) -> dict[str, Box]:
@@ -822,9 +834,7 @@ def _improve_level_one(
     rects, steps, improvements = start.rects, 0, 0
     stall = (middle - time.monotonic()) * COVER_STALL_SHARE
     wings = 0 if not run.soft else GAP_WINGS
-    # The layout before the last wing, with its coverage (gaps absorbed) and the wings.
-    unwinged: tuple[LevelModel, dict[str, Box], float, dict[str, int],
-                    list[ExtraRectangles]] | None = None
+    unwinged: _BeforeWing | None = None
     while not covers:
         last = wings >= GAP_WINGS
         # Growth beyond the targets costs size error: the pass ends once the layout,
@@ -838,16 +848,17 @@ def _improve_level_one(
         rects, steps, improvements = (grown.rects, steps + grown.steps,
                                       improvements + grown.improvements)
         cover = _cover(run, domain, rects)
-        if unwinged is not None and cover < unwinged[2] - GAP_AREA:
+        if unwinged is not None and cover < unwinged.cover - GAP_AREA:
             # The wing's pass lost floor the layout before it covered: back to that one.
-            lm, rects, run.wings, run.extra = unwinged[0], unwinged[1], unwinged[3], unwinged[4]
+            lm, rects, run.wings, run.extra = (unwinged.model, unwinged.rects, unwinged.wings,
+                                               unwinged.extra)
             break
         if (last or cover >= _goal_area(domain) or time.monotonic() > middle - 0.1
                 or run.stopped()):
             break
         # Short of the goal: a room beside the largest gap it can border gets a second
         # rectangle to reach in with (issue 2); when none can, one last pass.
-        unwinged = (lm, rects, cover, dict(run.wings), list(run.extra))
+        unwinged = _BeforeWing(lm, rects, cover, dict(run.wings), list(run.extra))
         widened = _gap_wing(run, domain, rects, middle)
         if widened is None:
             wings, unwinged = GAP_WINGS, None
