@@ -41,7 +41,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--only", nargs="+", default=None, metavar="NAME",
                    help="case names (file stems) to run")
     p.add_argument("--solvers", default="ours,flat,anneal",
-                   help="comma-separated subset of ours,flat,anneal")
+                   help="comma-separated subset of " + ",".join(SOLVERS) + " (ours-long: "
+                   "ours given the baselines' limit)")
     p.add_argument("--flat-limit", type=float, default=BASELINE_CAP,
                    help="cap in seconds on the flat baseline's and the annealer's limit, "
                         "which is otherwise 10x ours (default: %(default)s)")
@@ -98,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
                     trace = SOLVERS[solver](problem, seed=seed, cap=args.flat_limit)
                 except Exception as err:  # a solver's bug is a result, not the end of the run
                     log(traceback.format_exc())
-                    limit = (our_limit(problem) if solver == "ours"
+                    limit = (our_limit(problem) if solver in ("ours", "ours-parallel")
                              else baseline_limit(problem, args.flat_limit))
                     trace = Trace(solver, limit, status=f"error: {type(err).__name__}: {err}")
                 record = evaluate(problem, domain, trace, case=name, repeat=repeat, seed=seed)

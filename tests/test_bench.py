@@ -38,7 +38,7 @@ def cases(tmp_path: Path) -> Path:
 def test_harness_writes_every_output_with_every_field(cases: Path, tmp_path: Path) -> None:
     out = tmp_path / "results"
     code = main(["--cases", str(cases), "--repeat", "1", "--out", str(out),
-                 "--solvers", "ours,flat,anneal", "--flat-limit", "1", "--quiet"])
+                 "--solvers", "ours,ours-long,flat,anneal", "--flat-limit", "1", "--quiet"])
     assert code == 0
     for name in ("results.json", "results.md"):
         assert (out / name).stat().st_size > 0, name
@@ -47,7 +47,7 @@ def test_harness_writes_every_output_with_every_field(cases: Path, tmp_path: Pat
     results = json.loads((out / "results.json").read_text())
     assert {"cpu", "cores", "python", "pyscipopt", "scip", "date"} <= set(results["machine"])
     runs = results["runs"]
-    assert sorted(r["solver"] for r in runs) == ["anneal", "flat", "ours"]
+    assert sorted(r["solver"] for r in runs) == ["anneal", "flat", "ours", "ours-long"]
     for run in runs:
         for key in ("first_valid", "first_pass", "final_time", "coverage", "hard_violations",
                     "size_error", "objective"):
@@ -59,7 +59,9 @@ def test_harness_writes_every_output_with_every_field(cases: Path, tmp_path: Pat
     assert ours["coverage"] >= 0.99
     summary = results["summary"]["tiny-3"]
     assert summary["complexity"] == 3 + (3 + 3 + 1 + 0 + 1 + 1)
-    assert set(summary["solvers"]) == {"ours", "flat", "anneal"}
+    assert set(summary["solvers"]) == {"ours", "ours-long", "flat", "anneal"}
+    # ours-long has the baselines' limit, here capped at 1 s.
+    assert {r["time_limit"] for r in runs if r["solver"] in ("ours-long", "flat")} == {1.0}
     table = (out / "results.md").read_text()
     assert "| tiny-3 | 3 |" in table and "Speed-up" in table
 
