@@ -49,25 +49,30 @@ def end_executor(executor: Executor | None) -> None:
 def run_job(
     problem_json: str, messages: Queue[tuple[str, Any]], stop: Event, parent: int,
     subdomain_processes: int = 1, subdomain_tasks: bool = False,
+    warm_pool: ProcessPoolExecutor | None = None,
 ) -> None:
     """Solve and send ("progress", dict), ("incumbent", (dict, layout_json)) and
     finally ("done", layout_json); an exception is sent as ("error", message).
     The solve stops when `stop` is set or the parent process `parent` is gone (a
     killed service must not leave orphans running). The sub-domains of a refinement
     level are solved at once as Celery tasks with `subdomain_tasks`, else in a pool of
-    `subdomain_processes` when that is more than one."""
+    `subdomain_processes` when that is more than one: `warm_pool` if one was started
+    ahead (`standby`), else one started now."""
 
     def should_stop() -> bool:
         return stop.is_set() or os.getppid() != parent
 
-    pool: Executor | None = None
+    pool: Executor | None = warm_pool
     try:
         from models import Problem
         from solver.parallel import SubdomainExecutor
         from solver.solve import Phase, SolveEvent, draft_layout, solve
 
         problem = Problem.model_validate_json(problem_json)
-        pool, slots = subdomain_executor(subdomain_processes, subdomain_tasks)
+        if warm_pool is None:
+            pool, slots = subdomain_executor(subdomain_processes, subdomain_tasks)
+        else:
+            slots = subdomain_processes
         last_incumbent = 0.0
 
         def on_event(e: SolveEvent) -> None:
@@ -106,7 +111,17 @@ def standby(
     process. Gives up if the parent goes away first."""
     import solver.solve  # noqa: F401 - warming up is the point
 
+    # A local pool starts now too, so that its processes have imported SCIP when the job
+    # comes: a second level-1 search that starts a second late rarely ends better
+    # (bench/NOTES.md). Celery sub-domain workers are chosen when the job comes.
+    pool = None
+    if subdomain_processes > 1 and not subdomain_tasks:
+        from solver.parallel import subdomain_pool
+
+        pool = subdomain_pool(subdomain_processes)
     while not jobs.poll(STANDBY_POLL):
         if os.getppid() != parent:
+            end_executor(pool)
             return
-    run_job(jobs.recv(), messages, stop, parent, subdomain_processes, subdomain_tasks)
+    run_job(jobs.recv(), messages, stop, parent, subdomain_processes, subdomain_tasks,
+            warm_pool=pool)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import threading
 import time
 from collections.abc import Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -18,7 +19,7 @@ import httpx2 as httpx
 import pytest
 
 from models import Problem
-from service.worker import run_job
+from service.worker import run_job, standby
 from solver.checker import check_layout
 from solver.geometry import Box, make_domain
 from solver.hierarchy import SubDomain, room_boxes
@@ -137,6 +138,29 @@ def test_a_solve_process_runs_its_sub_domains_in_a_pool_and_ends_it() -> None:
     assert details and all(" in " in d for d in details)  # solved by the pool
     assert json.loads(message[1])["report"]["valid"]
     assert set(multiprocessing.active_children()) <= before  # its pool is gone with it
+
+
+def test_a_standby_solve_process_starts_its_pool_before_the_job_comes() -> None:
+    jobs, send = multiprocessing.Pipe(duplex=False)
+    messages: multiprocessing.Queue[tuple[str, Any]] = multiprocessing.Queue()
+    before = set(multiprocessing.active_children())
+    waiting = threading.Thread(target=standby, args=(jobs, messages, multiprocessing.Event(),
+                                                     os.getppid(), 2))
+    waiting.start()
+    give_up = time.monotonic() + 30
+    while len(set(multiprocessing.active_children()) - before) < 2 and (
+            time.monotonic() < give_up):
+        time.sleep(0.05)
+    assert len(set(multiprocessing.active_children()) - before) == 2  # no job yet
+    send.send(json.dumps(TWO_WINGS))
+    waiting.join(timeout=60)
+    received = []
+    while (message := messages.get(timeout=10))[0] not in ("done", "error"):
+        received.append(message)
+    assert message[0] == "done", message
+    assert any(m[0] == "progress" and m[1]["phase"] == "subdomain"
+               and " in " in m[1]["detail"] for m in received)  # solved by that pool
+    assert set(multiprocessing.active_children()) <= before
 
 
 def _pool_pid(seconds: float) -> int:
