@@ -15,7 +15,8 @@ layouts goes on to the hierarchy. A remote executor that runs only sub-domains r
 it, and the solve goes on alone.
 
 What crosses to the executor is plain data (a `LevelSpec`, boxes, numbers), so tasks
-pickle; the solver knows nothing of who runs them.
+pickle; the solver knows nothing of who runs them. `subdomain_pool` and `end_pool`
+start and end the local kind, for the command line and the service's solve processes.
 """
 
 from __future__ import annotations
