@@ -39,6 +39,8 @@ EVENT_INTERVAL = 0.5
 POLL_SECONDS = 0.5
 #: Tries at recording a job's end when the store does not answer, a second apart.
 FINISH_ATTEMPTS = 5
+#: Seconds the waiting solve processes get to exit by themselves at shutdown.
+CLOSE_SECONDS = 5.0
 
 
 @dataclass
@@ -84,10 +86,18 @@ class SolveProcesses:
                 self._ready.append(child)
 
     def close(self) -> None:
+        """End the waiting solve processes: told that no job will come, each ends its
+        pool and exits (killed ones would leave their pool's semaphores for the
+        resource tracker to clean up, with a warning); stragglers are killed."""
         with self._lock:
             ready, self._ready = self._ready, []
         for child in ready:
-            child.process.kill()
+            child.jobs.close()
+        give_up = time.monotonic() + CLOSE_SECONDS
+        for child in ready:
+            child.process.join(timeout=max(0.0, give_up - time.monotonic()))
+            if child.process.is_alive():
+                child.process.kill()
 
     def _start(self) -> Child:
         receive, send = self._ctx.Pipe(duplex=False)

@@ -108,7 +108,7 @@ def standby(
 ) -> None:
     """A solve process started ahead of its job: pay for the imports (SCIP, shapely)
     now, then wait for one problem, solve it and exit, as every solve has its own
-    process. Gives up if the parent goes away first."""
+    process. Gives up if the parent goes away first, or closes the pipe without a job."""
     import solver.solve  # noqa: F401 - warming up is the point
 
     # A local pool starts now too, so that its processes have imported SCIP when the job
@@ -123,5 +123,10 @@ def standby(
         if os.getppid() != parent:
             end_executor(pool)
             return
-    run_job(jobs.recv(), messages, stop, parent, subdomain_processes, subdomain_tasks,
+    try:
+        problem_json = jobs.recv()
+    except EOFError:  # the service closed the pipe: no job will come
+        end_executor(pool)
+        return
+    run_job(problem_json, messages, stop, parent, subdomain_processes, subdomain_tasks,
             warm_pool=pool)

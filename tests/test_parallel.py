@@ -19,6 +19,7 @@ import httpx2 as httpx
 import pytest
 
 from models import Problem
+from service.runner import SolveProcesses
 from service.worker import run_job, standby
 from solver.checker import check_layout
 from solver.geometry import Box, make_domain
@@ -161,6 +162,15 @@ def test_a_standby_solve_process_starts_its_pool_before_the_job_comes() -> None:
     assert any(m[0] == "progress" and m[1]["phase"] == "subdomain"
                and " in " in m[1]["detail"] for m in received)  # solved by that pool
     assert set(multiprocessing.active_children()) <= before
+
+
+def test_waiting_solve_processes_end_their_pools_and_exit_when_the_service_closes() -> None:
+    processes = SolveProcesses(subdomain_processes=2)
+    processes.refill(1)
+    waiting = processes._ready[0].process
+    time.sleep(2)  # its imports done and its pool started
+    processes.close()
+    assert waiting.exitcode == 0  # it ended by itself, not killed
 
 
 def _pool_pid(seconds: float) -> int:
