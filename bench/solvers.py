@@ -9,12 +9,10 @@ included). Nothing is checked while a solver runs: the checker would slow it dow
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 import re
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 from pyscipopt import SCIP_EVENTTYPE, Model
@@ -25,7 +23,7 @@ from models import Problem
 from solver.formulation import LevelModel, build_level
 from solver.geometry import Box, make_domain
 from solver.level_one import level_one_spec
-from solver.parallel import SubdomainExecutor, warm_up
+from solver.parallel import SubdomainExecutor, subdomain_pool
 from solver.scip_run import MEMORY_LIMIT_MB
 from solver.solve import Phase, SolveEvent, default_time_limit, solve
 
@@ -76,16 +74,11 @@ def run_ours(problem: Problem, *, seed: int, cap: float = BASELINE_CAP,
     """`solver.solve.solve` at the problem's default time limit; with
     `subdomain_processes` > 1, each refinement level's sub-domains solved at once in a
     process pool of that many (started and warmed up before the clock starts, as the
-    service starts it while level 1 runs)."""
+    service's waiting solve processes start theirs before their job comes)."""
     problem = problem.with_options(seed=seed)
     name = name or ("ours" if subdomain_processes <= 1 else "ours-parallel")
     trace = Trace(name, our_limit(problem))
-    pool = None
-    if subdomain_processes > 1:
-        pool = ProcessPoolExecutor(subdomain_processes,
-                                   mp_context=multiprocessing.get_context("spawn"))
-        for ready in [pool.submit(warm_up) for _ in range(subdomain_processes)]:
-            ready.result()
+    pool = subdomain_pool(subdomain_processes, warmed=True)
     levels: list[float] = []  # when each refinement level started
     ends: list[float] = []  # when each sub-domain's result was applied
     solved: list[str] = []

@@ -28,7 +28,7 @@ import signal
 import threading
 import time
 from collections.abc import Iterable, Mapping
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 
 from models import ExtraRectangles, Problem
@@ -127,10 +127,11 @@ def solve_subdomain(task: SubdomainTask) -> SubdomainOutcome:
                             time.monotonic() - started)
 
 
-def subdomain_pool(processes: int) -> ProcessPoolExecutor | None:
+def subdomain_pool(processes: int, *, warmed: bool = False) -> ProcessPoolExecutor | None:
     """A pool of `processes` spawned processes for one solve (None for one: sub-domains
     are then solved one after the other and there is no second level-1 search),
-    started and warmed up now, while level 1 runs. End it with `end_pool`."""
+    warming up from now on, while level 1 runs; with `warmed`, returned only once every
+    process has (the bench starts its clock then). End it with `end_pool`."""
     if processes <= 1:
         return None
     # The service's solve processes are daemons (they must not outlive it), and daemons
@@ -139,8 +140,9 @@ def subdomain_pool(processes: int) -> ProcessPoolExecutor | None:
     multiprocessing.current_process().daemon = False
     pool = ProcessPoolExecutor(processes, mp_context=multiprocessing.get_context("spawn"),
                                initializer=pool_process_init, initargs=(os.getpid(),))
-    for _ in range(processes):
-        pool.submit(warm_up)
+    warming = [pool.submit(warm_up) for _ in range(processes)]
+    if warmed:
+        wait(warming)
     return pool
 
 
