@@ -23,6 +23,10 @@ MEDIAN_FIELDS = ("first_valid", "first_pass", "final_time", "last_improvement", 
                  "hard_violations", "size_error", "objective")
 #: Times where a run that found nothing counts as +infinity (so "none" wins a majority).
 TIME_FIELDS = frozenset({"first_valid", "first_pass"})
+#: Measurements of the final layout whose lowest and highest value over the runs are
+#: reported beside the median: the spread between seeds is often larger than the
+#: difference between two solvers, and a median alone hides it.
+SPREAD_FIELDS = ("coverage", "size_error", "objective")
 
 
 def complexity(problem: Problem) -> dict[str, int]:
@@ -61,6 +65,9 @@ def summarise(records: Sequence[RunRecord]) -> dict[str, Any]:
     out: dict[str, Any] = {"runs": len(records)}
     for name in MEDIAN_FIELDS:
         out[name] = median([getattr(r, name) for r in records], none_is_inf=name in TIME_FIELDS)
+    for name in SPREAD_FIELDS:
+        values = [float(v) for r in records if (v := getattr(r, name)) is not None]
+        out[f"{name}_range"] = [min(values), max(values)] if values else None
     out["found_valid"] = sum(1 for r in records if r.first_valid is not None)
     out["found_pass"] = sum(1 for r in records if r.first_pass is not None)
     out["final_valid"] = sum(1 for r in records if r.valid)
@@ -158,6 +165,16 @@ def _num(v: float | None, fmt: str) -> str:
     return "-" if v is None else format(v, fmt)
 
 
+def _spread(s: dict[str, Any], name: str, fmt: str, scale: float = 1.0) -> str:
+    """The median and, over several runs that differ, their lowest and highest value."""
+    text = _num(None if s[name] is None else scale * s[name], fmt)
+    span = s.get(f"{name}_range")
+    if span is None or s["runs"] < 2 or format(scale * span[0], fmt) == format(
+            scale * span[1], fmt):
+        return text
+    return f"{text} ({format(scale * span[0], fmt)}-{format(scale * span[1], fmt)})"
+
+
 def markdown(results: dict[str, Any]) -> str:
     """The tables of results.md."""
     mach = results["machine"]
@@ -166,7 +183,8 @@ def markdown(results: dict[str, Any]) -> str:
         "",
         f"{mach['date']}, {mach['cpu']}, {mach['cores']} cores, Python {mach['python']}, "
         f"pyscipopt {mach['pyscipopt']}, SCIP {mach['scip']}. "
-        f"Medians over the runs (seeds: case seed + repeat index). Times in seconds on the "
+        f"Medians over the runs (seeds: case seed + repeat index), with the lowest and "
+        f"highest run in brackets where they differ. Times in seconds on the "
         f"harness's clock; *valid* = passes the independent checker and covers >= 99 %; "
         f"*passes* = passes the checker whatever the coverage. A time of \"none\" means no "
         f"such layout in the majority of runs; (k/n) counts the runs that found one.",
@@ -178,7 +196,7 @@ def markdown(results: dict[str, Any]) -> str:
     for name, case in results["summary"].items():
         for solver, s in case["solvers"].items():
             runs = s["runs"]
-            cov = "-" if s["coverage"] is None else f"{100 * s['coverage']:.1f} %"
+            cov = "-" if s["coverage"] is None else f"{_spread(s, 'coverage', '.1f', 100)} %"
             label = solver + (f" ({len(s['errors'])} crashed)" if s.get("errors") else "")
             lines.append(
                 f"| {name} | {case['rooms']} | {case['complexity']} | {label} "
@@ -186,8 +204,8 @@ def markdown(results: dict[str, Any]) -> str:
                 f"| {_s(s['first_valid'], s['found_valid'], runs)} "
                 f"| {_s(s['first_pass'], s['found_pass'], runs)} "
                 f"| {_s(s['final_time'], -1, runs)} | {cov} "
-                f"| {_num(s['hard_violations'], 'g')} | {_num(s['size_error'], '.1f')} "
-                f"| {_num(s['objective'], '.1f')} |")
+                f"| {_num(s['hard_violations'], 'g')} | {_spread(s, 'size_error', '.1f')} "
+                f"| {_spread(s, 'objective', '.1f')} |")
     errors = [f"- {name}, {solver}: {e}" for name, case in results["summary"].items()
               for solver, s in case["solvers"].items() for e in s.get("errors", [])]
     if errors:
@@ -203,8 +221,26 @@ def markdown(results: dict[str, Any]) -> str:
         cells = [_ratio(solvers["ours"], solvers["flat"], key) for key in
                  ("first_valid", "first_pass")]
         lines.append(f"| {name} | {case['rooms']} | {cells[0]} | {cells[1]} |")
+    compared = [(name, case) for name, case in results["summary"].items()
+                if {"ours", "flat"} <= set(case["solvers"])]
+    if compared:
+        lines += ["", "Quality against the flat baseline (Eq. 12 of the final layouts, "
+                      "medians; lower is better; each solver at its own limit):", "",
+                  "| case | rooms | ours | flat | flat / ours | coverage ours / flat |",
+                  "|---|---|---|---|---|---|"]
+        lines += [_quality_row(name, case["rooms"], case["solvers"]["ours"],
+                               case["solvers"]["flat"]) for name, case in compared]
     lines.append("")
     return "\n".join(lines)
+
+
+def _quality_row(name: str, rooms: int, ours: dict[str, Any], flat: dict[str, Any]) -> str:
+    o, f = ours["objective"], flat["objective"]
+    ratio = "-" if o is None or f is None or o <= 0 else f"{f / o:.2f}"
+    covs = " / ".join("-" if s["coverage"] is None else f"{100 * s['coverage']:.1f} %"
+                      for s in (ours, flat))
+    return (f"| {name} | {rooms} | {_spread(ours, 'objective', '.1f')} "
+            f"| {_spread(flat, 'objective', '.1f')} | {ratio} | {covs} |")
 
 
 def _ratio(ours: dict[str, Any], flat: dict[str, Any], key: str) -> str:

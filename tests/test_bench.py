@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from bench.cli import main
-from bench.report import complexity
+from bench.evaluate import RunRecord
+from bench.report import build_results, complexity, markdown
 from models import Problem
 
 TINY = {
@@ -99,3 +100,27 @@ def test_aisles_count_as_covered_floor_and_are_checked() -> None:
     assert aisle["first_valid"] == 0.1
     overlapping = run([box(3.9, 0, 5.9, 4)])
     assert overlapping["hard_violations"] >= 1 and not overlapping["valid"]
+
+
+def record(repeat: int, objective: float, coverage: float) -> RunRecord:
+    return RunRecord(case="tiny-3", solver="ours", repeat=repeat, seed=repeat, time_limit=1.0,
+                     status="done", first_valid=0.1, first_pass=0.1, final_time=1.0,
+                     last_improvement=0.9, coverage=coverage, hard_violations=0,
+                     size_error=objective, objective=objective, valid=True,
+                     layouts_recorded=1, layouts_checked=1, extra={})
+
+
+def test_results_give_the_spread_of_the_runs_beside_the_median() -> None:
+    problem = Problem.model_validate(TINY)
+    records = [record(0, 12.0, 0.995), record(1, 10.0, 1.0), record(2, 30.0, 1.0)]
+    results = build_results({"tiny-3": problem}, records, settings={},
+                            machine={"date": "-", "cpu": "-", "cores": 2, "python": "-",
+                                     "pyscipopt": "-", "scip": "-"})
+    ours = results["summary"]["tiny-3"]["solvers"]["ours"]
+    assert ours["objective"] == 12.0 and ours["objective_range"] == [10.0, 30.0]
+    assert ours["coverage_range"] == [0.995, 1.0]
+    table = markdown(results)
+    assert "| 12.0 (10.0-30.0) | 12.0 (10.0-30.0) |" in table
+    assert "100.0 % (99.5-100.0) %" not in table and "100.0 (99.5-100.0) %" in table
+    # Without the flat baseline there is no quality comparison to make.
+    assert "Quality against the flat baseline" not in table
