@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -577,6 +577,31 @@ def e_objective(lm: LevelModel) -> None:
     wrapped = quicksum(lc * area * wrap for wrap, area in lm.enclosures)
     m.setObjective(quicksum(terms) + wrapped + e_violation(lm) + lc * spec.free_area,
                    "minimize")
+
+
+def e_band_shortfall(
+    lm: LevelModel, bands: Mapping[str, tuple[tuple[float, float], tuple[float, float]]]
+) -> None:
+    """The objective of a first layout under the user's own bounds, when the schedule of
+    size windows around the targets (Sec. 5.4) found none: the metres by which the named
+    rectangles' widths and depths fall outside their (min, max) `bands`, summed, plus
+    the soft constraints' price. A linear stand-in for E_size (Eq. 6) that SCIP's MILP
+    heuristics handle as fast as a bare feasibility model. One room that no window can
+    hold (a hall that must reach both side walls) makes every window infeasible; without
+    this, every other room would then start anywhere within its bounds."""
+    m = lm.model
+    shortfalls = []
+    for r in free_rects(lm.spec):
+        if r.name not in bands:
+            continue
+        v, (lo, hi) = lm.rects[r.name], bands[r.name]
+        for axis, var, side in ((0, v.w, "w"), (1, v.d, "d")):
+            below = m.addVar(f"band_below[{r.name},{side}]", lb=0.0)
+            above = m.addVar(f"band_above[{r.name},{side}]", lb=0.0)
+            m.addCons(var + below >= lo[axis], name=f"band_min[{r.name},{side}]")
+            m.addCons(var - above <= hi[axis], name=f"band_max[{r.name},{side}]")
+            shortfalls += [below, above]
+    m.setObjective(quicksum(shortfalls) + e_violation(lm), "minimize")
 
 
 def e_violation(lm: LevelModel) -> Any:

@@ -28,7 +28,7 @@ from models import (
 from solver.checker import COVERAGE_GOAL, check_layout
 from solver.conflicts import find_conflict
 from solver.construct import construct
-from solver.formulation import LevelModel, active_families, build_level
+from solver.formulation import LevelModel, active_families, build_level, e_band_shortfall
 from solver.geometry import (
     Box,
     Domain,
@@ -55,9 +55,11 @@ from solver.hierarchy import (
     select_subdomains,
 )
 from solver.level_one import (
+    FIRST_BAND,
     demand_order,
     level_one_spec,
     reach_wing,
+    target_bands,
     windows_to_try,
     wing_names,
     wings_wanted,
@@ -606,6 +608,8 @@ def _level_one(
             break
         spec = level_one_spec(problem, domain, window=window, wings=run.wings)
         lm = build_level(spec, feasibility=True)
+        if window is None:  # no window held: the user's bounds, sizes pulled to the targets
+            e_band_shortfall(lm, target_bands(problem, domain, FIRST_BAND))
         share = left * (ATTEMPT_SHARE if window is not None or may_widen else 1.0)
         result = run.run(lm, share)
         label = "user bounds" if window is None else f"target ±{window:.0%}"

@@ -15,7 +15,10 @@ from hypothesis import strategies as st
 
 from models import Problem, Termination
 from solver.checker import check_layout
-from solver.geometry import Box, shared_wall_length
+from solver.formulation import build_level, e_band_shortfall
+from solver.geometry import Box, make_domain, shared_wall_length
+from solver.level_one import FIRST_BAND, level_one_spec, target_bands
+from solver.scip_run import LevelStatus, run_level
 from solver.solve import Phase, SolveEvent, solve
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -331,3 +334,44 @@ def test_a_gap_side_bordered_by_a_room_over_part_of_its_length_is_absorbed_there
     grown = room_boxes(absorb_gaps(floor, make_domain(floor), pieces))
     assert sum(b.area for b in grown["a"]) == pytest.approx(5.0)
     assert grown["b"] == [Box(2, 0, 4, 1.5)]
+
+
+# The hall must reach both side rooms, so it is at least 4 m wide against a target of
+# 1 m: no window of the schedule (up to target +-100 %) holds.
+SPANNING_HALL = problem(
+    name="spanning-hall",
+    boundary=[[0, 0], [12, 0], [12, 6], [0, 6]],
+    obstacles=[{"x": 5, "y": 2.5, "width": 1.5, "depth": 1.5, "label": "stairs"}],
+    rooms=[
+        {"id": "west", "min_size": [2, 2], "max_size": [4, 6], "target_size": [3, 3],
+         "boundary": ["west"]},
+        {"id": "east", "min_size": [2, 2], "max_size": [4, 6], "target_size": [3, 3],
+         "boundary": ["east"]},
+        {"id": "hall", "min_size": [0.9, 0.9], "max_size": [10, 6], "target_size": [1, 3]},
+        {"id": "a", "min_size": [1, 1], "max_size": [8, 6], "target_size": [3, 2.5]},
+        {"id": "b", "min_size": [1, 1], "max_size": [8, 6], "target_size": [3, 2.5]},
+    ],
+    adjacency=[{"a": "hall", "b": "west"}, {"a": "hall", "b": "east"}],
+    options={"time_limit": 3, "seed": 0},
+)
+
+
+def test_first_layout_under_the_users_bounds_keeps_rooms_within_their_target_bands(
+) -> None:
+    # As `solve` builds it once the window schedule is exhausted (solver/solve.py).
+    domain = make_domain(SPANNING_HALL)
+    lm = build_level(level_one_spec(SPANNING_HALL, domain, window=None), feasibility=True)
+    bands = target_bands(SPANNING_HALL, domain, FIRST_BAND)
+    e_band_shortfall(lm, bands)
+    result = run_level(lm, time_limit=10)
+    assert result.status is LevelStatus.OPTIMAL and result.rects is not None
+    assert result.objective is not None
+    for name, ((w_lo, d_lo), (w_hi, d_hi)) in bands.items():
+        box = result.rects[name]
+        if name == "hall":
+            # Its shortfall is all there is: at least 4 m wide against at most 1.5 m.
+            assert box.width >= 4 - 1e-6
+            assert result.objective == pytest.approx(box.width - w_hi, abs=1e-4)
+            continue
+        assert w_lo - 1e-6 <= box.width <= w_hi + 1e-6, (name, box)
+        assert d_lo - 1e-6 <= box.depth <= d_hi + 1e-6, (name, box)
