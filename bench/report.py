@@ -166,13 +166,14 @@ def _num(v: float | None, fmt: str) -> str:
 
 
 def _spread(s: dict[str, Any], name: str, fmt: str, scale: float = 1.0) -> str:
-    """The median and, over several runs that differ, their lowest and highest value."""
+    """The median and, where the runs differ at this precision, their lowest and highest
+    value (one run never does)."""
     text = _num(None if s[name] is None else scale * s[name], fmt)
     span = s.get(f"{name}_range")
-    if span is None or s["runs"] < 2 or format(scale * span[0], fmt) == format(
-            scale * span[1], fmt):
+    if span is None:
         return text
-    return f"{text} ({format(scale * span[0], fmt)}-{format(scale * span[1], fmt)})"
+    low, high = (format(scale * v, fmt) for v in span)
+    return text if low == high else f"{text} ({low}-{high})"
 
 
 def markdown(results: dict[str, Any]) -> str:
@@ -218,11 +219,10 @@ def markdown(results: dict[str, Any]) -> str:
                       "medians):", "",
                   "| case | rooms | to first valid layout | to first passing layout |",
                   "|---|---|---|---|"]
-    for name, case in compared:
-        cells = [_ratio(case["solvers"]["ours"], case["solvers"]["flat"], key) for key in
-                 ("first_valid", "first_pass")]
-        lines.append(f"| {name} | {case['rooms']} | {cells[0]} | {cells[1]} |")
-    if compared:
+        for name, case in compared:
+            cells = [_ratio(case["solvers"]["ours"], case["solvers"]["flat"], key)
+                     for key in ("first_valid", "first_pass")]
+            lines.append(f"| {name} | {case['rooms']} | {cells[0]} | {cells[1]} |")
         lines += ["", "Quality against the flat baseline (Eq. 12 of the final layouts, "
                       "medians; lower is better; each solver at its own limit):", "",
                   "| case | rooms | ours | flat | flat / ours | coverage ours / flat |",
