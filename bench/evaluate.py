@@ -1,4 +1,4 @@
-"""Judging a solver's trace with the independent checker (solver/checker.py).
+"""Judging a solver's trace with the independent checker (solver/verify/checker.py).
 
 A layout is *valid* when the checker passes it (every hard constraint holds) and it
 covers at least `COVERAGE_GOAL` of the free area; it *passes* when the checker passes
@@ -18,9 +18,9 @@ from shapely.geometry.base import BaseGeometry
 
 from bench.solvers import Rooms, Trace
 from models import Problem
-from solver.checker import COVERAGE_GOAL, SOFT_KINDS, CheckResult, check_aisles, check_layout
 from solver.geometry import Domain
-from solver.solve import layout_objective
+from solver.pipeline.solve import layout_objective
+from solver.verify.checker import COVERAGE_GOAL, SOFT_KINDS, CheckResult, check_aisles, check_layout
 
 #: Layouts whose rectangles overlap, or leave the bounding box, by more than this (m^2)
 #: cannot pass the checker (its tolerance is far below), so it is not run on them.
@@ -124,7 +124,7 @@ def evaluate(
 
 
 def _aisle_failures(problem: Problem, trace: Trace) -> int:
-    """The failed aisle checks of the final layout (solver/checker.py `check_aisles`)."""
+    """The failed aisle checks of the final layout (solver/verify/checker.py `check_aisles`)."""
     assert trace.final is not None
     rooms = {r: shapely.union_all([b.to_polygon() for b in boxes])
              for r, boxes in trace.final.items()}

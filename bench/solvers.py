@@ -20,12 +20,12 @@ from shapely.geometry import Polygon
 
 from bench.anneal import Annealer
 from models import Problem
-from solver.formulation import LevelModel, build_level
 from solver.geometry import Box, make_domain
-from solver.level_one import level_one_spec
-from solver.parallel import SubdomainExecutor, subdomain_pool
-from solver.scip_run import MEMORY_LIMIT_MB
-from solver.solve import Phase, SolveEvent, default_time_limit, solve
+from solver.heuristics.level_one import level_one_spec
+from solver.miqp.formulation import LevelModel, build_level
+from solver.miqp.scip_run import MEMORY_LIMIT_MB
+from solver.pipeline.parallel import SubdomainExecutor, subdomain_pool
+from solver.pipeline.solve import Phase, SolveEvent, default_time_limit, solve
 
 Rooms = dict[str, list[Box]]
 
@@ -71,7 +71,7 @@ def baseline_limit(problem: Problem, cap: float = BASELINE_CAP) -> float:
 
 def run_ours(problem: Problem, *, seed: int, cap: float = BASELINE_CAP,
              subdomain_processes: int = 1, name: str | None = None) -> Trace:
-    """`solver.solve.solve` at the problem's default time limit; with
+    """`solver.pipeline.solve.solve` at the problem's default time limit; with
     `subdomain_processes` > 1, each refinement level's sub-domains solved at once in a
     process pool of that many (started and warmed up before the clock starts, as the
     service's waiting solve processes start theirs before their job comes)."""

@@ -29,11 +29,11 @@ from service.backends import JobBackend, make_backend
 from service.errors import ApiError, FieldError, ProblemDetails, field_errors, install
 from service.settings import Settings, get_settings
 from service.store import IdempotencyConflict, Job, JobStatus, JobStore
-from solver.conflicts import Diagnosis, diagnose
 from solver.export import MEDIA_TYPES, render
 from solver.geometry import make_domain
-from solver.precheck import find_impossibilities
-from solver.storeys import job_time_limit
+from solver.pipeline.storeys import job_time_limit
+from solver.verify.conflicts import Diagnosis, diagnose
+from solver.verify.precheck import find_impossibilities
 
 #: Longest wait between two looks at the store while streaming events (the backend
 #: wakes the stream sooner when it knows of new events).

@@ -2,9 +2,9 @@
 far rectangles are from meeting each one.
 
 A soft constraint is kept in the MIQP with a slack variable priced at
-`Weights.violation` per metre (solver/formulation.py). The shortfall of a constraint
+`Weights.violation` per metre (solver/miqp/formulation.py). The shortfall of a constraint
 is measured here, on plain rectangles, in the same terms as those slacks: the checker
-(solver/checker.py) reports it and the neighbourhood search (`level_objective`)
+(solver/verify/checker.py) reports it and the neighbourhood search (`level_objective`)
 prices it, so the two agree with each other and with SCIP. Every shortfall is in
 metres, so one price per metre serves every family.
 

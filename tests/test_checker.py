@@ -7,8 +7,8 @@ from typing import Any
 import pytest
 
 from models import ConstraintCheck, Problem
-from solver.checker import CheckResult, check_layout
 from solver.geometry import Box
+from solver.verify.checker import CheckResult, check_layout
 
 # A 10 x 6 rectangle: edge 0 south, 1 east, 2 north, 3 west.
 OUTLINE = [[0, 0], [10, 0], [10, 6], [0, 6]]

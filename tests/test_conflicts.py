@@ -1,4 +1,4 @@
-"""Explained conflicts (solver/conflicts.py): contradictory problems get a small set of
+"""Explained conflicts (solver/verify/conflicts.py): contradictory problems get a small set of
 their constraints that cannot hold together. Each set is checked here independently of
 the search, on SCIP's level-1 model: the set alone is infeasible, and without any one
 of its members it is not."""
@@ -19,12 +19,12 @@ import httpx2 as httpx
 import pytest
 
 from models import ConflictSet, Problem, Termination
-from solver.conflicts import Verdict, deletion_filter, diagnose, find_conflict
-from solver.formulation import build_level
 from solver.geometry import make_domain
-from solver.level_one import level_one_spec
-from solver.scip_run import LevelStatus, run_level
-from solver.solve import solve
+from solver.heuristics.level_one import level_one_spec
+from solver.miqp.formulation import build_level
+from solver.miqp.scip_run import LevelStatus, run_level
+from solver.pipeline.solve import solve
+from solver.verify.conflicts import Verdict, deletion_filter, diagnose, find_conflict
 from tests.servers import Server
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -113,7 +113,7 @@ CONTRADICTIONS = {
 }
 
 
-# Independent of solver/conflicts.py: constraints by path, and SCIP's verdict.
+# Independent of solver/verify/conflicts.py: constraints by path, and SCIP's verdict.
 
 
 def only(problem: Problem, paths: set[str]) -> Problem:
@@ -273,7 +273,7 @@ def test_diagnose_tells_feasible_from_infeasible_without_solving() -> None:
 def test_the_command_line_prints_the_conflict_and_exits_3(tmp_path: Path) -> None:
     (tmp_path / "chain.json").write_text(json.dumps(CHAIN))
     done = subprocess.run(
-        [sys.executable, "-m", "solver", "solve", "chain.json", "-o", "layout.json"],
+        [sys.executable, "-m", "service", "solve", "chain.json", "-o", "layout.json"],
         cwd=tmp_path, capture_output=True, text=True, timeout=60,
         env={**os.environ, "PYTHONPATH": str(ROOT)},
     )

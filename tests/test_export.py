@@ -77,14 +77,14 @@ def test_dxf_opens_in_ezdxf_with_a_layer_per_room_type(example: tuple[Problem, L
 def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) -> None:
     out = tmp_path / "plan.dxf"
     done = subprocess.run(
-        [sys.executable, "-m", "solver", "solve", str(EXAMPLES / "apartment-5.json"),
+        [sys.executable, "-m", "service", "solve", str(EXAMPLES / "apartment-5.json"),
          "-o", str(out), "--quiet"], capture_output=True, text=True, timeout=60,
     )
     assert done.returncode == 0, done.stderr
     assert ezdxf.readfile(out).modelspace()
     geo = tmp_path / "plan.json"
     done = subprocess.run(
-        [sys.executable, "-m", "solver", "solve", str(EXAMPLES / "apartment-5.json"),
+        [sys.executable, "-m", "service", "solve", str(EXAMPLES / "apartment-5.json"),
          "-o", str(geo), "--format", "geojson", "--quiet"],
         capture_output=True, text=True, timeout=60,
     )

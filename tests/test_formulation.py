@@ -19,7 +19,8 @@ import pytest
 import shapely
 from pyscipopt import Expr
 
-from solver.formulation import (
+from solver.geometry import Box, Edge, boundary_edges
+from solver.miqp.formulation import (
     FAMILIES,
     ContactSpec,
     EnvelopeSpec,
@@ -40,8 +41,7 @@ from solver.formulation import (
     c_refine,
     c_size,
 )
-from solver.geometry import Box, Edge, boundary_edges
-from solver.scip_run import LevelResult, LevelStatus, run_level
+from solver.miqp.scip_run import LevelResult, LevelStatus, run_level
 
 #: Every solve here is tiny; a generous cap that none should come near.
 TIME_LIMIT = 5.0

@@ -1,4 +1,4 @@
-"""The sub-domains of one refinement level solved at the same time (solver/parallel.py):
+"""The sub-domains of one refinement level solved at the same time (solver/pipeline/parallel.py):
 in a local process pool from `solve`, and in the service, whose solve processes start
 such a pool when FLOORPLAN_SUBDOMAIN_PROCESSES asks for one."""
 
@@ -21,11 +21,10 @@ import pytest
 from models import Problem
 from service.runner import SolveProcesses
 from service.worker import run_job, standby
-from solver.checker import check_layout
 from solver.geometry import Box, make_domain
-from solver.hierarchy import SubDomain, room_boxes
 from solver.openings import connection_demands
-from solver.parallel import (
+from solver.pipeline.hierarchy import SubDomain, room_boxes
+from solver.pipeline.parallel import (
     PARENT_POLL,
     LevelOneOutcome,
     LevelOneTask,
@@ -33,7 +32,7 @@ from solver.parallel import (
     overlaps_others,
     subdomain_pool,
 )
-from solver.solve import (
+from solver.pipeline.solve import (
     Phase,
     SolveEvent,
     _better_start,
@@ -42,6 +41,7 @@ from solver.solve import (
     level_one_alone,
     solve,
 )
+from solver.verify.checker import check_layout
 from tests.servers import Server
 from tests.test_service import submit, wait
 

@@ -8,7 +8,7 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from models import Layout, Problem, Rect, Report, RoomLayout
-from solver.render import PALETTE, render_svg, room_fill, scale_bar_length
+from solver.export.svg import PALETTE, render_svg, room_fill, scale_bar_length
 
 NS = {"svg": "http://www.w3.org/2000/svg"}
 
@@ -186,7 +186,7 @@ def test_scale_sets_the_drawing_size(problem: Problem, layout: Layout) -> None:
 
 def test_doors_swing_into_their_room_windows_sit_in_walls_and_north_is_marked() -> None:
     from models import Problem
-    from solver.solve import solve
+    from solver.pipeline.solve import solve
 
     problem = Problem.model_validate({
         "boundary": [[0, 0], [8, 0], [8, 5], [0, 5]], "entrance": [2, 0],

@@ -8,10 +8,10 @@ from typing import Any
 import pytest
 
 from models import Adjacency, Problem, Termination
-from solver.checker import check_layout
 from solver.geometry import make_domain
-from solver.slicing import DEMANDS_UP_TO, slicing_applies, slicing_layout
-from solver.solve import solve
+from solver.heuristics.slicing import DEMANDS_UP_TO, slicing_applies, slicing_layout
+from solver.pipeline.solve import solve
+from solver.verify.checker import check_layout
 
 
 def offices(count: int, **fields: Any) -> Problem:

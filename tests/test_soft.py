@@ -15,14 +15,14 @@ import pytest
 from pydantic import ValidationError
 
 from models import Layout, Problem, Termination
-from solver.checker import check_layout
-from solver.cli import summary_line
-from solver.formulation import build_level, level_objective, spec_shortfall
+from service.cli.solve import summary_line
 from solver.geometry import Box, make_domain
-from solver.level_one import level_one_spec
-from solver.precheck import find_impossibilities
-from solver.scip_run import LevelStatus, run_level
-from solver.solve import solve
+from solver.heuristics.level_one import level_one_spec
+from solver.miqp.formulation import build_level, level_objective, spec_shortfall
+from solver.miqp.scip_run import LevelStatus, run_level
+from solver.pipeline.solve import solve
+from solver.verify.checker import check_layout
+from solver.verify.precheck import find_impossibilities
 from tests.servers import Server
 from tests.test_conflicts import CHAIN, CONTRADICTIONS, CROWDED, OUT_OF_REACH
 

@@ -14,12 +14,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from models import Problem, Termination
-from solver.checker import check_layout
-from solver.formulation import build_level, e_band_shortfall
 from solver.geometry import Box, make_domain, shared_wall_length
-from solver.level_one import FIRST_BAND, level_one_spec, target_bands
-from solver.scip_run import LevelStatus, run_level
-from solver.solve import Phase, SolveEvent, solve
+from solver.heuristics.level_one import FIRST_BAND, level_one_spec, target_bands
+from solver.miqp.formulation import build_level, e_band_shortfall
+from solver.miqp.scip_run import LevelStatus, run_level
+from solver.pipeline.solve import Phase, SolveEvent, solve
+from solver.verify.checker import check_layout
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -227,7 +227,7 @@ def test_solved_layouts_of_feasible_problems_always_pass_the_checker(p: Problem)
 def test_problems_above_twenty_rooms_get_a_constructive_start_and_come_back_valid(
     rows_up_to: int, start: str, monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    monkeypatch.setattr("solver.slicing.DEMANDS_UP_TO", rows_up_to)
+    monkeypatch.setattr("solver.heuristics.slicing.DEMANDS_UP_TO", rows_up_to)
     rooms = [{"id": f"cell{k:02d}", "type": "office", "min_size": [1.8, 1.8],
               "max_size": [4, 4], "target_size": [2.5, 2.5]} for k in range(24)]
     rooms[0]["positions"] = [[0.5, 0.5]]
@@ -247,7 +247,7 @@ def test_problems_above_twenty_rooms_get_a_constructive_start_and_come_back_vali
 
 def test_rectangles_that_do_not_join_fail_a_check_instead_of_raising() -> None:
     from solver.geometry import Box
-    from solver.solve import _outline_of
+    from solver.pipeline.solve import _outline_of
 
     polygon = _outline_of([Box(0, 0, 2, 2), Box(2.001, 0, 4, 1)])
     assert polygon.area == pytest.approx(4.0)  # the larger part stands for the room
@@ -299,8 +299,8 @@ def test_every_incumbent_is_announced_as_it_would_be_returned_and_the_end_keeps_
 
 def test_the_best_covering_incumbent_replaces_a_final_layout_that_lost_coverage() -> None:
     from solver.geometry import make_domain
-    from solver.hierarchy import Piece
-    from solver.solve import _Run
+    from solver.pipeline.hierarchy import Piece
+    from solver.pipeline.solve import _Run
 
     two = problem(
         name="two", boundary=[[0, 0], [4, 0], [4, 2], [0, 2]],
@@ -322,7 +322,7 @@ def test_the_best_covering_incumbent_replaces_a_final_layout_that_lost_coverage(
 
 def test_a_gap_side_bordered_by_a_room_over_part_of_its_length_is_absorbed_there() -> None:
     from solver.geometry import make_domain
-    from solver.hierarchy import Piece, absorb_gaps, room_boxes
+    from solver.pipeline.hierarchy import Piece, absorb_gaps, room_boxes
 
     # The strip above both rooms is one gap cell; only `a` borders part of its south
     # side, and only `a` may grow (to its maximum depth of 2.5).
@@ -358,7 +358,7 @@ SPANNING_HALL = problem(
 
 def test_first_layout_under_the_users_bounds_keeps_rooms_within_their_target_bands(
 ) -> None:
-    # As `solve` builds it once the window schedule is exhausted (solver/solve.py).
+    # As `solve` builds it once the window schedule is exhausted (solver/pipeline/solve.py).
     domain = make_domain(SPANNING_HALL)
     lm = build_level(level_one_spec(SPANNING_HALL, domain, window=None), feasibility=True)
     bands = target_bands(SPANNING_HALL, domain, FIRST_BAND)

@@ -20,8 +20,8 @@ from pydantic import ValidationError
 
 from models import Layout, Problem, Termination
 from solver.export import to_dxf, to_geojson
-from solver.render import render_svg
-from solver.solve import Phase, SolveEvent, solve
+from solver.export.svg import render_svg
+from solver.pipeline.solve import Phase, SolveEvent, solve
 from tests.servers import Server
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"

@@ -10,7 +10,7 @@ const TERMINAL = new Set(["succeeded", "failed", "canceled"]);
 const KEY_STORAGE = "floorplan.api-key";
 const JOB_STORAGE = "floorplan.job"; // the job on screen, followed again after a reload
 const CLOCK_MS = 200;
-// The solver's phases (solver/solve.py Phase) in words.
+// The solver's phases (solver/pipeline/solve.py Phase) in words.
 const PHASES = {
   relaxation: "size window tried", level: "level started", subdomain: "sub-domain solved",
   incumbent: "better layout found", done: "done",

@@ -4,7 +4,7 @@
 
 const SVG_NS = "http://www.w3.org/2000/svg";
 
-// The fills of the server's SVG plans (solver/render.py), so both drawings agree.
+// The fills of the server's SVG plans (solver/export/svg.py), so both drawings agree.
 const PALETTE = {
   living: "#f6e2b3", kitchen: "#f9c784", bedroom: "#b9d7f0", bathroom: "#a8e0df",
   dining: "#f7e3a1", foyer: "#d9cbe8", corridor: "#e4e4e4", study: "#c7e3b5",

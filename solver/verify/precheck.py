@@ -52,7 +52,7 @@ def _room_fits(room: Room, domain: Domain) -> list[str]:
     return []
 
 
-# The conflict search (solver/conflicts.py) asks again and again about the same rooms.
+# The conflict search (solver/verify/conflicts.py) asks again and again about the same rooms.
 @lru_cache(maxsize=4096)
 def _fits_somewhere(free: BaseGeometry, w: float, d: float) -> bool:
     scaled = affinity.scale(free, xfact=1 / w, yfact=1 / d, origin=(0, 0))

@@ -28,7 +28,7 @@ from pyscipopt import Model, quicksum
 
 from models import Problem, Room
 from solver.geometry import Box, Domain, Edge, largest_box_around, rectangles_of
-from solver.row_search import Demands, RowPlan, anneal_rows, energy, kicked, sizeable
+from solver.heuristics.row_search import Demands, RowPlan, anneal_rows, energy, kicked, sizeable
 
 #: Row counts tried per region, relative to the region's depth over the typical
 #: target depth; the plan with the least E_size wins.
@@ -97,7 +97,7 @@ def _slice_with_demands(
     problem: Problem, regions: list[Box], demands: Demands, typical: float,
     *, rng: random.Random, deadline: float,
 ) -> dict[str, Box] | None:
-    """Anneal row plans until every demand can hold (solver/row_search.py), size each
+    """Anneal row plans until every demand can hold (solver/heuristics/row_search.py), size each
     such plan with the QP; the best of the first `PLANS_WANTED` that size wins."""
     rows = _plan_rows(problem, regions, 0, typical)
     if rows is None:

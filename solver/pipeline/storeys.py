@@ -2,7 +2,7 @@
 vertical rooms (stairs, lifts, shafts) on the very same footprint on every floor.
 
 Each floor is an ordinary single-floor problem (`models.storeys.floor_problem`) and is
-solved by `solver.solve.solve`. The floors are solved one after the other: first an
+solved by `solver.pipeline.solve.solve`. The floors are solved one after the other: first an
 *anchor* floor, where the vertical rooms are placed freely with the floor's own rooms,
 then every other floor with the vertical rooms already placed *pinned*: each becomes a
 room whose minimum and maximum size are its footprint's and whose guide points are two
@@ -48,7 +48,7 @@ from models.storeys import (
     verticals_on,
 )
 from solver.geometry import Box, bounding_box
-from solver.parallel import SubdomainExecutor
+from solver.pipeline.parallel import SubdomainExecutor
 
 #: Two footprints are the same when they differ by less than this area (m²) ...
 SAME_FOOTPRINT_AREA = 1e-6
@@ -64,7 +64,7 @@ EventSink = Callable[..., None]
 def job_time_limit(problem: Problem) -> float:
     """The whole job's time limit: `options.time_limit`, else each floor's default
     (5 s up to 20 rooms, then in proportion) added up."""
-    from solver.solve import default_time_limit
+    from solver.pipeline.solve import default_time_limit
 
     if problem.options.time_limit is not None:
         return problem.options.time_limit
@@ -222,7 +222,7 @@ def _solve_floor(
 ) -> Layout:
     """One floor by the single-floor pipeline; its events name the floor and count time
     from the job's start."""
-    from solver.solve import SolveEvent, solve
+    from solver.pipeline.solve import SolveEvent, solve
 
     def relay(event: SolveEvent) -> None:
         assert on_event is not None

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from solver import cli as solver_cli
+from service.cli import solve as solver_cli
 
 
 def add_serve(commands: Any) -> None:

@@ -21,8 +21,8 @@ from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from models import Problem
-from solver.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
 from solver.geometry import EPS, Box, Domain, Edge, bounding_box, rectangles_of
+from solver.miqp.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
 from solver.soft import room_soft
 
 #: Uncovered parts smaller than this (m²) are numerical dust, not gaps.

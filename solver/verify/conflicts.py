@@ -35,13 +35,13 @@ from enum import StrEnum
 from typing import TypeVar
 
 from models import ConflictItem, ConflictSet, Problem
-from solver.formulation import build_level
 from solver.geometry import EPS, Domain, Edge, edges_named, make_domain
-from solver.level_one import level_one_spec, wings_wanted
+from solver.heuristics.level_one import level_one_spec, wings_wanted
+from solver.miqp.formulation import build_level
+from solver.miqp.scip_run import LevelStatus, run_level
 from solver.openings import connection_demands
-from solver.precheck import find_impossibilities
-from solver.scip_run import LevelStatus, run_level
 from solver.soft import hard_part
+from solver.verify.precheck import find_impossibilities
 
 #: A SCIP check gets this share of the time left ...
 CHECK_SHARE = 0.25

@@ -17,9 +17,9 @@ from dataclasses import replace
 
 from pyscipopt import quicksum
 
-from solver.formulation import LevelModel, LevelSpec, build_level, e_violation
 from solver.geometry import Box, unusable_space
-from solver.scip_run import LevelResult, LevelStatus
+from solver.miqp.formulation import LevelModel, LevelSpec, build_level, e_violation
+from solver.miqp.scip_run import LevelResult, LevelStatus
 
 #: Rooms placed per batch.
 BATCH = 8

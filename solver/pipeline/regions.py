@@ -7,7 +7,7 @@
 2. The user's regions are laid out as rooms of a first problem (`region_problem`) by
    the ordinary `solve`: each gets its rooms' share of the floor, aisles included.
 3. The walls regions share are widened into aisles of `aisle_width`, joined into one
-   network reaching the entrance (`solver/aisles.py`).
+   network reaching the entrance (`solver/pipeline/aisles.py`).
 4. The rooms of each region are laid out in what is left of it, one ordinary problem
    per region part (`room_problem`), solved by `solve` with a share of the time.
 5. The whole is merged, given doors (every room onto an aisle where it touches one,
@@ -42,8 +42,6 @@ from models import (
     RoomLayout,
     Termination,
 )
-from solver.aisles import AisleNetwork, aisle_network, aisle_pieces
-from solver.checker import SOFT_KINDS, check_aisles, check_layout
 from solver.geometry import (
     Box,
     boundary_edges,
@@ -52,6 +50,7 @@ from solver.geometry import (
     rectangles_of,
     room_polygon,
 )
+from solver.heuristics.slicing import slicing_has_demands
 from solver.openings import door_segment as _door_segment
 from solver.openings import (
     front_door,
@@ -60,7 +59,8 @@ from solver.openings import (
     place_windows,
     requested_doors,
 )
-from solver.slicing import slicing_has_demands
+from solver.pipeline.aisles import AisleNetwork, aisle_network, aisle_pieces
+from solver.verify.checker import SOFT_KINDS, check_aisles, check_layout
 
 #: Rooms per region the automatic partition aims for (the paper's Fig. 8 blocks).
 REGION_ROOMS = 14
@@ -512,7 +512,7 @@ class _Progress:
     def sink(self, stage: str, *, incumbents: bool) -> EventSink | None:
         if self.on_event is None:
             return None
-        from solver.solve import Phase
+        from solver.pipeline.solve import Phase
 
         def forward(event: object) -> None:
             assert self.on_event is not None
@@ -531,7 +531,7 @@ class _Progress:
     def say(self, detail: str, *, subdomain: int = 0, subdomains: int = 0) -> None:
         if self.on_event is None:
             return
-        from solver.solve import Phase, SolveEvent
+        from solver.pipeline.solve import Phase, SolveEvent
 
         self.on_event(SolveEvent(phase=Phase.LEVEL, level=1,
                                  elapsed=time.monotonic() - self.started, detail=detail,
@@ -552,8 +552,8 @@ def solve_regions(
 ) -> Layout:
     """Lay out `problem` through regions and aisles (module docstring)."""
     from solver.geometry import make_domain
-    from solver.precheck import find_impossibilities
-    from solver.solve import default_time_limit, solve
+    from solver.pipeline.solve import default_time_limit, solve
+    from solver.verify.precheck import find_impossibilities
 
     started = time.monotonic()
     flat = rooms_only(problem)
@@ -694,9 +694,9 @@ def _points_kept(problem: Problem, given: Sequence[Region],
 
 
 def _can_hold(problem: Problem, part: Polygon, rooms: Sequence[Room]) -> bool:
-    """No cheap reason (solver/precheck.py) why `rooms` cannot be laid out in `part`."""
+    """No cheap reason (solver/verify/precheck.py) why `rooms` cannot be laid out in `part`."""
     from solver.geometry import make_domain
-    from solver.precheck import find_impossibilities
+    from solver.verify.precheck import find_impossibilities
 
     sub = room_problem(problem, part, rooms, 1.0)
     return not find_impossibilities(sub, make_domain(sub))
@@ -745,7 +745,7 @@ def _merge(problem: Problem, region_ids: Sequence[str], network: AisleNetwork,
                     levels=levels, solve_time=time.monotonic() - started,
                     termination=termination, valid=valid, circulation=circulation)
     if progress.on_event is not None:
-        from solver.solve import Phase, SolveEvent
+        from solver.pipeline.solve import Phase, SolveEvent
 
         progress.on_event(SolveEvent(phase=Phase.DONE, level=levels,
                                      elapsed=time.monotonic() - started, objective=objective,

@@ -25,10 +25,6 @@ from models import (
     RoomLayout,
     Termination,
 )
-from solver.checker import COVERAGE_GOAL, check_layout
-from solver.conflicts import find_conflict
-from solver.construct import construct
-from solver.formulation import LevelModel, active_families, build_level, e_band_shortfall
 from solver.geometry import (
     Box,
     Domain,
@@ -42,7 +38,35 @@ from solver.geometry import (
     snap_rooms,
     unwrapped,
 )
-from solver.hierarchy import (
+from solver.heuristics.construct import construct
+from solver.heuristics.level_one import (
+    FIRST_BAND,
+    demand_order,
+    level_one_spec,
+    reach_wing,
+    target_bands,
+    windows_to_try,
+    wing_names,
+    wings_wanted,
+)
+from solver.heuristics.neighbourhood import (
+    GAP_AREA,
+    NEIGHBOURHOOD_SIZE,
+    coverage_first,
+    covered_area,
+    search_neighbourhoods,
+)
+from solver.heuristics.slicing import slicing_applies, slicing_has_demands, slicing_layout
+from solver.miqp.formulation import LevelModel, active_families, build_level, e_band_shortfall
+from solver.miqp.scip_run import (
+    Incumbent,
+    LevelResult,
+    LevelStatus,
+    complete_start,
+    run_level,
+)
+from solver.openings import add_openings, connection_demands
+from solver.pipeline.hierarchy import (
     Piece,
     RefinementPlan,
     SubDomain,
@@ -54,25 +78,7 @@ from solver.hierarchy import (
     room_boxes,
     select_subdomains,
 )
-from solver.level_one import (
-    FIRST_BAND,
-    demand_order,
-    level_one_spec,
-    reach_wing,
-    target_bands,
-    windows_to_try,
-    wing_names,
-    wings_wanted,
-)
-from solver.neighbourhood import (
-    GAP_AREA,
-    NEIGHBOURHOOD_SIZE,
-    coverage_first,
-    covered_area,
-    search_neighbourhoods,
-)
-from solver.openings import add_openings, connection_demands
-from solver.parallel import (
+from solver.pipeline.parallel import (
     LATE_SECONDS,
     LevelOneOutcome,
     LevelOneTask,
@@ -82,16 +88,10 @@ from solver.parallel import (
     overlaps_others,
     solve_subdomain,
 )
-from solver.precheck import find_impossibilities
-from solver.scip_run import (
-    Incumbent,
-    LevelResult,
-    LevelStatus,
-    complete_start,
-    run_level,
-)
-from solver.slicing import slicing_applies, slicing_has_demands, slicing_layout
 from solver.soft import hard_part, has_soft, room_soft
+from solver.verify.checker import COVERAGE_GOAL, check_layout
+from solver.verify.conflicts import find_conflict
+from solver.verify.precheck import find_impossibilities
 
 #: Seconds per job up to `BASE_ROOMS` rooms (Sec. 5.4) ...
 BASE_TIME = 5.0
@@ -106,11 +106,11 @@ ATTEMPT_SHARE = 0.5
 FINISH_SECONDS_PER_ROOM = 0.01
 #: Python time per room to plan one refinement sub-domain (measured: 0.16 s at 154).
 PLAN_SECONDS_PER_ROOM = 0.002
-#: Above this many rooms the first layout is built in batches (solver/construct.py):
+#: Above this many rooms the first layout is built in batches (solver/heuristics/construct.py):
 #: one feasibility MILP of all rooms rarely finds anything in time.
 CONSTRUCT_ABOVE = 20
 #: Share of level 1's time a row plan honouring adjacency and boundary demands may take
-#: (solver/row_search.py): found in tens of milliseconds when rows can hold them.
+#: (solver/heuristics/row_search.py): found in tens of milliseconds when rows can hold them.
 SLICE_DEMANDS_SHARE = 0.06
 #: Share of the neighbourhood search spent with coverage weighted first.
 COVERAGE_PHASE_SHARE = 0.85
@@ -311,16 +311,16 @@ def solve(
 ) -> Layout:
     """Lay out `problem`: a valid layout, or a report saying why there is none. With
     `subdomains`, the sub-domains of each refinement level are solved at the same time
-    on its executor (solver/parallel.py); without, one after the other. Problems of
-    several storeys go through solver/storeys.py; problems with regions, or more rooms
-    than `options.regions_above`, through solver/regions.py."""
-    if problem.floors is not None:  # several storeys: a floor at a time (solver/storeys.py)
-        from solver.storeys import solve_storeys
+    on its executor (solver/pipeline/parallel.py); without, one after the other. Problems of
+    several storeys go through solver/pipeline/storeys.py; problems with regions, or more rooms
+    than `options.regions_above`, through solver/pipeline/regions.py."""
+    if problem.floors is not None:  # several storeys: a floor at a time (solver/pipeline/storeys.py)
+        from solver.pipeline.storeys import solve_storeys
 
         return solve_storeys(problem, on_event=on_event, should_stop=should_stop,
                              subdomains=subdomains)
     # Imported here: regions lays out its parts with this very function.
-    from solver.regions import regions_apply, solve_regions
+    from solver.pipeline.regions import regions_apply, solve_regions
 
     if regions_apply(problem):
         return solve_regions(problem, on_event=on_event, should_stop=should_stop)
@@ -760,7 +760,7 @@ def _gap_wing(
 
 
 def _slice(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
-    """A first layout of rows of rooms filling the floor (solver/slicing.py)."""
+    """A first layout of rows of rooms filling the floor (solver/heuristics/slicing.py)."""
     started = time.monotonic()
     rects = slicing_layout(run.problem, domain, deadline=deadline,
                            seed=run.problem.options.seed)
@@ -775,7 +775,7 @@ def _slice(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
 
 
 def _construct(run: _Run, domain: Domain, deadline: float) -> LevelResult | None:
-    """A first layout built a batch of rooms at a time (solver/construct.py)."""
+    """A first layout built a batch of rooms at a time (solver/heuristics/construct.py)."""
     if deadline - time.monotonic() <= 0.1 or run.stopped() or run.wings:
         return None
     spec = level_one_spec(run.problem, domain, window=None)
@@ -972,7 +972,7 @@ def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float
     (`termination: in_progress`, `valid: false` until the solve ends). In a building of
     several storeys, `floor` names the floor the incumbent is of (`SolveEvent.floor`)."""
     if problem.floors is not None and floor:
-        from solver.storeys import draft_floor, floor_view
+        from solver.pipeline.storeys import draft_floor, floor_view
 
         return draft_floor(problem, floor, draft_layout(floor_view(problem, floor), rooms,
                                                         objective))
@@ -998,7 +998,7 @@ def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float
 
 def _explained(run: _Run, domain: Domain, why: Infeasibility) -> Infeasibility:
     """`why` with a small set of the user's constraints that cannot hold together,
-    searched in the time the solve has left (solver/conflicts.py); soft constraints
+    searched in the time the solve has left (solver/verify/conflicts.py); soft constraints
     never are among them."""
     conflict = find_conflict(hard_part(run.asked or run.problem), domain,
                              deadline=run.deadline, solved=hard_part(run.problem),

@@ -13,9 +13,9 @@ from dataclasses import dataclass, replace
 
 import shapely
 
-from solver.formulation import LevelModel, LevelSpec, build_level, level_objective
 from solver.geometry import Box, Domain, bounding_box, unusable_space
-from solver.scip_run import LevelResult, LevelStatus, complete_start
+from solver.miqp.formulation import LevelModel, LevelSpec, build_level, level_objective
+from solver.miqp.scip_run import LevelResult, LevelStatus, complete_start
 
 #: Rooms freed per neighbourhood at first ...
 NEIGHBOURHOOD_SIZE = 5

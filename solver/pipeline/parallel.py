@@ -10,7 +10,7 @@ touch one gap may both grow into it: a result overlapping rooms placed meanwhile
 dropped (its rooms keep their rectangles), so the layout stays valid.
 
 The same executor runs a second level-1 search alongside the solve's own, under
-another seed (`LevelOneTask`, `solver.solve.level_one_alone`); the better of the two
+another seed (`LevelOneTask`, `solver.pipeline.solve.level_one_alone`); the better of the two
 layouts goes on to the hierarchy. A remote executor that runs only sub-domains refuses
 it, and the solve goes on alone.
 
@@ -32,10 +32,10 @@ from concurrent.futures import Executor, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 
 from models import ExtraRectangles, Problem
-from solver.formulation import LevelSpec, build_level
 from solver.geometry import Box
-from solver.hierarchy import Piece
-from solver.scip_run import complete_start, run_level
+from solver.miqp.formulation import LevelSpec, build_level
+from solver.miqp.scip_run import complete_start, run_level
+from solver.pipeline.hierarchy import Piece
 
 #: Overlap (m²) below which two rectangles count as touching, not overlapping.
 OVERLAP_TOLERANCE = 1e-6
@@ -78,7 +78,7 @@ class SubdomainTask:
 
 @dataclass(frozen=True)
 class LevelOneTask:
-    """A second level-1 search (`solver.solve.level_one_alone`): the problem, under
+    """A second level-1 search (`solver.pipeline.solve.level_one_alone`): the problem, under
     another seed, and the wall clock time (epoch) by which it must end."""
 
     problem: Problem
@@ -186,7 +186,7 @@ def warm_up() -> None:
     """Submitted once per pool process, so that it imports this module (and SCIP,
     shapely) while level 1 runs, not when the first sub-domain waits; and the solve
     module, which a second level-1 search runs from."""
-    import solver.solve  # noqa: F401
+    import solver.pipeline.solve  # noqa: F401
 
 
 def overlaps_others(rooms: Mapping[str, Iterable[Box]], own: set[str],

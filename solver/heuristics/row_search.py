@@ -10,7 +10,7 @@ room of a column in the row above touch where their x-ranges overlap; the bottom
 of a bottom row lies on its rectangle's south side, the rooms of a first column on its
 west side. So whether a demand *can* hold in a plan is a question of structure,
 answered here without any solver, and the annealing below looks for a plan where every
-demand can and the rough sizes fit; the convex QP of `solver.slicing` then sets the
+demand can and the rough sizes fit; the convex QP of `solver.heuristics.slicing` then sets the
 sizes, with each demand a linear constraint.
 """
 

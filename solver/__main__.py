@@ -1,5 +1,0 @@
-"""``python -m solver``: the `floorplan` command (see `solver.cli`)."""
-
-from solver.cli import main
-
-raise SystemExit(main())
