@@ -19,7 +19,7 @@ from shapely.geometry.base import BaseGeometry
 from bench.solvers import Rooms, Trace
 from models import Problem
 from solver.geometry import Domain
-from solver.pipeline.solve import layout_objective
+from solver.pipeline.run import layout_objective
 from solver.verify.checker import COVERAGE_GOAL, SOFT_KINDS, CheckResult, check_aisles, check_layout
 
 #: Layouts whose rectangles overlap, or leave the bounding box, by more than this (m^2)

@@ -20,12 +20,15 @@ from shapely.geometry import Polygon
 
 from bench.anneal import Annealer
 from models import Problem
+from solver import solve
+from solver.budget import default_time_limit
+from solver.events import Phase, SolveEvent
 from solver.geometry import Box, make_domain
 from solver.heuristics.level_one import level_one_spec
 from solver.miqp.formulation import LevelModel, build_level
 from solver.miqp.scip_run import MEMORY_LIMIT_MB
-from solver.pipeline.parallel import SubdomainExecutor, subdomain_pool
-from solver.pipeline.solve import Phase, SolveEvent, default_time_limit, solve
+from solver.pipeline.pool import subdomain_pool
+from solver.pipeline.subdomains import SubdomainExecutor
 
 Rooms = dict[str, list[Box]]
 
@@ -71,7 +74,7 @@ def baseline_limit(problem: Problem, cap: float = BASELINE_CAP) -> float:
 
 def run_ours(problem: Problem, *, seed: int, cap: float = BASELINE_CAP,
              subdomain_processes: int = 1, name: str | None = None) -> Trace:
-    """`solver.pipeline.solve.solve` at the problem's default time limit; with
+    """`solver.solve` at the problem's default time limit; with
     `subdomain_processes` > 1, each refinement level's sub-domains solved at once in a
     process pool of that many (started and warmed up before the clock starts, as the
     service's waiting solve processes start theirs before their job comes)."""

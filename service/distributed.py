@@ -491,11 +491,11 @@ class CelerySubdomains(Executor):
         self._poller: threading.Thread | None = None
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
-        from solver.pipeline.parallel import SubdomainTask, solve_subdomain
+        from solver.pipeline.subdomains import SubdomainTask, solve_subdomain
 
         (task,) = args
         if fn is not solve_subdomain or kwargs or not isinstance(task, SubdomainTask):
-            raise ValueError("only solver.pipeline.parallel.solve_subdomain(task) runs remotely")
+            raise ValueError("only solver.pipeline.subdomains.solve_subdomain(task) runs remotely")
         future: Future[Any] = Future()
         result = self.celery.send_task(
             SUBDOMAIN_TASK, args=[pack(task)], queue=self.keys.subdomains,
@@ -609,7 +609,7 @@ def solve_job(job_id: str) -> str:
 def solve_subdomain_task(payload: str) -> str:
     """One sub-domain, in a process of a sub-domain worker's prefork pool. Not acked
     late: a sub-domain whose worker died is not worth solving after its level ended."""
-    from solver.pipeline.parallel import solve_subdomain
+    from solver.pipeline.subdomains import solve_subdomain
 
     return pack(solve_subdomain(unpack(payload)))
 

@@ -32,14 +32,14 @@ def subdomain_executor(processes: int, remote: bool) -> tuple[Executor | None, i
         executor = celery_executor(get_settings())
         if executor is not None:
             return executor, executor.slots
-    from solver.pipeline.parallel import subdomain_pool
+    from solver.pipeline.pool import subdomain_pool
 
     return subdomain_pool(processes), processes
 
 
 def end_executor(executor: Executor | None) -> None:
     if isinstance(executor, ProcessPoolExecutor):
-        from solver.pipeline.parallel import end_pool
+        from solver.pipeline.pool import end_pool
 
         end_pool(executor)
     elif executor is not None:
@@ -65,8 +65,10 @@ def run_job(
     pool: Executor | None = warm_pool
     try:
         from models import Problem
-        from solver.pipeline.parallel import SubdomainExecutor
-        from solver.pipeline.solve import Phase, SolveEvent, draft_layout, solve
+        from solver import solve
+        from solver.events import Phase, SolveEvent
+        from solver.pipeline.assemble import draft_layout
+        from solver.pipeline.subdomains import SubdomainExecutor
 
         problem = Problem.model_validate_json(problem_json)
         if warm_pool is None:
@@ -109,14 +111,14 @@ def standby(
     """A solve process started ahead of its job: pay for the imports (SCIP, shapely)
     now, then wait for one problem, solve it and exit, as every solve has its own
     process. Gives up if the parent goes away first, or closes the pipe without a job."""
-    import solver.pipeline.solve  # noqa: F401 - warming up is the point
+    import solver.pipeline.dispatch  # noqa: F401 - warming up is the point
 
     # A local pool starts now too, so that its processes have imported SCIP when the job
     # comes: a second level-1 search that starts a second late rarely ends better
     # (bench/NOTES.md). Celery sub-domain workers are chosen when the job comes.
     pool = None
     if subdomain_processes > 1 and not subdomain_tasks:
-        from solver.pipeline.parallel import subdomain_pool
+        from solver.pipeline.pool import subdomain_pool
 
         pool = subdomain_pool(subdomain_processes)
     while not jobs.poll(STANDBY_POLL):

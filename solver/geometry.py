@@ -462,3 +462,13 @@ def domain_lines(problem: Problem) -> tuple[list[float], list[float]]:
         xs += [o.x, o.x + o.width]
         ys += [o.y, o.y + o.depth]
     return xs, ys
+
+
+def on_edge(b: Box, e: Edge) -> bool:
+    """Whether one whole side of `b` lies on edge `e` (what Eq. 9 asks)."""
+    lo, hi = e.span
+    if e.horizontal:
+        side = b.y0 if e.facing == "south" else b.y1
+        return abs(side - e.line) <= 1e-6 and b.x0 >= lo - 1e-6 and b.x1 <= hi + 1e-6
+    side = b.x0 if e.facing == "west" else b.x1
+    return abs(side - e.line) <= 1e-6 and b.y0 >= lo - 1e-6 and b.y1 <= hi + 1e-6

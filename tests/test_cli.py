@@ -25,7 +25,7 @@ from service.cli.solve import (
     invalid_layout_warning,
 )
 from service.cli.solve import progress_line as format_progress
-from solver.pipeline.solve import Phase, SolveEvent
+from solver.events import Phase, SolveEvent
 from tests.test_parallel import TWO_WINGS
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -19,11 +19,11 @@ import httpx2 as httpx
 import pytest
 
 from models import ConflictSet, Problem, Termination
+from solver import solve
 from solver.geometry import make_domain
 from solver.heuristics.level_one import level_one_spec
 from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import LevelStatus, run_level
-from solver.pipeline.solve import solve
 from solver.verify.conflicts import Verdict, deletion_filter, diagnose, find_conflict
 from tests.servers import Server
 

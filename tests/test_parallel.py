@@ -1,4 +1,4 @@
-"""The sub-domains of one refinement level solved at the same time (solver/pipeline/parallel.py):
+"""The sub-domains of one refinement level solved at the same time (subdomains.py, pool.py):
 in a local process pool from `solve`, and in the service, whose solve processes start
 such a pool when FLOORPLAN_SUBDOMAIN_PROCESSES asks for one."""
 
@@ -21,25 +21,20 @@ import pytest
 from models import Problem
 from service.runner import SolveProcesses
 from service.worker import run_job, standby
+from solver import solve
+from solver.events import Phase, SolveEvent
 from solver.geometry import Box, make_domain
 from solver.openings import connection_demands
+from solver.pipeline.first_layout import better_start, level_one_alone
 from solver.pipeline.hierarchy import SubDomain, room_boxes
-from solver.pipeline.parallel import (
-    PARENT_POLL,
+from solver.pipeline.pool import PARENT_POLL, subdomain_pool
+from solver.pipeline.refine import _disjoint_batches
+from solver.pipeline.run import Run
+from solver.pipeline.subdomains import (
     LevelOneOutcome,
     LevelOneTask,
     SubdomainExecutor,
     overlaps_others,
-    subdomain_pool,
-)
-from solver.pipeline.solve import (
-    Phase,
-    SolveEvent,
-    _better_start,
-    _disjoint_batches,
-    _Run,
-    level_one_alone,
-    solve,
 )
 from solver.verify.checker import check_layout
 from tests.servers import Server
@@ -112,17 +107,17 @@ def test_a_second_level_one_search_runs_in_the_pool_and_the_better_start_wins(
         return done
 
     events: list[SolveEvent] = []
-    run = _Run(problem, time.monotonic() + 5, time.monotonic(), events.append, None)
+    run = Run(problem, time.monotonic() + 5, time.monotonic(), events.append, None)
     # A tie keeps this search's layout, and says nothing.
-    kept = _better_start(run, domain, outcome.pieces, finished(), time.monotonic())
+    kept = better_start(run, domain, outcome.pieces, finished(), time.monotonic())
     assert kept is outcome.pieces and not events
     # No layout here: the second search's is taken, and said so.
-    other = _better_start(run, domain, None, finished(), time.monotonic())
+    other = better_start(run, domain, None, finished(), time.monotonic())
     assert other is outcome.pieces
     assert any("second search" in e.detail for e in events)
     # A second search that is still running when level 1 ends is not waited for.
     running: Future[LevelOneOutcome] = Future()
-    assert _better_start(run, domain, None, running, time.monotonic() - 1) is None
+    assert better_start(run, domain, None, running, time.monotonic() - 1) is None
 
 
 def test_a_solve_process_runs_its_sub_domains_in_a_pool_and_ends_it() -> None:

@@ -186,7 +186,7 @@ def test_scale_sets_the_drawing_size(problem: Problem, layout: Layout) -> None:
 
 def test_doors_swing_into_their_room_windows_sit_in_walls_and_north_is_marked() -> None:
     from models import Problem
-    from solver.pipeline.solve import solve
+    from solver import solve
 
     problem = Problem.model_validate({
         "boundary": [[0, 0], [8, 0], [8, 5], [0, 5]], "entrance": [2, 0],

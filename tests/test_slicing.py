@@ -8,9 +8,9 @@ from typing import Any
 import pytest
 
 from models import Adjacency, Problem, Termination
+from solver import solve
 from solver.geometry import make_domain
 from solver.heuristics.slicing import DEMANDS_UP_TO, slicing_applies, slicing_layout
-from solver.pipeline.solve import solve
 from solver.verify.checker import check_layout
 
 

@@ -14,11 +14,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from models import Problem, Termination
+from solver import solve
+from solver.events import Phase, SolveEvent
 from solver.geometry import Box, make_domain, shared_wall_length
 from solver.heuristics.level_one import FIRST_BAND, level_one_spec, target_bands
 from solver.miqp.formulation import build_level, e_band_shortfall
 from solver.miqp.scip_run import LevelStatus, run_level
-from solver.pipeline.solve import Phase, SolveEvent, solve
 from solver.verify.checker import check_layout
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -247,9 +248,9 @@ def test_problems_above_twenty_rooms_get_a_constructive_start_and_come_back_vali
 
 def test_rectangles_that_do_not_join_fail_a_check_instead_of_raising() -> None:
     from solver.geometry import Box
-    from solver.pipeline.solve import _outline_of
+    from solver.pipeline.assemble import outline_of
 
-    polygon = _outline_of([Box(0, 0, 2, 2), Box(2.001, 0, 4, 1)])
+    polygon = outline_of([Box(0, 0, 2, 2), Box(2.001, 0, 4, 1)])
     assert polygon.area == pytest.approx(4.0)  # the larger part stands for the room
     p = problem(boundary=[[0, 0], [4, 0], [4, 2], [0, 2]], rooms=[{"id": "a"}])
     checks = check_layout(p, {"a": [Box(0, 0, 2, 2), Box(2.001, 0, 4, 1)]})
@@ -300,14 +301,14 @@ def test_every_incumbent_is_announced_as_it_would_be_returned_and_the_end_keeps_
 def test_the_best_covering_incumbent_replaces_a_final_layout_that_lost_coverage() -> None:
     from solver.geometry import make_domain
     from solver.pipeline.hierarchy import Piece
-    from solver.pipeline.solve import _Run
+    from solver.pipeline.run import Run
 
     two = problem(
         name="two", boundary=[[0, 0], [4, 0], [4, 2], [0, 2]],
         rooms=[{"id": "a", "type": "bedroom", "min_size": [1, 1], "target_size": [2, 2]},
                {"id": "b", "type": "bedroom", "min_size": [1, 1], "target_size": [2, 2]}])
     domain = make_domain(two)
-    run = _Run(two, deadline=time.monotonic() + 1, started=time.monotonic(), on_event=None,
+    run = Run(two, deadline=time.monotonic() + 1, started=time.monotonic(), on_event=None,
                should_stop=None)
     full = {"a": [Box(0, 0, 2, 2)], "b": [Box(2, 0, 4, 2)]}
     run.incumbent(domain, full)
@@ -358,7 +359,7 @@ SPANNING_HALL = problem(
 
 def test_first_layout_under_the_users_bounds_keeps_rooms_within_their_target_bands(
 ) -> None:
-    # As `solve` builds it once the window schedule is exhausted (solver/pipeline/solve.py).
+    # As `solve` builds it once the window schedule is exhausted (solver/pipeline/first_layout.py).
     domain = make_domain(SPANNING_HALL)
     lm = build_level(level_one_spec(SPANNING_HALL, domain, window=None), feasibility=True)
     bands = target_bands(SPANNING_HALL, domain, FIRST_BAND)

@@ -19,9 +19,10 @@ import shapely
 from pydantic import ValidationError
 
 from models import Layout, Problem, Termination
+from solver import solve
+from solver.events import Phase, SolveEvent
 from solver.export import to_dxf, to_geojson
 from solver.export.svg import render_svg
-from solver.pipeline.solve import Phase, SolveEvent, solve
 from tests.servers import Server
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"

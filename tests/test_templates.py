@@ -15,8 +15,8 @@ from pydantic import ValidationError
 
 from models import Problem
 from models.templates import KNOWN_TYPES, RESIDENTIAL, TemplatedProblem, expand
+from solver import solve
 from solver.geometry import make_domain
-from solver.pipeline.solve import solve
 from solver.verify.precheck import find_impossibilities
 
 FLAT: list[str] = ["living", "kitchen", "bedroom", "bedroom", "bathroom"]

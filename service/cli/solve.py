@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from pydantic import ValidationError
 
     from models import Layout, Problem
-    from solver.pipeline.solve import SolveEvent
+    from solver.events import SolveEvent
 
 EXIT_OK = 0
 """A layout with rooms was written (it may still fail checks: see the warning; a
@@ -56,7 +56,7 @@ EXIT_INTERRUPTED = 130
 INCUMBENT_INTERVAL = 0.25
 #: Bounds at or beyond this magnitude are SCIP's infinity and printed as such.
 SCIP_INFINITY = 1e19
-#: `solver.pipeline.solve.Phase.INCUMBENT` (a StrEnum), spelt out to keep the solver import lazy.
+#: `solver.events.Phase.INCUMBENT` (a StrEnum), spelt out to keep the solver import lazy.
 INCUMBENT = "incumbent"
 #: Objects up to this many characters (with their indent) stay on one line in --expand.
 READABLE_WIDTH = 88
@@ -167,14 +167,15 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
         return write_expanded(args, problem)
 
     from models import Termination
-    from solver.pipeline.parallel import SubdomainExecutor, end_pool, subdomain_pool
-    from solver.pipeline.solve import solve
+    from solver import solve
+    from solver.pipeline.pool import end_pool, subdomain_pool
+    from solver.pipeline.subdomains import SubdomainExecutor
 
     for target in (args.output, args.svg):
         _check_writable(target)
     progress = None if args.quiet else ProgressPrinter(sys.stderr)
     # The pool's processes ignore Ctrl-C; a second one, which ends this process at once,
-    # leaves the pool to end itself (solver.pipeline.parallel.pool_process_init).
+    # leaves the pool to end itself (solver.pipeline.pool.pool_process_init).
     pool = subdomain_pool(args.processes)
     if pool is not None:
         keep_sigint_blocked()

@@ -21,7 +21,7 @@ from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from models import Problem
-from solver.geometry import EPS, Box, Domain, Edge, bounding_box, rectangles_of
+from solver.geometry import EPS, Box, Domain, Edge, bounding_box, on_edge, rectangles_of
 from solver.miqp.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
 from solver.soft import room_soft
 
@@ -173,16 +173,6 @@ def _nearer(halves: tuple[Box, Box], point: tuple[float, float]) -> int:
     x, y = point
     far = [max(h.x0 - x, x - h.x1, h.y0 - y, y - h.y1, 0.0) for h in halves]
     return 0 if far[0] <= far[1] else 1
-
-
-def on_edge(b: Box, e: Edge) -> bool:
-    """Whether one whole side of `b` lies on edge `e` (what Eq. 9 asks)."""
-    lo, hi = e.span
-    if e.horizontal:
-        side = b.y0 if e.facing == "south" else b.y1
-        return abs(side - e.line) <= 1e-6 and b.x0 >= lo - 1e-6 and b.x1 <= hi + 1e-6
-    side = b.x0 if e.facing == "west" else b.x1
-    return abs(side - e.line) <= 1e-6 and b.y0 >= lo - 1e-6 and b.y1 <= hi + 1e-6
 
 
 def choose_split(piece: Piece, rng: random.Random) -> Split:

@@ -2,7 +2,7 @@
 vertical rooms (stairs, lifts, shafts) on the very same footprint on every floor.
 
 Each floor is an ordinary single-floor problem (`models.storeys.floor_problem`) and is
-solved by `solver.pipeline.solve.solve`. The floors are solved one after the other: first an
+solved by `solver.solve` (handed in as `solve`). The floors are solved one after the other: first an
 *anchor* floor, where the vertical rooms are placed freely with the floor's own rooms,
 then every other floor with the vertical rooms already placed *pinned*: each becomes a
 room whose minimum and maximum size are its footprint's and whose guide points are two
@@ -47,8 +47,10 @@ from models.storeys import (
     user_path,
     verticals_on,
 )
+from solver.budget import default_time_limit
+from solver.events import EventSink, Solve, SolveEvent
 from solver.geometry import Box, bounding_box
-from solver.pipeline.parallel import SubdomainExecutor
+from solver.pipeline.subdomains import SubdomainExecutor
 
 #: Two footprints are the same when they differ by less than this area (m²) ...
 SAME_FOOTPRINT_AREA = 1e-6
@@ -58,14 +60,9 @@ PIN_SNAP = 1e-4
 #: An anchor is not tried again with less than this many seconds left.
 MIN_ATTEMPT_SECONDS = 0.5
 
-EventSink = Callable[..., None]
-
-
 def job_time_limit(problem: Problem) -> float:
     """The whole job's time limit: `options.time_limit`, else each floor's default
     (5 s up to 20 rooms, then in proportion) added up."""
-    from solver.pipeline.solve import default_time_limit
-
     if problem.options.time_limit is not None:
         return problem.options.time_limit
     if problem.floors is None:
@@ -97,12 +94,14 @@ class _Attempt:
 def solve_storeys(
     problem: Problem,
     *,
+    solve: Solve,
     on_event: EventSink | None = None,
     should_stop: Callable[[], bool] | None = None,
     subdomains: SubdomainExecutor | None = None,
 ) -> Layout:
     """Lay out every floor of `problem` with its vertical rooms aligned; never raises
-    for a well-formed problem (a failure is a report saying which floor and why)."""
+    for a well-formed problem (a failure is a report saying which floor and why).
+    Each floor is laid out by `solve`."""
     assert problem.floors is not None
     started = time.monotonic()
     deadline = started + job_time_limit(problem)
@@ -115,7 +114,7 @@ def solve_storeys(
                          or _stopped(should_stop)):
             break
         attempt = _Attempt(anchor, problem.options.seed)
-        _run_attempt(problem, floors, weights, attempt, deadline, started, on_event,
+        _run_attempt(problem, floors, weights, attempt, deadline, started, solve, on_event,
                      should_stop, subdomains)
         attempts.append(attempt)
         if attempt.failed is None:
@@ -160,7 +159,7 @@ def _floor_order(problem: Problem, anchor: int, floors: list[Problem]) -> list[i
 
 def _run_attempt(
     problem: Problem, floors: list[Problem], weights: list[float], attempt: _Attempt,
-    deadline: float, started: float, on_event: EventSink | None,
+    deadline: float, started: float, solve: Solve, on_event: EventSink | None,
     should_stop: Callable[[], bool] | None, subdomains: SubdomainExecutor | None,
 ) -> None:
     """Solve every floor from `attempt.anchor`, pinning each vertical room once placed;
@@ -183,7 +182,8 @@ def _run_attempt(
             return
         floor = _pinned(floors[i], pins)
         floor = floor.with_options(time_limit=budget, seed=attempt.seed)
-        layout = _solve_floor(floor, floor_id, started, on_event, should_stop, subdomains)
+        layout = _solve_floor(solve, floor, floor_id, started, on_event, should_stop,
+                              subdomains)
         if not layout.rooms:
             attempt.failed, attempt.failure = i, layout
             reason = layout.report.infeasibility.reason if layout.report.infeasibility else ""
@@ -217,13 +217,11 @@ def _run_attempt(
 
 
 def _solve_floor(
-    floor: Problem, floor_id: str, started: float, on_event: EventSink | None,
+    solve: Solve, floor: Problem, floor_id: str, started: float, on_event: EventSink | None,
     should_stop: Callable[[], bool] | None, subdomains: SubdomainExecutor | None,
 ) -> Layout:
     """One floor by the single-floor pipeline; its events name the floor and count time
     from the job's start."""
-    from solver.pipeline.solve import SolveEvent, solve
-
     def relay(event: SolveEvent) -> None:
         assert on_event is not None
         on_event(replace(event, floor=floor_id, elapsed=time.monotonic() - started,

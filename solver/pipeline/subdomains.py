@@ -10,25 +10,21 @@ touch one gap may both grow into it: a result overlapping rooms placed meanwhile
 dropped (its rooms keep their rectangles), so the layout stays valid.
 
 The same executor runs a second level-1 search alongside the solve's own, under
-another seed (`LevelOneTask`, `solver.pipeline.solve.level_one_alone`); the better of the two
+another seed (`LevelOneTask`, `solver.pipeline.first_layout.level_one_alone`); the better of the two
 layouts goes on to the hierarchy. A remote executor that runs only sub-domains refuses
 it, and the solve goes on alone.
 
 What crosses to the executor is plain data (a `LevelSpec`, boxes, numbers), so tasks
-pickle; the solver knows nothing of who runs them. `subdomain_pool` and `end_pool`
-start and end the local kind, for the command line and the service's solve processes.
+pickle; the solver knows nothing of who runs them. `solver.pipeline.pool`
+starts and ends the local kind, for the command line and the service's solve processes.
 """
 
 from __future__ import annotations
 
 import math
-import multiprocessing
-import os
-import signal
-import threading
 import time
 from collections.abc import Iterable, Mapping
-from concurrent.futures import Executor, ProcessPoolExecutor, wait
+from concurrent.futures import Executor
 from dataclasses import dataclass
 
 from models import ExtraRectangles, Problem
@@ -44,11 +40,6 @@ MIN_SECONDS = 0.05
 #: Seconds past a level's deadline its sub-domains are still waited for; a later result
 #: is dropped, so a slow task cannot push the solve past its time limit.
 LATE_SECONDS = 0.5
-#: Seconds between a pool process's looks at whether the process that started it lives.
-PARENT_POLL = 0.5
-#: Seconds to wait for a killed pool to be reaped: a SIGKILL takes effect at once, so
-#: this bounds only a wedged manager thread.
-END_POOL_SECONDS = 5.0
 
 
 @dataclass(frozen=True)
@@ -78,7 +69,7 @@ class SubdomainTask:
 
 @dataclass(frozen=True)
 class LevelOneTask:
-    """A second level-1 search (`solver.pipeline.solve.level_one_alone`): the problem, under
+    """A second level-1 search (`solver.pipeline.first_layout.level_one_alone`): the problem, under
     another seed, and the wall clock time (epoch) by which it must end."""
 
     problem: Problem
@@ -125,68 +116,6 @@ def solve_subdomain(task: SubdomainTask) -> SubdomainOutcome:
     result = run_level(lm, time_limit=max(left(), MIN_SECONDS), seed=task.seed)
     return SubdomainOutcome(str(result.status), result.rects, result.objective,
                             time.monotonic() - started)
-
-
-def subdomain_pool(processes: int, *, warmed: bool = False) -> ProcessPoolExecutor | None:
-    """A pool of `processes` spawned processes for one solve (None for one: sub-domains
-    are then solved one after the other and there is no second level-1 search),
-    warming up from now on, while level 1 runs; with `warmed`, returned only once every
-    process has (the bench starts its clock then). End it with `end_pool`."""
-    if processes <= 1:
-        return None
-    # The service's solve processes are daemons (they must not outlive it), and daemons
-    # may not have children unless they say otherwise: end_pool ends this pool, and its
-    # processes end themselves should this one die first (pool_process_init).
-    multiprocessing.current_process().daemon = False
-    pool = ProcessPoolExecutor(processes, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=pool_process_init, initargs=(os.getpid(),))
-    warming = [pool.submit(warm_up) for _ in range(processes)]
-    if warmed:
-        wait(warming)
-    return pool
-
-
-def end_pool(pool: ProcessPoolExecutor | None) -> None:
-    """Stop the pool now: a sub-domain or second search still running must not hold up
-    the layout (ProcessPoolExecutor has no public way to end busy workers before Python
-    3.14's terminate_workers)."""
-    if pool is None:
-        return
-    processes = list(getattr(pool, "_processes", {}).values())
-    manager = getattr(pool, "_executor_manager_thread", None)
-    pool.shutdown(wait=False, cancel_futures=True)
-    for process in processes:
-        process.kill()
-    # The pool's manager thread reaps the killed workers too. Had we reaped one first,
-    # its own wait would fail and leave the Process alive in appearance until the
-    # manager sets its exit code, so let the manager finish before looking.
-    if manager is not None:
-        manager.join(timeout=END_POOL_SECONDS)
-    for process in processes:
-        process.join(timeout=END_POOL_SECONDS)
-
-
-def pool_process_init(parent: int) -> None:
-    """Pool initializer. Ctrl-C is for the solve that owns the pool to act on (it ends
-    the pool), not for each of its processes; and this process ends once `parent`,
-    the process that started the pool, is gone: a parent killed outright (the
-    service's hard time limit, a second Ctrl-C) cannot end its pool, and idle workers
-    would wait on its queue forever."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(PARENT_POLL)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
-
-
-def warm_up() -> None:
-    """Submitted once per pool process, so that it imports this module (and SCIP,
-    shapely) while level 1 runs, not when the first sub-domain waits; and the solve
-    module, which a second level-1 search runs from."""
-    import solver.pipeline.solve  # noqa: F401
 
 
 def overlaps_others(rooms: Mapping[str, Iterable[Box]], own: set[str],

@@ -1,0 +1,156 @@
+"""The answer of a single-floor solve: the layout with its polygons, openings and
+checked report; the report of why there is none; drafts of incumbents for progress."""
+
+from __future__ import annotations
+
+import shapely
+
+from models import (
+    ConstraintCheck,
+    Infeasibility,
+    Layout,
+    Problem,
+    Report,
+    RoomLayout,
+    Termination,
+)
+from solver.events import Phase
+from solver.geometry import (
+    Box,
+    Domain,
+    GeometryError,
+    domain_lines,
+    polygon_coords,
+    room_polygon,
+    snap_rooms,
+)
+from solver.miqp.scip_run import LevelStatus
+from solver.openings import add_openings
+from solver.pipeline.hierarchy import Piece, room_boxes
+from solver.pipeline.run import Run
+from solver.pipeline.storeys import draft_floor, floor_view
+from solver.soft import hard_part
+from solver.verify.checker import check_layout
+from solver.verify.conflicts import find_conflict
+
+#: Output coordinates closer than this (metres) are made equal: SCIP's feasibility
+#: tolerance is relative, so at 60 m two walls meant to meet may lie 6e-5 m apart.
+#: The same tolerance as the checker's.
+OUTPUT_SNAP = 1e-4
+
+
+def termination(run: Run) -> Termination:
+    if run.stopped():
+        return Termination.INTERRUPTED
+    if all(s is LevelStatus.OPTIMAL for s in run.statuses[-1:]) and all(
+        s in (LevelStatus.OPTIMAL, LevelStatus.INFEASIBLE) for s in run.statuses
+    ):
+        return Termination.OPTIMAL
+    if run.stalled and run.remaining() > 0:
+        return Termination.STALLED
+    return Termination.TIME_LIMIT
+
+
+def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> Layout:
+    problem = run.problem
+    # Walls SCIP placed 1e-7 apart become exactly shared, as a CAD user expects.
+    rooms = snap_rooms(room_boxes(pieces), *domain_lines(problem), OUTPUT_SNAP)
+    check = check_layout(problem, rooms)
+    polygons = {room.id: outline_of(rooms[room.id]) for room in problem.rooms}
+    out = [
+        RoomLayout(id=room.id, type=room.type, polygon=polygon_coords(polygons[room.id]),
+                   rectangles=[b.to_rect() for b in rooms[room.id]],
+                   area=round(float(polygons[room.id].area), 6))
+        for room in problem.rooms
+    ]
+    openings = add_openings(problem, polygons)
+    constraints, valid = check.constraints, check.valid
+    if problem.options.require_connected:
+        connected = openings.circulation is not None and openings.circulation.reachable
+        unreachable = openings.circulation.unreachable if openings.circulation else []
+        constraints = [*constraints, ConstraintCheck(
+            kind="circulation", rooms=unreachable, satisfied=connected,
+            detail="every room reachable from the entrance" if connected else
+            ("no entrance to start from" if openings.circulation is None else
+             f"unreachable: {', '.join(unreachable)}"),
+        )]
+        if not problem.options.strict:
+            # Soft, like the adjacencies require_connected added, which carry the shortfall.
+            constraints[-1] = constraints[-1].model_copy(update={"soft": True})
+        valid = valid and (connected or not problem.options.strict)
+    w = problem.weights
+    violations = [c for c in constraints if c.soft and not c.satisfied]
+    shortfall = sum(c.shortfall for c in violations)
+    objective = (w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
+                 + w.violation * shortfall)
+    report = Report(
+        coverage=check.coverage, uncovered_area=check.uncovered_area,
+        constraints=constraints, size_error=check.size_error,
+        objective=objective, levels=levels, solve_time=run.elapsed(),
+        termination=termination(run), valid=valid, circulation=openings.circulation,
+        relaxation=run.window, extra_rectangles=run.extra,
+        violations=violations, total_shortfall=round(shortfall, 6),
+    )
+    run.emit(Phase.DONE, objective=objective, detail=f"coverage {check.coverage:.1%}")
+    return Layout(name=problem.name, rooms=out, doors=openings.doors, windows=openings.windows,
+                  report=report)
+
+
+def outline_of(boxes: list[Box]) -> shapely.Polygon:
+    """A room's polygon. Rectangles that do not form one polygon are a failed
+    'connected' check in the report, never an exception: the largest part stands for
+    the room's outline, and `rectangles` still lists every piece."""
+    try:
+        return room_polygon(boxes)
+    except GeometryError:
+        union = shapely.union_all([b.to_polygon() for b in boxes])
+        parts = list(getattr(union, "geoms", [union]))
+        return shapely.orient_polygons(max(parts, key=lambda g: g.area))
+
+
+def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float | None,
+                 floor: str = "") -> Layout:
+    """An incumbent as a layout for progress displays: polygons and coverage, no check
+    (`termination: in_progress`, `valid: false` until the solve ends). In a building of
+    several storeys, `floor` names the floor the incumbent is of (`SolveEvent.floor`)."""
+    if problem.floors is not None and floor:
+        return draft_floor(problem, floor, draft_layout(floor_view(problem, floor), rooms,
+                                                        objective))
+    domain_free = problem.free_area()
+    out = []
+    for room in problem.rooms:
+        boxes = rooms.get(room.id, [])
+        if not boxes:
+            continue
+        polygon = outline_of(boxes)
+        area = shapely.union_all([b.to_polygon() for b in boxes]).area
+        out.append(RoomLayout(
+            id=room.id, type=room.type, polygon=polygon_coords(polygon),
+            rectangles=[b.to_rect() for b in boxes], area=round(float(area), 6),
+        ))
+    covered = shapely.union_all([b.to_polygon() for boxes in rooms.values() for b in boxes])
+    cover = float(domain_free.intersection(covered).area)
+    report = Report(coverage=cover / domain_free.area if domain_free.area else 1.0,
+                    uncovered_area=float(domain_free.area) - cover, objective=objective,
+                    termination=Termination.IN_PROGRESS, valid=False)
+    return Layout(name=problem.name, rooms=out, report=report)
+
+
+def explained(run: Run, domain: Domain, why: Infeasibility) -> Infeasibility:
+    """`why` with a small set of the user's constraints that cannot hold together,
+    searched in the time the solve has left (solver/verify/conflicts.py); soft constraints
+    never are among them."""
+    conflict = find_conflict(hard_part(run.asked or run.problem), domain,
+                             deadline=run.deadline, solved=hard_part(run.problem),
+                             should_stop=run.should_stop)
+    if conflict is not None:
+        run.emit(Phase.CONFLICT, detail=f"{len(conflict.constraints)} constraints cannot "
+                 f"hold together{'' if conflict.minimal else ' (perhaps not minimal)'}")
+    return why.model_copy(update={"conflict": conflict})
+
+
+def no_layout(run: Run, termination: Termination, why: Infeasibility) -> Layout:
+    report = Report(coverage=0.0, uncovered_area=0.0, termination=termination, valid=False,
+                    infeasibility=why, solve_time=run.elapsed())
+    run.emit(Phase.DONE, detail=why.reason)
+    return Layout(name=run.problem.name, report=report)

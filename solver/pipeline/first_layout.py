@@ -1,0 +1,319 @@
+"""Level 1 (Sec. 5.4): the first layout, by slicing, batches or the size-window
+schedule, with extra rectangles when one per room cannot do; soft constraints priced
+when nothing meets them all; a second search under another seed when a pool is there."""
+
+from __future__ import annotations
+
+import random
+import time
+from concurrent.futures import Future, wait
+
+from models import ExtraRectangles, Infeasibility, Layout, Problem, Termination
+from solver.events import Phase
+from solver.geometry import Box, Domain, make_domain
+from solver.heuristics.construct import construct
+from solver.heuristics.level_one import (
+    FIRST_BAND,
+    demand_order,
+    level_one_spec,
+    target_bands,
+    windows_to_try,
+    wings_wanted,
+)
+from solver.heuristics.slicing import slicing_applies, slicing_has_demands, slicing_layout
+from solver.miqp.formulation import active_families, build_level, e_band_shortfall
+from solver.miqp.scip_run import LevelResult, LevelStatus
+from solver.pipeline.assemble import explained, no_layout
+from solver.pipeline.hierarchy import Piece, absorbed, room_boxes
+from solver.pipeline.improve import improve_level_one
+from solver.pipeline.run import Run, covers, layout_objective
+from solver.pipeline.subdomains import (
+    LATE_SECONDS,
+    LevelOneOutcome,
+    LevelOneTask,
+    SubdomainExecutor,
+)
+from solver.soft import has_soft
+from solver.verify.precheck import find_impossibilities
+
+#: The second level-1 search of a portfolio runs under the seed plus this.
+SECOND_SEED_STEP = 1_000_003
+
+
+#: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
+ATTEMPT_SHARE = 0.5
+
+
+#: Above this many rooms the first layout is built in batches (solver/heuristics/construct.py):
+#: one feasibility MILP of all rooms rarely finds anything in time.
+CONSTRUCT_ABOVE = 20
+
+
+#: Share of level 1's time a row plan honouring adjacency and boundary demands may take
+#: (solver/heuristics/row_search.py): found in tens of milliseconds when rows can hold them.
+SLICE_DEMANDS_SHARE = 0.06
+
+
+#: With soft constraints, the share of level 1's time the search for a layout meeting
+#: every constraint may use before the soft model takes over.
+STRICT_FIRST_SHARE = 0.5
+
+
+def first_level(
+    run: Run, domain: Domain, deadline: float
+) -> tuple[list[Piece] | None, Layout | None]:
+    """Level 1 until `deadline`: the pieces of the first layout, improved, or the
+    report of why there is none."""
+    problem = run.problem
+    if not has_soft(problem):
+        return _level_one(run, domain, deadline)
+    # Issue 8: a layout meeting every constraint, soft ones too, is looked for first
+    # (no price per metre makes a violating layout reliably lose to it); the soft
+    # model takes over when there is none, or none found in its share of the time.
+    pieces, failure = None, None
+    if not find_impossibilities(problem, domain, ignore_soft=False):
+        pieces, failure = _level_one(
+            run, domain, deadline, explain=False,
+            first_by=run.started + (deadline - run.started) * STRICT_FIRST_SHARE)
+    if pieces is None and not run.stopped():
+        pieces, failure = _soft_level_one(run, domain, deadline)
+    return pieces, failure
+
+
+def second_start(
+    problem: Problem, subdomains: SubdomainExecutor | None, deadline: float
+) -> Future[LevelOneOutcome] | None:
+    """With an executor of two slots or more, a second level-1 search under another
+    seed, alongside this one (`level_one_alone`): level 1's neighbourhood search is a
+    local search, and two independent ones end in a better layout more often than one
+    (measured in bench/NOTES.md). None when there is no such executor, or it runs
+    only sub-domains (a remote one)."""
+    if subdomains is None or subdomains.slots < 2:
+        return None
+    seed = (problem.options.seed + SECOND_SEED_STEP) % 2**31
+    task = LevelOneTask(problem.with_options(seed=seed),
+                        deadline=time.time() + (deadline - time.monotonic()))
+    try:
+        return subdomains.executor.submit(level_one_alone, task)
+    except (ValueError, RuntimeError):  # an executor for sub-domains only, or shut down
+        return None
+
+
+def level_one_alone(task: LevelOneTask) -> LevelOneOutcome:
+    """Level 1 of `task.problem` (its demands already added) in whatever process the
+    executor uses, without events or stop flag: it ends by `task.deadline` (epoch)."""
+    started = time.monotonic()
+    deadline = started + (task.deadline - time.time())
+    run = Run(task.problem, deadline, started, None, None)
+    domain = make_domain(task.problem)
+    pieces, _ = first_level(run, domain, deadline)
+    return LevelOneOutcome(pieces, run.wings, run.extra, run.window, run.soft,
+                           run.relaxations)
+
+
+def better_start(
+    run: Run, domain: Domain, pieces: list[Piece] | None,
+    second: Future[LevelOneOutcome], deadline: float,
+) -> list[Piece] | None:
+    """This level 1's pieces, or the second search's when they are better: a layout
+    meeting every constraint before one pricing soft ones, then one meeting the
+    coverage goal (gaps absorbed), then the lower Eq. 12. The second search is waited
+    for until `deadline`, and a little after."""
+    while not second.done() and not run.stopped() and (
+            time.monotonic() < deadline + LATE_SECONDS):
+        wait([second], timeout=0.05)
+    try:
+        other = second.result(timeout=0)
+    except Exception:  # late, stopped, lost or failed: it costs its chance, not the layout
+        second.cancel()
+        return pieces
+    if other.pieces is None or run.stopped():
+        return pieces
+
+    def rank(candidate: list[Piece], soft: bool) -> tuple[bool, bool, float]:
+        rooms = absorbed(run.problem, domain, room_boxes(candidate))
+        return (soft, not covers(domain, rooms),
+                layout_objective(run.problem, domain, rooms, soft=soft))
+
+    if pieces is not None and rank(pieces, run.soft) <= rank(other.pieces, other.soft):
+        return pieces
+    run.wings, run.extra, run.window, run.soft = (other.wings, other.extra, other.window,
+                                                  other.soft)
+    run.relaxations.append("a second level-1 search, under another seed, ended better")
+    run.emit(Phase.LEVEL, detail="level 1: the second search (another seed) ended better")
+    run.incumbent(domain, room_boxes(other.pieces))
+    return other.pieces
+
+
+def _level_one(
+    run: Run, domain: Domain, deadline: float, *, first_by: float | None = None,
+    explain: bool = True,
+) -> tuple[list[Piece] | None, Layout | None]:
+    """Sec. 5.4: find a first layout with size bounds at target +-10 %, widening by 10 %
+    until one is found (by `first_by`, else by `deadline`); then improve it under the
+    user's own bounds (Eq. 12) until `deadline`. Without `explain`, an infeasible
+    problem's answer has no conflict search."""
+    problem = run.problem
+    improve_by, deadline = deadline, first_by or deadline
+    first: LevelResult | None = None
+    proven_infeasible = False
+    large = len(problem.rooms) > CONSTRUCT_ABOVE
+    run.wings = wings_wanted(problem)
+    run.extra = [ExtraRectangles(room=room_id, rectangles=count + 1, reason="asked")
+                 for room_id, count in run.wings.items()]
+    # Keep time for extra rectangles when one rectangle per room is not enough.
+    may_widen = len(run.wings) < len(problem.rooms)
+    if slicing_applies(problem) and not run.wings:
+        # Rows always exist for sizes alone; with demands they may not, so the MIQP
+        # keeps most of the time.
+        share = SLICE_DEMANDS_SHARE if slicing_has_demands(problem) else 0.5
+        first = _slice(run, domain, time.monotonic() + (deadline - time.monotonic()) * share)
+    if large and first is None:
+        first = _construct(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
+    for window in [] if first is not None else windows_to_try(problem):
+        left = deadline - time.monotonic()
+        if left <= 0.05 or run.stopped():
+            break
+        spec = level_one_spec(problem, domain, window=window, wings=run.wings)
+        lm = build_level(spec, feasibility=True)
+        if window is None:  # no window held: the user's bounds, sizes pulled to the targets
+            e_band_shortfall(lm, target_bands(problem, domain, FIRST_BAND))
+        share = left * (ATTEMPT_SHARE if window is not None or may_widen else 1.0)
+        result = run.run(lm, share)
+        label = "user bounds" if window is None else f"target ±{window:.0%}"
+        run.relaxations.append(f"{label}: {result.status}")
+        run.emit(Phase.RELAXATION, detail=f"size bounds {label}: {result.status}")
+        if result.rects is not None:
+            first, run.window = result, window
+            break
+        proven_infeasible = window is None and result.status is LevelStatus.INFEASIBLE
+    if first is None and not proven_infeasible and not large:
+        first = _construct(run, domain, deadline - (deadline - time.monotonic()) * (
+            ATTEMPT_SHARE if may_widen else 0.0))
+    if first is None and may_widen:
+        first = _with_wings(run, domain, deadline, why=(
+            "one rectangle per room is infeasible (proved by SCIP)" if proven_infeasible
+            else "no one-rectangle-per-room layout was found in its share of the time"))
+        proven_infeasible = proven_infeasible and first is None
+    if first is None:
+        spec = level_one_spec(problem, domain, window=None, wings=run.wings)
+        if proven_infeasible:
+            why = Infeasibility(
+                reason="SCIP proved that no single-rectangle layout satisfies the constraints",
+                active_families=active_families(spec), relaxations_tried=run.relaxations)
+            if explain:
+                why = explained(run, domain, why)
+            return None, no_layout(run, Termination.INFEASIBLE, why)
+        if run.stopped():
+            termination = Termination.INTERRUPTED
+            reason = "stopped on request before any layout was found"
+        else:
+            termination = Termination.NO_SOLUTION
+            reason = "no layout was found within the time limit; feasibility is unknown"
+        return None, no_layout(run, termination, Infeasibility(
+            reason=reason, active_families=active_families(spec),
+            relaxations_tried=run.relaxations))
+    assert first.rects is not None
+    run.incumbent(domain, run.by_room(domain, first.rects))
+    boxes = improve_level_one(run, domain, first.rects, improve_by)
+    return run.pieces(domain, boxes), None
+
+
+def _soft_level_one(
+    run: Run, domain: Domain, deadline: float
+) -> tuple[list[Piece] | None, Layout | None]:
+    """Soft constraints (issue 8): no layout meeting every constraint was found, so the
+    soft ones get slacks priced per metre. The first layout minimises the total
+    violation alone (a MILP; above `CONSTRUCT_ABOVE` rooms built in batches); then
+    Eq. 12 plus that price is minimised as for any problem."""
+    problem = run.problem
+    run.soft = True
+    spec = level_one_spec(problem, domain, window=None, wings=run.wings, soft=True)
+    left = deadline - time.monotonic()
+    rects: dict[str, Box] | None = None
+    status = LevelStatus.NO_SOLUTION
+    if len(problem.rooms) > CONSTRUCT_ABOVE and not run.wings:
+        rects = construct(spec, deadline=time.monotonic() + left * ATTEMPT_SHARE,
+                          rng=random.Random(problem.options.seed),
+                          step=lambda model, limit: run.run(model, limit))
+    if rects is None and deadline - time.monotonic() > 0.05 and not run.stopped():
+        result = run.run(build_level(spec, feasibility=True),
+                         (deadline - time.monotonic()) * ATTEMPT_SHARE)
+        rects, status = result.rects, result.status
+    outcome = "found" if rects is not None else status.value
+    run.relaxations.append(f"user bounds, soft constraints priced: {outcome}")
+    run.emit(Phase.RELAXATION, detail=f"soft constraints priced: {outcome}")
+    if rects is None:
+        if status is LevelStatus.INFEASIBLE:
+            why = Infeasibility(
+                reason="SCIP proved that no single-rectangle layout satisfies the hard "
+                "constraints (inside, no overlap, obstacles and those not soft)",
+                active_families=active_families(spec), relaxations_tried=run.relaxations)
+            return None, no_layout(run, Termination.INFEASIBLE, explained(run, domain, why))
+        termination = Termination.INTERRUPTED if run.stopped() else Termination.NO_SOLUTION
+        return None, no_layout(run, termination, Infeasibility(
+            reason="stopped on request before any layout was found" if run.stopped() else
+            "no layout was found within the time limit; feasibility is unknown",
+            active_families=active_families(spec), relaxations_tried=run.relaxations))
+    run.incumbent(domain, run.by_room(domain, rects))
+    boxes = improve_level_one(run, domain, rects, deadline)
+    return run.pieces(domain, boxes), None
+
+
+def _with_wings(run: Run, domain: Domain, deadline: float, why: str) -> LevelResult | None:
+    """Issue 8: when one rectangle per room fails, let the rooms with the most demands
+    start as two rectangles (an L or T), one more room at each attempt, doubling."""
+    problem = run.problem
+    order = [r for r in demand_order(problem) if r not in run.wings]
+    count = 1
+    while order and not run.stopped():
+        left = deadline - time.monotonic()
+        if left <= 0.05:
+            return None
+        chosen = order[:count]
+        last = count >= len(order)
+        wings = run.wings | dict.fromkeys(chosen, 1)
+        spec = level_one_spec(problem, domain, window=None, wings=wings)
+        result = run.run(build_level(spec, feasibility=True),
+                         left if last else left * ATTEMPT_SHARE)
+        label = f"user bounds, {', '.join(chosen)} as two rectangles"
+        run.relaxations.append(f"{label}: {result.status}")
+        run.emit(Phase.RELAXATION, detail=f"size bounds {label}: {result.status}")
+        if result.rects is not None:
+            run.wings = wings
+            run.extra += [ExtraRectangles(room=r, rectangles=2, reason=why) for r in chosen]
+            return result
+        if last:
+            return None
+        count *= 2
+    return None
+
+
+def _slice(run: Run, domain: Domain, deadline: float) -> LevelResult | None:
+    """A first layout of rows of rooms filling the floor (solver/heuristics/slicing.py)."""
+    started = time.monotonic()
+    rects = slicing_layout(run.problem, domain, deadline=deadline,
+                           seed=run.problem.options.seed)
+    outcome = "found" if rects is not None else "nothing found"
+    run.relaxations.append(f"user bounds, sliced into rows: {outcome}")
+    run.emit(Phase.RELAXATION, detail=f"size bounds user bounds, sliced into rows: {outcome}")
+    if rects is None:
+        return None
+    return LevelResult(LevelStatus.FEASIBLE, rects, layout_objective(
+        run.problem, domain, {k: [b] for k, b in rects.items()}), None,
+        time.monotonic() - started)
+
+
+def _construct(run: Run, domain: Domain, deadline: float) -> LevelResult | None:
+    """A first layout built a batch of rooms at a time (solver/heuristics/construct.py)."""
+    if deadline - time.monotonic() <= 0.1 or run.stopped() or run.wings:
+        return None
+    spec = level_one_spec(run.problem, domain, window=None)
+    rects = construct(spec, deadline=deadline, rng=random.Random(run.problem.options.seed),
+                      step=lambda model, limit: run.run(model, limit))
+    outcome = "found" if rects is not None else "nothing found"
+    run.relaxations.append(f"user bounds, built in batches: {outcome}")
+    run.emit(Phase.RELAXATION, detail=f"size bounds user bounds, built in batches: {outcome}")
+    if rects is None:
+        return None
+    return LevelResult(LevelStatus.FEASIBLE, rects, None, None, 0.0)

@@ -1,0 +1,149 @@
+"""The hierarchy's refinement levels (Sec. 5.3): sub-domains re-solved level by
+level, one after the other or, given an executor, the independent ones at once."""
+
+from __future__ import annotations
+
+import random
+import time
+from concurrent.futures import FIRST_COMPLETED, Future, wait
+
+from solver.events import Phase
+from solver.geometry import Domain
+from solver.miqp.formulation import build_level
+from solver.miqp.scip_run import complete_start
+from solver.pipeline.hierarchy import (
+    Piece,
+    RefinementPlan,
+    SubDomain,
+    apply_refinement,
+    plan_refinement,
+    room_boxes,
+    select_subdomains,
+)
+from solver.pipeline.run import Run
+from solver.pipeline.subdomains import (
+    LATE_SECONDS,
+    SubdomainExecutor,
+    SubdomainOutcome,
+    SubdomainTask,
+    overlaps_others,
+    solve_subdomain,
+)
+
+#: Python time per room to plan one refinement sub-domain (measured: 0.16 s at 154).
+PLAN_SECONDS_PER_ROOM = 0.002
+
+
+def refine(
+    run: Run, domain: Domain, pieces: list[Piece],
+    subdomains: SubdomainExecutor | None = None,
+) -> tuple[list[Piece], int]:
+    """The hierarchy (Sec. 5.3): refine sub-domains level by level while time is left;
+    returns the pieces and the number of levels used."""
+    problem = run.problem
+    levels = 1
+    rng = random.Random(problem.options.seed)
+    # Planning a sub-domain costs Python time in proportion to the rooms: do not
+    # start one that cannot finish.
+    overhead = 0.05 + PLAN_SECONDS_PER_ROOM * len(problem.rooms)
+    for level in range(2, problem.options.max_levels + 1):
+        if run.remaining() <= overhead or run.stopped():
+            break
+        subs = select_subdomains(problem, domain, pieces)
+        if not subs:
+            break
+        run.level = levels = level
+        run.emit(Phase.LEVEL, subdomains=len(subs),
+                 detail=f"level {level}: {len(subs)} sub-domain(s)")
+        levels_left = problem.options.max_levels - level + 1
+        if subdomains is not None and len(subs) > 1:
+            level_seconds = run.remaining() / levels_left
+            for batch in _disjoint_batches(subs):
+                if run.remaining() <= overhead or run.stopped():
+                    break
+                # Planned from the layout as the previous batch left it.
+                plans = [(i, plan_refinement(problem, domain, pieces, sub, level=level,
+                                             index=i, rng=rng)) for i, sub in batch]
+                seconds = min(level_seconds * len(batch) / len(subs), run.remaining())
+                pieces = _refine_at_once(run, domain, pieces, plans, len(subs), seconds,
+                                         subdomains)
+            continue
+        for i, sub in enumerate(subs):
+            if run.remaining() <= overhead or run.stopped():
+                break
+            budget = run.remaining() / levels_left / (len(subs) - i)
+            plan = plan_refinement(problem, domain, pieces, sub, level=level, index=i, rng=rng)
+            lm = build_level(plan.spec)
+            start = complete_start(lm, plan.start, time_limit=budget / 4)
+            if start.values is None:
+                run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=len(subs),
+                         detail=f"start not feasible: {start.status}")
+                continue
+            result = run.run(lm, budget - start.seconds)
+            if result.rects is not None:
+                pieces = apply_refinement(pieces, plan, result.rects)
+                run.incumbent(domain, room_boxes(pieces), sub=i + 1, subs=len(subs))
+            run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=len(subs),
+                     objective=result.objective,
+                     detail=f"rooms {', '.join(sorted(sub.rooms))}: {result.status}")
+    return pieces, levels
+
+
+def _disjoint_batches(subs: list[SubDomain]) -> list[list[tuple[int, SubDomain]]]:
+    """Consecutive runs of sub-domains sharing no room: those are independent problems.
+    (Selections too large to merge may share rooms; each such one starts a new batch.)"""
+    batches: list[list[tuple[int, SubDomain]]] = []
+    taken: set[str] = set()
+    for i, sub in enumerate(subs):
+        if not batches or taken & sub.rooms:
+            batches.append([])
+            taken = set()
+        batches[-1].append((i, sub))
+        taken |= sub.rooms
+    return batches
+
+
+def _refine_at_once(
+    run: Run, domain: Domain, pieces: list[Piece], plans: list[tuple[int, RefinementPlan]],
+    total: int, seconds: float, subdomains: SubdomainExecutor,
+) -> list[Piece]:
+    """Independent sub-domains (`plans`, by their index among the level's `total`)
+    solved at the same time within `seconds`, in waves of the executor's slots; results
+    applied in order, unless one overlaps rooms placed by an earlier one. A stop
+    returns with what has finished."""
+    budget = subdomains.budget(seconds, len(plans))
+    deadline = time.time() + seconds
+    seed = run.problem.options.seed
+    futures: dict[Future[SubdomainOutcome], int] = {
+        subdomains.executor.submit(
+            solve_subdomain, SubdomainTask(plan.spec, plan.start, budget, deadline, seed)): i
+        for i, plan in plans}
+    outcomes: dict[int, SubdomainOutcome] = {}
+    pending = set(futures)
+    while pending and not run.stopped() and time.time() < deadline + LATE_SECONDS:
+        done, pending = wait(pending, timeout=0.1, return_when=FIRST_COMPLETED)
+        for future in done:
+            try:
+                outcomes[futures[future]] = future.result()
+            except Exception as err:  # a lost task costs its sub-domain, not the layout
+                outcomes[futures[future]] = SubdomainOutcome(f"failed: {err}", None, None, 0)
+    for future in pending:
+        future.cancel()
+    n = total
+    for i, plan in plans:
+        outcome = outcomes.get(i)
+        if outcome is None:
+            run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=n, detail="stopped")
+            continue
+        rooms = {h.room for h in plan.pieces.values()}
+        if outcome.rects is not None and overlaps_others(
+                room_boxes(pieces), rooms, outcome.rects.values()):
+            outcome = SubdomainOutcome("dropped: overlaps a neighbouring sub-domain",
+                                       None, outcome.objective, outcome.seconds)
+        if outcome.rects is not None:
+            pieces = apply_refinement(pieces, plan, outcome.rects)
+            run.incumbent(domain, room_boxes(pieces), sub=i + 1, subs=n)
+        run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=n, objective=outcome.objective,
+                 detail=f"rooms {', '.join(sorted(rooms))}: {outcome.status} "
+                        f"in {outcome.seconds:.2f} s")
+    return pieces

@@ -1,0 +1,272 @@
+"""Large layouts, the whole (paper Sec. 5.3, end; Fig. 8): the region layout, the aisles, one
+ordinary problem per region part, and the merge with its doors and check."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import shapely
+from shapely.geometry import Polygon
+
+from models import (
+    Aisle,
+    ConstraintCheck,
+    Layout,
+    Problem,
+    Region,
+    Report,
+    RoomLayout,
+    Termination,
+)
+from solver.budget import default_time_limit
+from solver.events import EventSink, Phase, Solve, SolveEvent
+from solver.geometry import (
+    Box,
+    make_domain,
+    polygon_coords,
+    rectangles_of,
+    room_polygon,
+)
+from solver.heuristics.slicing import slicing_has_demands
+from solver.openings import (
+    place_windows,
+    requested_doors,
+)
+from solver.pipeline.regions.aisles import AisleNetwork, aisle_network, aisle_pieces
+from solver.pipeline.regions.bands import band_regions
+from solver.pipeline.regions.doors import aisle_doors, entrance_door, through_doors, walk_aisles
+from solver.pipeline.regions.partition import partition, region_problem, rooms_only
+from solver.pipeline.regions.parts import points_kept, region_jobs, room_problem
+from solver.verify.checker import SOFT_KINDS, check_aisles, check_layout
+from solver.verify.precheck import find_impossibilities
+
+#: Share of the time limit the region layout may use ...
+REGION_SHARE = 0.2
+
+#: ... and at most this many seconds per region: slicing lays the regions out at once
+#: and the search after it rarely improves on that (measured: 0 of 8 steps on office-154).
+REGION_SECONDS_PER_REGION = 0.25
+
+#: The least time (s) a room sub-problem is given ...
+MIN_PART_SECONDS = 0.15
+
+#: ... and, when its rooms ask for sizes and guide points only, at most this many
+#: seconds per room on top: slicing lays a part's rows out in a fraction of a second,
+#: and the search after it found nothing better on office-154 or mall-140.
+PART_SECONDS_PER_ROOM = 0.01
+
+#: Time kept per room for merging, doors and the check.
+FINISH_SECONDS_PER_ROOM = 0.01
+
+#: What a room sub-problem gives up, in turn, when it finds no layout (model fields
+#: set to None; `positions` and `boundary` become empty).
+RELAXATIONS: tuple[tuple[str, ...], ...] = (("aspect_ratio",), ("min_size",))
+
+
+
+@dataclass
+class _Progress:
+    """Events of the inner solves passed on, named after the stage."""
+
+    on_event: EventSink | None
+    started: float
+    placed: dict[str, list[Box]] = field(default_factory=dict)
+
+    def sink(self, stage: str, *, incumbents: bool) -> EventSink | None:
+        if self.on_event is None:
+            return None
+        def forward(event: object) -> None:
+            assert self.on_event is not None
+            rooms = getattr(event, "rooms", None)
+            if getattr(event, "phase", None) is Phase.INCUMBENT:
+                if not incumbents or rooms is None:
+                    return
+                rooms = self.placed | rooms
+            if getattr(event, "phase", None) is Phase.DONE:
+                return
+            self.on_event(_replace(event, elapsed=time.monotonic() - self.started,
+                                   detail=f"{stage}: {getattr(event, 'detail', '')}",
+                                   rooms=rooms))
+        return forward
+
+    def say(self, detail: str, *, subdomain: int = 0, subdomains: int = 0) -> None:
+        if self.on_event is None:
+            return
+        self.on_event(SolveEvent(phase=Phase.LEVEL, level=1,
+                                 elapsed=time.monotonic() - self.started, detail=detail,
+                                 subdomain=subdomain, subdomains=subdomains))
+
+
+def _replace(event: object, **changes: object) -> object:
+    import dataclasses
+
+    return dataclasses.replace(event, **changes)  # type: ignore[type-var]
+
+
+def solve_regions(
+    problem: Problem,
+    *,
+    solve: Solve,
+    on_event: EventSink | None = None,
+    should_stop: Callable[[], bool] | None = None,
+) -> Layout:
+    """Lay out `problem` through regions and aisles (module docstring); the region
+    layout and each part are laid out by `solve`."""
+    started = time.monotonic()
+    flat = rooms_only(problem)
+    if find_impossibilities(flat, make_domain(flat)):
+        return solve(flat, on_event=on_event, should_stop=should_stop)
+    limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
+    deadline = started + limit - min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
+    progress = _Progress(on_event, started)
+    bands = band_regions(problem) if problem.regions is None else None
+    terminations: list[Termination] = []
+    levels = 1
+    if bands is not None:
+        # An automatic partition: bars of rooms along aisles, planned.
+        shapes: dict[str, Polygon] = dict(bands)
+        given: Sequence[Region] = ()
+        progress.say(f"regions: {len(shapes)} bars of rooms along aisles")
+    else:
+        given = partition(problem)
+        progress.say(f"regions: {len(given)} regions of "
+                     f"{', '.join(str(len(g.rooms)) for g in given)} rooms")
+        level_one = region_problem(problem, given, max(1.0, min(
+            limit * REGION_SHARE, REGION_SECONDS_PER_REGION * len(given))))
+        laid = solve(level_one, on_event=progress.sink("regions", incumbents=False),
+                     should_stop=should_stop)
+        if not laid.rooms:
+            if problem.regions is None and not (should_stop and should_stop()):
+                # An automatic partition is only a means: solve flat instead.
+                progress.say("regions: no region layout, solving without regions")
+                return solve(flat.with_options(time_limit=max(1.0, deadline - time.monotonic())),
+                             on_event=on_event, should_stop=should_stop)
+            report = laid.report.model_copy(
+                update={"solve_time": time.monotonic() - started})
+            return Layout(name=problem.name, report=report)
+        shapes = {r.id: Polygon(r.polygon) for r in laid.rooms}
+        terminations.append(laid.report.termination)
+        levels = laid.report.levels
+    keep = points_kept(problem, given, shapes)
+    network = aisle_network(problem.free_area(), problem.outline(), shapes,
+                            problem.aisle_width, entrance=problem.entrance, keep=keep)
+    progress.say(f"aisles: {len(network.pieces)} aisle(s), "
+                 f"{network.union.area:.1f} m²")
+    jobs = region_jobs(problem, list(shapes), given, network)
+    placed: dict[str, list[Box]] = {}
+    owner: dict[str, str] = {}
+    left_rooms = len(problem.rooms)
+    for k, (region_id, part, rooms) in enumerate(jobs):
+        if should_stop is not None and should_stop():
+            break
+        share = max(MIN_PART_SECONDS, (deadline - time.monotonic()) * len(rooms) / left_rooms)
+        left_rooms -= len(rooms)
+        stage = f"region {region_id} {k + 1}/{len(jobs)}"
+        progress.say(stage, subdomain=k + 1, subdomains=len(jobs))
+        sub = room_problem(problem, part, rooms, share)
+        if not slicing_has_demands(sub):
+            # Sizes alone: slicing lays the rows out at once and the search after it
+            # does not pay for its time (measured: no step improved on office-154).
+            sub = sub.with_options(time_limit=min(
+                share, MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms)))
+        inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
+                      should_stop=should_stop)
+        longer = max(share, (deadline - time.monotonic()) * len(rooms)
+                     / (left_rooms + len(rooms)))
+        if (not inner.rooms and inner.report.termination is Termination.NO_SOLUTION
+                and longer > sub.options.time_limit
+                and not (should_stop is not None and should_stop())):
+            # The time ran out, not the constraints (a loaded machine, a part slicing
+            # cannot lay out): the part's whole share before anything is given up.
+            progress.say(f"{stage}: no layout yet, retrying with {longer:.1f} s")
+            sub = sub.with_options(time_limit=longer)
+            inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
+                          should_stop=should_stop)
+        for relax in RELAXATIONS:
+            if inner.rooms or (should_stop is not None and should_stop()):
+                break
+            # A part the region layout made awkward: keep the rooms, give up what
+            # cannot hold there; the final check reports it against the user's problem.
+            progress.say(f"{stage}: no layout, retrying without {', '.join(relax)}")
+            sub = sub.model_copy(update={"rooms": [
+                r.model_copy(update=dict.fromkeys(relax)) for r in sub.rooms]})
+            sub = sub.with_options(time_limit=max(MIN_PART_SECONDS, share / 2))
+            inner = solve(sub, should_stop=should_stop)
+        terminations.append(inner.report.termination)
+        levels = max(levels, inner.report.levels)
+        for room in inner.rooms:
+            placed[room.id] = [Box.of(rect) for rect in room.rectangles]
+            owner[room.id] = region_id
+        progress.placed = dict(placed)
+    stopped = should_stop is not None and should_stop()
+    return _merge(problem, list(shapes), network, placed, owner,
+                  Termination.of_parts(terminations, interrupted=stopped), levels, started,
+                  progress)
+
+
+def _merge(problem: Problem, region_ids: Sequence[str], network: AisleNetwork,
+           placed: Mapping[str, list[Box]], owner: Mapping[str, str],
+           termination: Termination, levels: int, started: float,
+           progress: _Progress) -> Layout:
+    """One layout of every room and aisle, with doors, windows and the checks."""
+    flat = rooms_only(problem)
+    network = _with_leftovers(problem, network, placed)
+    aisles = [Aisle(id=f"aisle-{k + 1}", polygon=polygon_coords(p.polygon),
+                    rectangles=[b.to_rect() for b in rectangles_of(p.polygon)],
+                    area=round(float(p.polygon.area), 6), width=problem.aisle_width,
+                    regions=list(p.regions))
+              for k, p in enumerate(network.pieces)]
+    aisle_shapes = {a.id: p.polygon for a, p in zip(aisles, network.pieces, strict=True)}
+    check = check_layout(flat, placed, aisles=list(aisle_shapes.values()))
+    polygons = {r.id: room_polygon(placed[r.id]) for r in problem.rooms if r.id in placed}
+    members = {g: [r for r in placed if owner.get(r) == g] for g in region_ids}
+    aisle_checks = check_aisles(problem, polygons, aisle_shapes, members)
+    doors = requested_doors(flat, polygons)
+    doors += aisle_doors(problem, polygons, aisle_shapes)
+    entry = entrance_door(problem, polygons, aisle_shapes)
+    if entry is not None:
+        doors.append(entry)
+    doors += through_doors(problem, polygons, aisle_shapes, doors)
+    windows = place_windows(flat, polygons, doors)
+    circulation = walk_aisles(problem, doors, aisle_shapes)
+    access = [r.id for r in problem.rooms if r.id in polygons and not any(
+        d.between == (a, r.id) for d in doors for a in aisle_shapes)]
+    constraints = [*check.constraints, *aisle_checks, ConstraintCheck(
+        kind="aisle_access", rooms=access, satisfied=not access,
+        detail="every room has a door onto an aisle" if not access else
+        f"{len(access)} room(s) reached through a neighbour, not from an aisle")]
+    valid = all(c.satisfied for c in constraints if c.kind not in SOFT_KINDS)
+    w = problem.weights
+    objective = w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
+    rooms = [RoomLayout(id=r.id, type=r.type, polygon=polygon_coords(polygons[r.id]),
+                        rectangles=[b.to_rect() for b in placed[r.id]],
+                        area=round(float(polygons[r.id].area), 6), region=owner.get(r.id))
+             for r in problem.rooms if r.id in polygons]
+    report = Report(coverage=check.coverage, uncovered_area=check.uncovered_area,
+                    constraints=constraints, size_error=check.size_error, objective=objective,
+                    levels=levels, solve_time=time.monotonic() - started,
+                    termination=termination, valid=valid, circulation=circulation)
+    if progress.on_event is not None:
+        progress.on_event(SolveEvent(phase=Phase.DONE, level=levels,
+                                     elapsed=time.monotonic() - started, objective=objective,
+                                     detail=f"coverage {check.coverage:.1%} (aisles included)"))
+    return Layout(name=problem.name, rooms=rooms, doors=doors, windows=windows, aisles=aisles,
+                  report=report)
+
+
+def _with_leftovers(problem: Problem, network: AisleNetwork,
+                    placed: Mapping[str, list[Box]]) -> AisleNetwork:
+    """Floor a region's rooms left uncovered where it opens onto an aisle widens that
+    aisle (an alcove), rather than staying a gap in the plan."""
+    rooms = shapely.union_all([b.to_polygon() for boxes in placed.values() for b in boxes])
+    current = network.union
+    left = problem.free_area().difference(rooms).difference(current)
+    extra = [p for p in getattr(left, "geoms", [left]) if isinstance(p, Polygon)
+             and p.area > 1e-3 and p.boundary.intersection(current.boundary).length > 0.1]
+    if not extra:
+        return network
+    grown = aisle_pieces([*(p.polygon for p in network.pieces), *extra], problem.free_area(),
+                         {}, keep_regions=[p.regions for p in network.pieces])
+    return AisleNetwork(grown, network.parts)

@@ -1,0 +1,187 @@
+"""One solve's book-keeping (`Run`: clock, stop flag, statuses, events, the best
+covering incumbent) and Eq. 12 on a layout, shared by every step of the pipeline."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import shapely
+
+from models import ExtraRectangles, Problem
+from solver.events import EventSink, Phase, SolveEvent
+from solver.geometry import Box, Domain, bounding_box, edges_named, on_edge, unwrapped
+from solver.heuristics.level_one import wing_names
+from solver.heuristics.neighbourhood import covered_area
+from solver.miqp.formulation import LevelModel
+from solver.miqp.scip_run import Incumbent, LevelResult, LevelStatus, run_level
+from solver.pipeline.hierarchy import Piece, absorbed, room_boxes
+from solver.soft import room_soft
+from solver.verify.checker import COVERAGE_GOAL, check_layout
+
+#: Separates a room's id from the number of a rectangle around an obstacle it wraps.
+WRAP_MARK = "~around"
+
+
+#: Share of the floor a layout must cover beyond the checker's goal to count as
+#: covering while solving.
+COVER_MARGIN = 5e-4
+
+
+@dataclass
+class Run:
+    """Book-keeping of one solve: clock, stop flag, status and events."""
+
+    problem: Problem
+    deadline: float
+    started: float
+    on_event: EventSink | None
+    should_stop: Callable[[], bool] | None
+    statuses: list[LevelStatus] = field(default_factory=list)
+    relaxations: list[str] = field(default_factory=list)
+    #: The size window of the first layout (None: the user's own bounds).
+    window: float | None = None
+    level: int = 1
+    #: The level-1 search ended early, fully covering and no longer improving.
+    stalled: bool = False
+    #: The problem as the user sent it, before require_connected added to it.
+    asked: Problem | None = None
+    #: Extra level-1 rectangles per room (issue 8), and the report's account of them.
+    wings: dict[str, int] = field(default_factory=dict)
+    extra: list[ExtraRectangles] = field(default_factory=list)
+    #: The layout comes from the soft model: soft constraints carry priced slacks.
+    soft: bool = False
+    #: The incumbent of lowest Eq. 12 meeting the coverage goal (gaps absorbed).
+    best: tuple[float, dict[str, list[Box]]] | None = None
+
+    def room_of(self, rect: str) -> str:
+        """The room a level-1 rectangle belongs to."""
+        for room_id, count in self.wings.items():
+            if rect in wing_names(room_id, count):
+                return room_id
+        return rect
+
+    def by_room(self, domain: Domain, rects: dict[str, Box]) -> dict[str, list[Box]]:
+        """Level-1 rectangles as each room's floor: a rectangle enclosing an obstacle
+        is the rectangles around it."""
+        rooms: dict[str, list[Box]] = {}
+        for name, b in rects.items():
+            rooms.setdefault(self.room_of(name), []).extend(unwrapped(b, domain.notches))
+        return rooms
+
+    def pieces(self, domain: Domain, rects: dict[str, Box]) -> list[Piece]:
+        """Level-1 rectangles as the hierarchy's pieces. Of a rectangle wrapped around an
+        obstacle, the part holding the room's guide points on one of its walls answers
+        for the room (the largest such), the others for nothing alone."""
+        pieces = []
+        for name, b in rects.items():
+            room = self.problem.room(self.room_of(name))
+            parts = unwrapped(b, domain.notches)
+            edges = edges_named(self.problem, domain.edges, room.boundary)
+            main = max(parts, key=lambda p: (
+                all(p.contains_point(*q) for q in room.positions),
+                not edges or any(on_edge(p, e) for e in edges), p.area))
+            pieces.append(_piece(self.problem, domain, room.id, name, main))
+            pieces += [Piece(f"{name}{WRAP_MARK}{k}", room.id, p)
+                       for k, p in enumerate((p for p in parts if p != main), 1)]
+        return pieces
+
+    def remaining(self) -> float:
+        return self.deadline - time.monotonic()
+
+    def elapsed(self) -> float:
+        return time.monotonic() - self.started
+
+    def stopped(self) -> bool:
+        return self.should_stop is not None and self.should_stop()
+
+    def emit(self, phase: Phase, **kw: object) -> None:
+        if self.on_event is not None:
+            self.on_event(SolveEvent(phase=phase, level=self.level, elapsed=self.elapsed(),
+                                     **kw))  # type: ignore[arg-type]
+
+    def incumbent(self, domain: Domain, rooms: dict[str, list[Box]],
+                  dual_bound: float | None = None, sub: int = 0, subs: int = 0) -> None:
+        """Keep the layout if it is the best covering one so far, and announce it with
+        its Eq. 12 value, as the report counts it: gaps absorbed, as `solve` would
+        return it if stopped now."""
+        rooms = absorbed(self.problem, domain, rooms)
+        objective = layout_objective(self.problem, domain, rooms, soft=self.soft)
+        if covers(domain, rooms) and (self.best is None or objective < self.best[0]):
+            self.best = (objective, rooms)
+        if self.on_event is not None:
+            self.emit(Phase.INCUMBENT, subdomain=sub, subdomains=subs, rooms=rooms,
+                      objective=objective, dual_bound=dual_bound)
+
+    def better_of(self, domain: Domain, pieces: list[Piece]) -> list[Piece]:
+        """The final `pieces`, unless they miss the coverage goal where an earlier
+        incumbent met it, or an earlier covering one scores better: later steps trade
+        coverage against size error, and may lose the bet."""
+        if self.best is None:
+            return pieces
+        rooms = room_boxes(pieces)
+        objective = layout_objective(self.problem, domain, rooms, soft=self.soft)
+        if covers(domain, rooms) and objective <= self.best[0]:
+            return pieces
+        return [Piece(f"{room_id}#{k}", room_id, b)
+                for room_id, boxes in self.best[1].items() for k, b in enumerate(boxes)]
+
+    def run(self, lm: LevelModel, limit: float, *,
+            on_incumbent: Callable[[Incumbent], None] | None = None) -> LevelResult:
+        result = run_level(lm, time_limit=limit, seed=self.problem.options.seed,
+                           on_incumbent=on_incumbent, should_stop=self.should_stop)
+        self.statuses.append(result.status)
+        return result
+
+
+def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box]], *,
+                     soft: bool = False) -> float:
+    """Eq. 12 on a layout: lambda_cover * uncovered area + lambda_size * E_size of the
+    rooms with a target, each room measured by its bounding box; with `soft` (a layout
+    of the soft model, the only kind that may violate anything) plus the price of the
+    soft constraints' shortfalls."""
+    union = shapely.union_all([b.to_polygon() for boxes in rooms.values() for b in boxes])
+    uncovered = domain.area - float(domain.free.intersection(union).area)
+    size = 0.0
+    for room in problem.rooms:
+        if room.target_size is not None and room.id in rooms:
+            b = bounding_box(rooms[room.id])
+            size += (b.width - room.target_size[0]) ** 2 + (b.depth - room.target_size[1]) ** 2
+    penalty = 0.0
+    if soft and all(r.id in rooms for r in problem.rooms):
+        # The price of soft violations, as the report counts it.
+        checks = check_layout(problem, rooms).constraints
+        penalty = problem.weights.violation * sum(
+            c.shortfall for c in checks if c.soft and not c.satisfied)
+    return problem.weights.cover * uncovered + problem.weights.size * size + penalty
+
+
+def covered(domain: Domain, rooms: dict[str, list[Box]]) -> float:
+    boxes = {f"{k}#{i}": b for k, bs in rooms.items() for i, b in enumerate(bs)}
+    return covered_area(domain, boxes)
+
+
+def goal_area(domain: Domain) -> float:
+    """The floor the checker's coverage goal asks for, with a margin for the snapping of
+    the output walls."""
+    return (COVERAGE_GOAL + COVER_MARGIN) * domain.area
+
+
+def covers(domain: Domain, rooms: dict[str, list[Box]]) -> bool:
+    """Whether `rooms` meet the coverage goal (`goal_area`)."""
+    return covered(domain, rooms) >= goal_area(domain)
+
+
+def _piece(problem: Problem, domain: Domain, room_id: str, name: str, box: Box) -> Piece:
+    room = problem.room(room_id)
+    if name != room_id:
+        return Piece(name, room_id, box)  # an extra rectangle answers for nothing alone
+    # Only the candidate edges the room actually lies on carry over to refinement; a
+    # soft demand the room misses keeps them all, so that growing may come nearer.
+    named = edges_named(problem, domain.edges, room.boundary)
+    edges = tuple(e for e in named if on_edge(box, e))
+    soft = room_soft(problem, room)
+    if not edges and "boundary" in soft:
+        edges = tuple(named)
+    return Piece(room_id, room_id, box, tuple(room.positions), edges, soft)
