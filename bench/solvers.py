@@ -25,7 +25,8 @@ from solver.budget import default_time_limit
 from solver.events import Phase, SolveEvent
 from solver.geometry import Box, make_domain
 from solver.heuristics.level_one import level_one_spec
-from solver.miqp.formulation import LevelModel, build_level
+from solver.miqp.formulation import build_level
+from solver.miqp.model import LevelModel
 from solver.miqp.scip_run import MEMORY_LIMIT_MB
 from solver.pipeline.pool import subdomain_pool
 from solver.pipeline.subdomains import SubdomainExecutor

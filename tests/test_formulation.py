@@ -22,14 +22,7 @@ from pyscipopt import Expr
 from solver.geometry import Box, Edge, boundary_edges
 from solver.miqp.formulation import (
     FAMILIES,
-    ContactSpec,
-    EnvelopeSpec,
     Family,
-    LevelModel,
-    LevelSpec,
-    RectSpec,
-    Refine,
-    Split,
     build_level,
     c_adj,
     c_boundary,
@@ -41,7 +34,9 @@ from solver.miqp.formulation import (
     c_refine,
     c_size,
 )
+from solver.miqp.model import LevelModel
 from solver.miqp.scip_run import LevelResult, LevelStatus, run_level
+from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
 
 #: Every solve here is tiny; a generous cap that none should come near.
 TIME_LIMIT = 5.0

@@ -14,8 +14,9 @@ from models import Problem
 from solver import solve
 from solver.geometry import Box, make_domain
 from solver.heuristics.level_one import demand_order, level_one_spec, reach_wing
-from solver.miqp.formulation import build_level, level_objective
+from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import LevelStatus, run_level
+from solver.miqp.spec import level_objective
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

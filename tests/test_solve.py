@@ -18,7 +18,8 @@ from solver import solve
 from solver.events import Phase, SolveEvent
 from solver.geometry import Box, make_domain, shared_wall_length
 from solver.heuristics.level_one import FIRST_BAND, level_one_spec, target_bands
-from solver.miqp.formulation import build_level, e_band_shortfall
+from solver.miqp.formulation import build_level
+from solver.miqp.objective import e_band_shortfall
 from solver.miqp.scip_run import LevelStatus, run_level
 from solver.verify.checker import check_layout
 

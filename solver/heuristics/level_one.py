@@ -10,7 +10,7 @@ from shapely.geometry import Polygon
 
 from models import Problem, Room
 from solver.geometry import Box, Domain, edges_named, on_edge
-from solver.miqp.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec
+from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec
 from solver.soft import adjacency_soft, room_soft
 
 #: Sec. 5.4: with targets, start the size bounds at 90-110 % of the target ...

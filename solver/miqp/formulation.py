@@ -4,7 +4,7 @@ A `LevelSpec` describes what to place: variable rectangles (`RectSpec`) inside a
 region given as a bounding box minus constant `blocked` boxes. Level 1 has one
 rectangle per room; a refinement level has the two halves of each split room plus
 C_refine. Every constraint family is one function below, named after the paper's
-symbol and citing its equation; `FAMILIES` lists them once.
+symbol and citing its equation; `solver.families` lists them once.
 
 Big-M values are per axis (the region's width for x-disjunctions, its depth for y),
 the smallest that are valid, and the objective is minimised through one convex
@@ -14,189 +14,19 @@ epigraph per rectangle so SCIP can separate gradient cuts term by term.
 from __future__ import annotations
 
 import itertools
-import math
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from pyscipopt import Model, Variable, quicksum
 
-from solver.geometry import EPS, Box, Edge, Notch, bounding_box, encloses
+from solver.families import FAMILIES as REGISTERED
+from solver.geometry import EPS, Box, Edge, Notch
+from solver.miqp.model import LevelModel, RectVars, add_rect_vars
+from solver.miqp.objective import e_objective, e_violation
+from solver.miqp.spec import EnvelopeSpec, LevelSpec, RectSpec, free_rects
 from solver.soft import (
     SOFT_EDGE_CONTACT,
-    contact_shortfall,
-    edge_shortfall,
-    point_shortfall,
-    ratio_shortfall,
-    size_shortfall,
 )
-
-Split = Literal["vertical", "horizontal"]
-
-
-@dataclass(frozen=True)
-class Refine:
-    """C_refine (Eq. 13): this rectangle is half `child` (0 = left/bottom, 1 = right/top,
-    -1 = the whole parent, unsplit) of `parent`, split by a `direction` line, and may
-    grow outward by at most `delta`."""
-
-    parent: Box
-    direction: Split
-    child: int
-    delta: float
-
-
-@dataclass(frozen=True)
-class RectSpec:
-    """One variable rectangle of a level and the constraints that apply to it alone."""
-
-    name: str
-    room: str
-    min_size: tuple[float, float] = (0.0, 0.0)
-    max_size: tuple[float, float] = (math.inf, math.inf)
-    target: tuple[float, float] | None = None
-    aspect_ratio: tuple[float, float] | None = None
-    positions: tuple[tuple[float, float], ...] = ()
-    edges: tuple[Edge, ...] = ()
-    refine: Refine | None = None
-    #: A rectangle held at this box: a neighbour that a free rectangle must touch
-    #: (C_adj) but that is otherwise settled; it is also among the level's `blocked`.
-    fixed: Box | None = None
-    #: Soft constraint families of this rectangle (min_size, max_size, aspect_ratio,
-    #: positions, boundary): each may be violated at `LevelSpec.violation_weight` per
-    #: metre of slack.
-    soft: frozenset[str] = frozenset()
-    #: Hard lower bounds on width and depth under a soft minimum (or none): a room that
-    #: yields to its neighbours still stays a room.
-    floor: tuple[float, float] = (0.0, 0.0)
-    #: The rectangle may enclose one of the level's notches (`LevelSpec.notches`);
-    #: not for a room that must stay one rectangle (`max_rects: 1`).
-    may_wrap: bool = True
-
-
-@dataclass(frozen=True)
-class ContactSpec:
-    """C_adj (Eq. 10/11): some rectangle of `a` touches some rectangle of one of the
-    `partners` groups along at least `min_contact` metres."""
-
-    name: str
-    a: tuple[str, ...]
-    partners: tuple[tuple[str, ...], ...]
-    min_contact: float
-    #: The contact may fall short (and the walls stay apart) at a price per metre.
-    soft: bool = False
-
-    @property
-    def members(self) -> set[str]:
-        """Every rectangle the contact names."""
-        return set(self.a) | {n for group in self.partners for n in group}
-
-
-@dataclass(frozen=True)
-class EnvelopeSpec:
-    """Size and ratio bounds on the bounding box of a room made of several rectangles.
-
-    The rectangles grow from `previous` (their union's bounding box before this level),
-    so the true bounding box lies between `previous` and the envelope variables; the
-    bounds are imposed conservatively in that sandwich."""
-
-    room: str
-    rects: tuple[str, ...]
-    #: None at level 1, for a room given several rectangles from the start: the
-    #: envelope is then made exact (binaries pick the rectangle on each side).
-    previous: Box | None
-    max_size: tuple[float, float]
-    aspect_ratio: tuple[float, float] | None
-    #: Soft families among max_size and aspect_ratio (exact envelopes only).
-    soft: frozenset[str] = frozenset()
-
-
-@dataclass(frozen=True)
-class LevelSpec:
-    """Everything one MIQP needs."""
-
-    name: str
-    region: Box
-    blocked: tuple[Box, ...]
-    free_area: float
-    rects: tuple[RectSpec, ...]
-    contacts: tuple[ContactSpec, ...] = ()
-    envelopes: tuple[EnvelopeSpec, ...] = ()
-    cover_weight: float = 1.0
-    size_weight: float = 1.0
-    #: Weight of a linear growth term -(d* w + w* d), the tangent of w*d at the aimed
-    #: size: it pushes rooms to cover more along their own shape without touching
-    #: convexity (0 = Eq. 12 exactly).
-    growth_weight: float = 0.0
-    #: Price per metre of slack of a soft constraint (`Weights.violation`).
-    violation_weight: float = 0.0
-    #: Obstacles on the outline a rectangle may enclose (the room wraps around them);
-    #: not among `blocked`.
-    notches: tuple[Notch, ...] = ()
-
-
-def free_rects(spec: LevelSpec) -> list[RectSpec]:
-    """The rectangles the level places (all but the fixed ones)."""
-    return [r for r in spec.rects if r.fixed is None]
-
-
-@dataclass
-class RectVars:
-    x: Variable
-    y: Variable
-    w: Variable
-    d: Variable
-
-
-@dataclass
-class LevelModel:
-    """A built, unsolved SCIP model and its named variables."""
-
-    spec: LevelSpec
-    model: Model
-    rects: dict[str, RectVars]
-    families: list[str] = field(default_factory=list)
-    #: The slack variables of soft constraints, each priced in the objective.
-    slacks: list[Variable] = field(default_factory=list)
-    #: Binaries of rectangles enclosing a notch, with its area: the rectangle's area
-    #: counts that much less as covered floor.
-    enclosures: list[tuple[Variable, float]] = field(default_factory=list)
-    #: Event callbacks of the current solve; SCIP takes each handler once per model, so
-    #: the runner installs handlers once and swaps what they call.
-    hooks: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def big_m_x(self) -> float:
-        """The smallest valid M for x-disjunctions: the width spanned by the region and
-        any fixed rectangle (which may lie outside it)."""
-        fixed = [r.fixed for r in self.spec.rects if r.fixed is not None]
-        r = self.spec.region
-        return max([r.x1, *(b.x1 for b in fixed)]) - min([r.x0, *(b.x0 for b in fixed)])
-
-    @property
-    def big_m_y(self) -> float:
-        """As `big_m_x`, for y."""
-        fixed = [r.fixed for r in self.spec.rects if r.fixed is not None]
-        r = self.spec.region
-        return max([r.y1, *(b.y1 for b in fixed)]) - min([r.y0, *(b.y0 for b in fixed)])
-
-
-def add_rect_vars(m: Model, spec: LevelSpec) -> dict[str, RectVars]:
-    """Position and size variables, bounded only by the region's box."""
-    rects = {}
-    for r in spec.rects:
-        b = r.fixed
-        rects[r.name] = RectVars(
-            x=m.addVar(f"x[{r.name}]", lb=b.x0 if b else spec.region.x0,
-                       ub=b.x0 if b else spec.region.x1),
-            y=m.addVar(f"y[{r.name}]", lb=b.y0 if b else spec.region.y0,
-                       ub=b.y0 if b else spec.region.y1),
-            w=m.addVar(f"w[{r.name}]", lb=b.width if b else 0,
-                       ub=b.width if b else spec.region.width),
-            d=m.addVar(f"d[{r.name}]", lb=b.depth if b else 0,
-                       ub=b.depth if b else spec.region.depth),
-        )
-    return rects
 
 
 def c_size(lm: LevelModel) -> None:
@@ -548,73 +378,29 @@ def _exact_envelope(lm: LevelModel, e: EnvelopeSpec) -> None:
                             slack=slack)
 
 
-def e_objective(lm: LevelModel) -> None:
-    """Eq. 12: lambda_cover * E_cover (Eq. 3) + lambda_size * E_size (Eq. 6).
-
-    SCIP takes no quadratic objective, so each rectangle's term
-    lambda_s * ((w - w*)^2 + (d - d*)^2) - lambda_c * w * d is bounded by its own epigraph
-    variable. With lambda_s >= lambda_c / 2 each term is convex (Hessian
-    [[2 ls, -lc], [-lc, 2 ls]]), which SCIP detects. The constant Area(D) of E_cover is
-    the objective offset."""
-    m, spec = lm.model, lm.spec
-    ls, lc = spec.size_weight, spec.cover_weight
-    terms = []
-    for r in free_rects(spec):
-        v = lm.rects[r.name]
-        # The variables' own upper bounds: a soft maximum leaves them the region's.
-        w_hi, d_hi = v.w.getUbOriginal(), v.d.getUbOriginal()
-        tw, td = _aim(spec, r)
-        bonus = spec.growth_weight * (td * w_hi + tw * d_hi)
-        z = m.addVar(f"energy[{r.name}]", lb=-lc * w_hi * d_hi - bonus)
-        growth = spec.growth_weight * (td * v.w + tw * v.d)
-        m.addCons(
-            ls * ((v.w - tw) * (v.w - tw) + (v.d - td) * (v.d - td)) - lc * v.w * v.d - growth
-            <= z,
-            name=f"energy_epigraph[{r.name}]",
-        )
-        terms.append(z)
-    # A wrapped obstacle is inside the rectangle but no floor of the room's.
-    wrapped = quicksum(lc * area * wrap for wrap, area in lm.enclosures)
-    m.setObjective(quicksum(terms) + wrapped + e_violation(lm) + lc * spec.free_area,
-                   "minimize")
-
-
-def e_band_shortfall(
-    lm: LevelModel, bands: Mapping[str, tuple[tuple[float, float], tuple[float, float]]]
-) -> None:
-    """The objective of a first layout under the user's own bounds, when the schedule of
-    size windows around the targets (Sec. 5.4) found none: the metres by which the named
-    rectangles' widths and depths fall outside their (min, max) `bands`, summed, plus
-    the soft constraints' price. A linear stand-in for E_size (Eq. 6) that SCIP's MILP
-    heuristics handle as fast as a bare feasibility model. One room that no window can
-    hold (a hall that must reach both side walls) makes every window infeasible; without
-    this, every other room would then start anywhere within its bounds."""
-    m = lm.model
-    shortfalls = []
-    for r in free_rects(lm.spec):
-        if r.name not in bands:
-            continue
-        v, (lo, hi) = lm.rects[r.name], bands[r.name]
-        for axis, var, side in ((0, v.w, "w"), (1, v.d, "d")):
-            below = m.addVar(f"band_below[{r.name},{side}]", lb=0.0)
-            above = m.addVar(f"band_above[{r.name},{side}]", lb=0.0)
-            m.addCons(var + below >= lo[axis], name=f"band_min[{r.name},{side}]")
-            m.addCons(var - above <= hi[axis], name=f"band_max[{r.name},{side}]")
-            shortfalls += [below, above]
-    m.setObjective(quicksum(shortfalls) + e_violation(lm), "minimize")
-
-
-def e_violation(lm: LevelModel) -> Any:
-    """The price of the soft constraints' slacks: `violation_weight` per metre. Linear,
-    so Eq. 12 stays convex; the exact-penalty form makes every slack zero whenever the
-    rest of the objective gains less than the weight per metre of violation."""
-    return lm.spec.violation_weight * quicksum(lm.slacks)
-
-
 Family = Callable[[LevelModel], None]
-#: Every constraint family of a level, in the paper's order.
-FAMILIES: tuple[Family, ...] = (c_inside, c_overlap, c_size, c_ratio, c_pos, c_boundary, c_adj,
-                                c_refine, c_envelope)
+
+#: The builder of each constraint family of `solver.families`, by its symbol.
+BUILDERS: dict[str, Family] = {
+    "C_inside": c_inside, "C_overlap": c_overlap, "C_size": c_size, "C_ratio": c_ratio,
+    "C_pos": c_pos, "C_boundary": c_boundary, "C_adj": c_adj, "C_refine": c_refine,
+    "C_envelope": c_envelope,
+}
+#: Every constraint family of a level, in the paper's order (`solver.families`).
+FAMILIES: tuple[Family, ...] = tuple(BUILDERS[f.symbol] for f in REGISTERED)
+#: Whether a family constrains anything in a level, for reports; the first three
+#: always do.
+_IN_SPEC: dict[str, Callable[[LevelSpec], bool]] = {
+    "C_inside": lambda spec: True,
+    "C_overlap": lambda spec: True,
+    "C_size": lambda spec: True,
+    "C_ratio": lambda spec: any(r.aspect_ratio for r in spec.rects),
+    "C_pos": lambda spec: any(r.positions for r in spec.rects),
+    "C_boundary": lambda spec: any(r.edges for r in spec.rects),
+    "C_adj": lambda spec: bool(spec.contacts),
+    "C_refine": lambda spec: any(r.refine for r in spec.rects),
+    "C_envelope": lambda spec: bool(spec.envelopes),
+}
 
 
 def build_level(
@@ -639,20 +425,7 @@ def build_level(
 
 def active_families(spec: LevelSpec) -> list[str]:
     """Names of the constraint families that constrain anything in `spec`, for reports."""
-    names = ["C_inside", "C_overlap", "C_size"]
-    if any(r.aspect_ratio for r in spec.rects):
-        names.append("C_ratio")
-    if any(r.positions for r in spec.rects):
-        names.append("C_pos")
-    if any(r.edges for r in spec.rects):
-        names.append("C_boundary")
-    if spec.contacts:
-        names.append("C_adj")
-    if any(r.refine for r in spec.rects):
-        names.append("C_refine")
-    if spec.envelopes:
-        names.append("C_envelope")
-    return names
+    return [f.symbol for f in REGISTERED if _IN_SPEC[f.symbol](spec)]
 
 
 def _edge_big_m(region: Box, e: Edge) -> tuple[float, float]:
@@ -666,63 +439,6 @@ def _edge_big_m(region: Box, e: Edge) -> tuple[float, float]:
         along = max(region.y1, hi) - min(region.y0, lo)
         across = max(region.x1, e.line) - min(region.x0, e.line)
     return along, across
-
-
-def _aim(spec: LevelSpec, r: RectSpec) -> tuple[float, float]:
-    """The size a rectangle's E_size term pulls toward: its target, or without one the
-    middle of its size range, which keeps the objective convex (a bare -w*d term is
-    not) while E_cover still pulls the room larger."""
-    if r.target is not None:
-        return r.target
-    w_hi = min(r.max_size[0], spec.region.width)
-    d_hi = min(r.max_size[1], spec.region.depth)
-    return ((r.min_size[0] + w_hi) / 2, (r.min_size[1] + d_hi) / 2)
-
-
-def level_objective(spec: LevelSpec, boxes: dict[str, Box]) -> float:
-    """Eq. 12 as `e_objective` states it, evaluated on given rectangles."""
-    total = spec.cover_weight * spec.free_area
-    for r in free_rects(spec):
-        b, (tw, td) = boxes[r.name], _aim(spec, r)
-        total += spec.size_weight * ((b.width - tw) ** 2 + (b.depth - td) ** 2)
-        total -= spec.cover_weight * b.width * b.depth
-        total -= spec.growth_weight * (td * b.width + tw * b.depth)
-        total += spec.cover_weight * sum(n.obstacle.area for n in spec.notches
-                                         if encloses(b, n.obstacle))
-    return total + spec.violation_weight * spec_shortfall(spec, boxes)
-
-
-def spec_shortfall(spec: LevelSpec, boxes: dict[str, Box]) -> float:
-    """The total shortfall of the soft constraints of `spec` on given rectangles
-    (metres), as the slacks of the MIQP count it (solver/soft.py)."""
-    total = 0.0
-    for r in free_rects(spec):
-        if not r.soft:
-            continue
-        b = boxes[r.name]
-        size = (b.width, b.depth)
-        total += size_shortfall(size, r.min_size if "min_size" in r.soft else None,
-                                r.max_size if "max_size" in r.soft else None)
-        if r.aspect_ratio is not None and "aspect_ratio" in r.soft:
-            total += ratio_shortfall(size, r.aspect_ratio)
-        if "positions" in r.soft:
-            total += sum(point_shortfall([b], p) for p in r.positions)
-        if r.edges and "boundary" in r.soft:
-            total += edge_shortfall([b], r.edges, SOFT_EDGE_CONTACT)
-    for c in spec.contacts:
-        if c.soft:
-            total += contact_shortfall([boxes[n] for n in c.a],
-                                       [[boxes[n] for n in g] for g in c.partners],
-                                       c.min_contact)
-    for e in spec.envelopes:
-        if e.soft and e.previous is None:
-            b = bounding_box([boxes[n] for n in e.rects])
-            size = (b.width, b.depth)
-            if "max_size" in e.soft:
-                total += size_shortfall(size, None, e.max_size)
-            if e.aspect_ratio is not None and "aspect_ratio" in e.soft:
-                total += ratio_shortfall(size, e.aspect_ratio)
-    return total
 
 
 def _may_intersect(r: RectSpec, region: Box, b: Box) -> bool:

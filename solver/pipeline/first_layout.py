@@ -21,7 +21,8 @@ from solver.heuristics.level_one import (
     wings_wanted,
 )
 from solver.heuristics.slicing import slicing_applies, slicing_has_demands, slicing_layout
-from solver.miqp.formulation import active_families, build_level, e_band_shortfall
+from solver.miqp.formulation import active_families, build_level
+from solver.miqp.objective import e_band_shortfall
 from solver.miqp.scip_run import LevelResult, LevelStatus
 from solver.pipeline.assemble import explained, no_layout
 from solver.pipeline.hierarchy import Piece, absorbed, room_boxes

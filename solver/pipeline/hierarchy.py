@@ -22,7 +22,7 @@ from shapely.geometry.base import BaseGeometry
 
 from models import Problem
 from solver.geometry import EPS, Box, Domain, Edge, bounding_box, on_edge, rectangles_of
-from solver.miqp.formulation import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
+from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
 from solver.soft import room_soft
 
 #: Uncovered parts smaller than this (m²) are numerical dust, not gaps.

@@ -18,7 +18,8 @@ from solver.heuristics.neighbourhood import (
     covered_area,
     search_neighbourhoods,
 )
-from solver.miqp.formulation import LevelModel, build_level
+from solver.miqp.formulation import build_level
+from solver.miqp.model import LevelModel
 from solver.miqp.scip_run import Incumbent, complete_start
 from solver.pipeline.hierarchy import absorbed
 from solver.pipeline.run import Run, covered, goal_area

@@ -14,7 +14,7 @@ from solver.events import EventSink, Phase, SolveEvent
 from solver.geometry import Box, Domain, bounding_box, edges_named, on_edge, unwrapped
 from solver.heuristics.level_one import wing_names
 from solver.heuristics.neighbourhood import covered_area
-from solver.miqp.formulation import LevelModel
+from solver.miqp.model import LevelModel
 from solver.miqp.scip_run import Incumbent, LevelResult, LevelStatus, run_level
 from solver.pipeline.hierarchy import Piece, absorbed, room_boxes
 from solver.soft import room_soft

@@ -29,8 +29,9 @@ from dataclasses import dataclass
 
 from models import ExtraRectangles, Problem
 from solver.geometry import Box
-from solver.miqp.formulation import LevelSpec, build_level
+from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import complete_start, run_level
+from solver.miqp.spec import LevelSpec
 from solver.pipeline.hierarchy import Piece
 
 #: Overlap (m²) below which two rectangles count as touching, not overlapping.

@@ -22,6 +22,7 @@ from shapely.geometry import LineString, Point
 from shapely.geometry.base import BaseGeometry
 
 from models import Adjacency, ConstraintCheck, Problem, Room
+from solver.families import FAMILIES
 from solver.geometry import (
     GRID,
     Box,
@@ -92,12 +93,8 @@ def check_layout(
         *check_placed(problem, rooms),
         *check_inside(problem, free, placed, tol),
         *check_connected(problem, placed, tol),
-        *check_overlap(problem, placed, tol),
-        *check_size(problem, placed, tol),
-        *check_aspect_ratio(problem, placed, tol),
-        *check_position(problem, placed, tol),
-        *check_boundary(problem, placed, tol),
-        *check_adjacency(problem, placed, tol),
+        # The other families of `solver.families`, in its order.
+        *(c for kind in _AFTER_INSIDE for c in FAMILY_CHECKS[kind](problem, placed, tol)),
         cover,
     ]
     return CheckResult(
@@ -480,3 +477,13 @@ def _region_adjacency(problem: Problem, adj: Adjacency, rooms: Mapping[str, Base
                            satisfied=best is not None and length >= adj.min_contact - tol,
                            detail=f"regions face each other over {length:.2f} m "
                                   f"(needs {adj.min_contact:.2f})")
+
+
+#: The check of each constraint family (`solver.families`, by its `check` kind) that
+#: needs only the placed rooms; C_inside's also needs the free floor.
+FAMILY_CHECKS: dict[str, Callable[[Problem, Placed, float], list[ConstraintCheck]]] = {
+    "overlap": check_overlap, "size": check_size, "aspect_ratio": check_aspect_ratio,
+    "position": check_position, "boundary": check_boundary, "adjacency": check_adjacency,
+}
+#: Report kinds of the families checked after C_inside, in the registry's order.
+_AFTER_INSIDE = [f.check for f in FAMILIES if f.check is not None and f.check != "inside"]

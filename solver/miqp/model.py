@@ -1,0 +1,70 @@
+"""A level's SCIP model with its rectangle variables: what every constraint family and
+objective term (`solver.miqp.formulation`, `solver.miqp.objective`) adds to."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from pyscipopt import Model, Variable
+
+from solver.miqp.spec import LevelSpec
+
+
+@dataclass
+class RectVars:
+    x: Variable
+    y: Variable
+    w: Variable
+    d: Variable
+
+
+@dataclass
+class LevelModel:
+    """A built, unsolved SCIP model and its named variables."""
+
+    spec: LevelSpec
+    model: Model
+    rects: dict[str, RectVars]
+    families: list[str] = field(default_factory=list)
+    #: The slack variables of soft constraints, each priced in the objective.
+    slacks: list[Variable] = field(default_factory=list)
+    #: Binaries of rectangles enclosing a notch, with its area: the rectangle's area
+    #: counts that much less as covered floor.
+    enclosures: list[tuple[Variable, float]] = field(default_factory=list)
+    #: Event callbacks of the current solve; SCIP takes each handler once per model, so
+    #: the runner installs handlers once and swaps what they call.
+    hooks: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def big_m_x(self) -> float:
+        """The smallest valid M for x-disjunctions: the width spanned by the region and
+        any fixed rectangle (which may lie outside it)."""
+        fixed = [r.fixed for r in self.spec.rects if r.fixed is not None]
+        r = self.spec.region
+        return max([r.x1, *(b.x1 for b in fixed)]) - min([r.x0, *(b.x0 for b in fixed)])
+
+    @property
+    def big_m_y(self) -> float:
+        """As `big_m_x`, for y."""
+        fixed = [r.fixed for r in self.spec.rects if r.fixed is not None]
+        r = self.spec.region
+        return max([r.y1, *(b.y1 for b in fixed)]) - min([r.y0, *(b.y0 for b in fixed)])
+
+
+def add_rect_vars(m: Model, spec: LevelSpec) -> dict[str, RectVars]:
+    """Position and size variables, bounded only by the region's box."""
+    rects = {}
+    for r in spec.rects:
+        b = r.fixed
+        rects[r.name] = RectVars(
+            x=m.addVar(f"x[{r.name}]", lb=b.x0 if b else spec.region.x0,
+                       ub=b.x0 if b else spec.region.x1),
+            y=m.addVar(f"y[{r.name}]", lb=b.y0 if b else spec.region.y0,
+                       ub=b.y0 if b else spec.region.y1),
+            w=m.addVar(f"w[{r.name}]", lb=b.width if b else 0,
+                       ub=b.width if b else spec.region.width),
+            d=m.addVar(f"d[{r.name}]", lb=b.depth if b else 0,
+                       ub=b.depth if b else spec.region.depth),
+        )
+    return rects
