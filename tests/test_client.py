@@ -347,7 +347,8 @@ def test_a_full_queue_is_rate_limited_honouring_retry_after(backend: str, tmp_pa
 def test_the_readme_examples_run(server: AnyServer, tmp_path: Path,
                                  monkeypatch: pytest.MonkeyPatch,
                                  capsys: pytest.CaptureFixture[str]) -> None:
-    section = (ROOT / "clients" / "python" / "README.md").read_text().split("\n## Use it from Python\n")[1]
+    guide = (ROOT / "clients" / "python" / "README.md").read_text()
+    section = guide.split("\n## Use it from Python\n")[1]
     examples = re.findall(r"```python\n(.*?)```", section.split("\n## ")[0], re.DOTALL)
     assert len(examples) == 2
     (tmp_path / "examples").mkdir()

@@ -13,7 +13,8 @@ import pytest
 from shapely.geometry import shape
 
 from models import Layout, Problem
-from solver.export import render, to_geojson
+from solver.export import render
+from solver.export.geojson import to_geojson
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

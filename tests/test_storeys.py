@@ -21,7 +21,8 @@ from pydantic import ValidationError
 from models import Layout, Problem, Termination
 from solver import solve
 from solver.events import Phase, SolveEvent
-from solver.export import to_dxf, to_geojson
+from solver.export.dxf import to_dxf
+from solver.export.geojson import to_geojson
 from solver.export.svg import render_svg
 from tests.servers import Server
 
