@@ -102,19 +102,7 @@ def level_one_spec(
         lo, hi = size_bounds(room, domain, window)
         extra = wing_names(room.id, wings.get(room.id, 0))
         relaxed = room_soft(problem, room) if soft else frozenset()
-        rects.append(RectSpec(
-            name=room.id,
-            room=room.id,
-            min_size=lo,
-            max_size=hi,
-            target=room.target_size,
-            aspect_ratio=None if extra else room.aspect_ratio,
-            positions=tuple(room.positions),
-            edges=tuple(edges_named(problem, domain.edges, room.boundary)),
-            soft=frozenset(relaxed),
-            floor=(min(SOFT_FLOOR, hi[0]), min(SOFT_FLOOR, hi[1])) if soft else (0.0, 0.0),
-            may_wrap=room.max_rects != 1,
-        ))
+        rects.append(_main_rect(problem, domain, room, (lo, hi), bool(extra), relaxed, soft))
         for name in extra:
             rects.append(RectSpec(name=name, room=room.id, min_size=(WING_MIN, WING_MIN),
                                   max_size=hi, target=(WING_MIN, WING_MIN)))
@@ -151,6 +139,27 @@ def level_one_spec(
         cover_weight=problem.weights.cover,
         size_weight=problem.weights.size,
         violation_weight=problem.weights.violation if soft else 0.0,
+    )
+
+
+def _main_rect(problem: Problem, domain: Domain, room: Room,
+               bounds: tuple[tuple[float, float], tuple[float, float]], winged: bool,
+               relaxed: frozenset[str], soft: bool) -> RectSpec:
+    """A room's main level-1 rectangle, answering for its guide points, boundary and
+    target; its ratio holds on the envelope instead when it has wings."""
+    lo, hi = bounds
+    return RectSpec(
+        name=room.id,
+        room=room.id,
+        min_size=lo,
+        max_size=hi,
+        target=room.target_size,
+        aspect_ratio=None if winged else room.aspect_ratio,
+        positions=tuple(room.positions),
+        edges=tuple(edges_named(problem, domain.edges, room.boundary)),
+        soft=frozenset(relaxed),
+        floor=(min(SOFT_FLOOR, hi[0]), min(SOFT_FLOOR, hi[1])) if soft else (0.0, 0.0),
+        may_wrap=room.max_rects != 1,
     )
 
 

@@ -66,10 +66,7 @@ def search_neighbourhoods(
     coverage = covered_area(domain, best.rects)
     size = NEIGHBOURHOOD_SIZE
     min_sizes = {r.name: r.min_size for r in spec.rects}
-    partners: dict[str, set[str]] = {}
-    for c in spec.contacts:
-        for name in c.members:
-            partners.setdefault(name, set()).update(c.members - {name})
+    partners = _partners(spec)
     tried: set[frozenset[str]] = set()  # neighbourhoods already optimal for this incumbent
     since_improvement = 0
     last_gain = time.monotonic()
@@ -88,15 +85,7 @@ def search_neighbourhoods(
                 break  # every neighbourhood of every size is exhausted
             size += 1
             continue
-        sub = neighbourhood_spec(spec, best.rects, free, extra=gap)
-        lm = build_level(sub)
-        limit = min(STEP_LIMIT, deadline - time.monotonic())
-        start = complete_start(lm, {r.name: best.rects[r.name] for r in sub.rects
-                                    if r.fixed is None}, time_limit=limit / 4)
-        result = step(lm, limit - start.seconds) if start.values is not None else start
-        candidate = dict(best.rects)
-        if result.rects is not None:
-            candidate.update({n: b for n, b in result.rects.items() if n in free})
+        candidate, result = _solve_neighbourhood(spec, best.rects, free, gap, deadline, step)
         objective = level_objective(spec, candidate)
         gain = best.objective - objective
         improved = result.rects is not None and gain > MIN_GAIN * max(1.0, abs(best.objective))
@@ -122,6 +111,33 @@ def search_neighbourhoods(
         if result.status is LevelStatus.INTERRUPTED:
             break
     return best
+
+
+def _partners(spec: LevelSpec) -> dict[str, set[str]]:
+    """Each rectangle's contact partners: freed together, a contact can move."""
+    partners: dict[str, set[str]] = {}
+    for c in spec.contacts:
+        for name in c.members:
+            partners.setdefault(name, set()).update(c.members - {name})
+    return partners
+
+
+def _solve_neighbourhood(
+    spec: LevelSpec, rects: dict[str, Box], free: set[str], gap: tuple[Box, ...],
+    deadline: float, step: Step,
+) -> tuple[dict[str, Box], LevelResult]:
+    """One step: the rectangles `free` (and the `gap` they may grow into) re-solved with
+    everything else fixed; the layout with the step's result, and that result."""
+    sub = neighbourhood_spec(spec, rects, free, extra=gap)
+    lm = build_level(sub)
+    limit = min(STEP_LIMIT, deadline - time.monotonic())
+    start = complete_start(lm, {r.name: rects[r.name] for r in sub.rects
+                                if r.fixed is None}, time_limit=limit / 4)
+    result = step(lm, limit - start.seconds) if start.values is not None else start
+    candidate = dict(rects)
+    if result.rects is not None:
+        candidate.update({n: b for n, b in result.rects.items() if n in free})
+    return candidate, result
 
 
 def covered_area(domain: Domain, rects: dict[str, Box]) -> float:

@@ -197,27 +197,35 @@ def _level_one(
             else "no one-rectangle-per-room layout was found in its share of the time"))
         proven_infeasible = proven_infeasible and first is None
     if first is None:
-        spec = level_one_spec(problem, domain, window=None, wings=run.wings)
-        if proven_infeasible:
-            why = Infeasibility(
-                reason="SCIP proved that no single-rectangle layout satisfies the constraints",
-                active_families=active_families(spec), relaxations_tried=run.relaxations)
-            if explain:
-                why = explained(run, domain, why)
-            return None, no_layout(run, Termination.INFEASIBLE, why)
-        if run.stopped():
-            termination = Termination.INTERRUPTED
-            reason = "stopped on request before any layout was found"
-        else:
-            termination = Termination.NO_SOLUTION
-            reason = "no layout was found within the time limit; feasibility is unknown"
-        return None, no_layout(run, termination, Infeasibility(
-            reason=reason, active_families=active_families(spec),
-            relaxations_tried=run.relaxations))
+        return None, _no_first_layout(run, domain, proven_infeasible, explain)
     assert first.rects is not None
     run.incumbent(domain, run.by_room(domain, first.rects))
     boxes = improve_level_one(run, domain, first.rects, improve_by)
     return run.pieces(domain, boxes), None
+
+def _no_first_layout(run: Run, domain: Domain, proven_infeasible: bool,
+                     explain: bool) -> Layout:
+    """The answer when level 1 found nothing: infeasible when SCIP proved it (with the
+    constraints that cannot hold together, if `explain`), else interrupted or out of
+    time."""
+    problem = run.problem
+    spec = level_one_spec(problem, domain, window=None, wings=run.wings)
+    if proven_infeasible:
+        why = Infeasibility(
+            reason="SCIP proved that no single-rectangle layout satisfies the constraints",
+            active_families=active_families(spec), relaxations_tried=run.relaxations)
+        if explain:
+            why = explained(run, domain, why)
+        return no_layout(run, Termination.INFEASIBLE, why)
+    if run.stopped():
+        termination = Termination.INTERRUPTED
+        reason = "stopped on request before any layout was found"
+    else:
+        termination = Termination.NO_SOLUTION
+        reason = "no layout was found within the time limit; feasibility is unknown"
+    return no_layout(run, termination, Infeasibility(
+        reason=reason, active_families=active_families(spec),
+        relaxations_tried=run.relaxations))
 
 
 def _soft_level_one(

@@ -214,6 +214,29 @@ def plan_refinement(
     delta = max([max(g.bounds[2] - g.bounds[0], g.bounds[3] - g.bounds[1]) for g in gaps],
                 default=0.0)
     delta = max(delta, 0.5)
+    rects, contacts, start, children = _halves(inside, delta, rng)
+    envelopes = _envelopes(problem, domain, sub, inside, children)
+    spec = LevelSpec(
+        name=f"{problem.name}/level{level}/sub{index}",
+        region=region,
+        blocked=blocked,
+        free_area=float(region_shape.area),
+        rects=tuple(rects),
+        contacts=tuple(contacts),
+        envelopes=tuple(envelopes),
+        cover_weight=problem.weights.cover,
+        size_weight=max(problem.weights.size, problem.weights.cover / 2),
+        violation_weight=problem.weights.violation,
+    )
+    return RefinementPlan(spec, start, children)
+
+
+def _halves(
+    inside: Sequence[Piece], delta: float, rng: random.Random,
+) -> tuple[list[RectSpec], list[ContactSpec], dict[str, Box], dict[str, Piece]]:
+    """Each piece of a sub-domain split in two (Sec. 5.3), or kept whole when its room
+    has pieces enough: the halves' specs (C_refine against their parent), the contacts
+    that keep two halves together, their start and which piece each name is."""
     per_room: dict[str, int] = {}
     for p in inside:
         per_room[p.room] = per_room.get(p.room, 0) + 1
@@ -250,6 +273,13 @@ def plan_refinement(
                 partners=((halves[1].name,),),
                 min_contact=side * 0.999,  # they share the whole split line
             ))
+    return rects, contacts, start, children
+
+
+def _envelopes(problem: Problem, domain: Domain, sub: SubDomain, inside: Sequence[Piece],
+               children: dict[str, Piece]) -> list[EnvelopeSpec]:
+    """Per room of the sub-domain, the envelope of its halves: its size and ratio on the
+    bounding box, relaxed where the previous level had to exceed them."""
     envelopes = []
     for room_id in sorted(sub.rooms):
         names = tuple(n for n, h in children.items() if h.room == room_id)
@@ -257,19 +287,7 @@ def plan_refinement(
         max_size, ratio = relaxed_bounds(problem, room_id, previous,
                                          (domain.bbox.width, domain.bbox.depth))
         envelopes.append(EnvelopeSpec(room_id, names, previous, max_size, ratio))
-    spec = LevelSpec(
-        name=f"{problem.name}/level{level}/sub{index}",
-        region=region,
-        blocked=blocked,
-        free_area=float(region_shape.area),
-        rects=tuple(rects),
-        contacts=tuple(contacts),
-        envelopes=tuple(envelopes),
-        cover_weight=problem.weights.cover,
-        size_weight=max(problem.weights.size, problem.weights.cover / 2),
-        violation_weight=problem.weights.violation,
-    )
-    return RefinementPlan(spec, start, children)
+    return envelopes
 
 
 def relaxed_bounds(

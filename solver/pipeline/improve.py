@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import random
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from models import ExtraRectangles
@@ -137,14 +138,39 @@ def improve_level_one(
     covers = covered_area(domain, start.rects) >= domain.area - GAP_AREA
     middle = time.monotonic() + (deadline - time.monotonic()) * COVERAGE_PHASE_SHARE
 
+    rects, steps, improvements = start.rects, 0, 0
+    if not covers:
+        lm, rects, steps, improvements = _coverage_passes(run, domain, lm, rects, middle, rng,
+                                                          improved)
+    best = search_neighbourhoods(
+        lm.spec, rects, domain,
+        deadline=deadline, rng=rng,
+        step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
+        keep_coverage=True, patience=STALL_STEPS if covers else None,
+        on_improvement=improved,
+    )
+    run.stalled = covers and time.monotonic() < deadline - 0.05 and not run.stopped()
+    run.emit(Phase.LEVEL, objective=best.objective,
+             detail=f"neighbourhood search: {improvements + best.improvements} of "
+                    f"{steps + best.steps} steps improved")
+    return best.rects
+
+
+def _coverage_passes(
+    run: Run, domain: Domain, lm: LevelModel, rects: dict[str, Box], middle: float,
+    rng: random.Random, improved: Callable[[dict[str, Box]], None],
+) -> tuple[LevelModel, dict[str, Box], int, int]:
+    """Neighbourhood search weighted for coverage until `middle`, a gap wing at a time
+    when it falls short of the goal; the model and layout it ends with, and its steps
+    and improvements."""
     def good_enough(rects: dict[str, Box]) -> bool:
         return _cover(run, domain, rects) >= goal_area(domain)
 
-    rects, steps, improvements = start.rects, 0, 0
+    steps, improvements = 0, 0
     stall = (middle - time.monotonic()) * COVER_STALL_SHARE
     wings = 0 if not run.soft else GAP_WINGS
     unwinged: _BeforeWing | None = None
-    while not covers:
+    while True:
         last = wings >= GAP_WINGS
         # Growth beyond the targets costs size error: the pass ends once the layout,
         # gaps absorbed, meets the coverage goal, or when it stalls.
@@ -174,15 +200,4 @@ def improve_level_one(
             continue
         lm, rects = widened
         wings += 1
-    best = search_neighbourhoods(
-        lm.spec, rects, domain,
-        deadline=deadline, rng=rng,
-        step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
-        keep_coverage=True, patience=STALL_STEPS if covers else None,
-        on_improvement=improved,
-    )
-    run.stalled = covers and time.monotonic() < deadline - 0.05 and not run.stopped()
-    run.emit(Phase.LEVEL, objective=best.objective,
-             detail=f"neighbourhood search: {improvements + best.improvements} of "
-                    f"{steps + best.steps} steps improved")
-    return best.rects
+    return lm, rects, steps, improvements

@@ -17,6 +17,7 @@ from models import (
     Problem,
     Region,
     Report,
+    Room,
     RoomLayout,
     Termination,
 )
@@ -133,10 +134,7 @@ def solve_regions(
         given = partition(problem)
         progress.say(f"regions: {len(given)} regions of "
                      f"{', '.join(str(len(g.rooms)) for g in given)} rooms")
-        level_one = region_problem(problem, given, max(1.0, min(
-            limit * REGION_SHARE, REGION_SECONDS_PER_REGION * len(given))))
-        laid = solve(level_one, on_event=progress.sink("regions", incumbents=False),
-                     should_stop=should_stop)
+        laid = _region_layout(problem, given, limit, solve, progress, should_stop)
         if not laid.rooms:
             if problem.regions is None and not (should_stop and should_stop()):
                 # An automatic partition is only a means: solve flat instead.
@@ -165,35 +163,8 @@ def solve_regions(
         left_rooms -= len(rooms)
         stage = f"region {region_id} {k + 1}/{len(jobs)}"
         progress.say(stage, subdomain=k + 1, subdomains=len(jobs))
-        sub = room_problem(problem, part, rooms, share)
-        if not slicing_has_demands(sub):
-            # Sizes alone: slicing lays the rows out at once and the search after it
-            # does not pay for its time (measured: no step improved on office-154).
-            sub = sub.with_options(time_limit=min(
-                share, MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms)))
-        inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
-                      should_stop=should_stop)
-        longer = max(share, (deadline - time.monotonic()) * len(rooms)
-                     / (left_rooms + len(rooms)))
-        if (not inner.rooms and inner.report.termination is Termination.NO_SOLUTION
-                and longer > sub.options.time_limit
-                and not (should_stop is not None and should_stop())):
-            # The time ran out, not the constraints (a loaded machine, a part slicing
-            # cannot lay out): the part's whole share before anything is given up.
-            progress.say(f"{stage}: no layout yet, retrying with {longer:.1f} s")
-            sub = sub.with_options(time_limit=longer)
-            inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
-                          should_stop=should_stop)
-        for relax in RELAXATIONS:
-            if inner.rooms or (should_stop is not None and should_stop()):
-                break
-            # A part the region layout made awkward: keep the rooms, give up what
-            # cannot hold there; the final check reports it against the user's problem.
-            progress.say(f"{stage}: no layout, retrying without {', '.join(relax)}")
-            sub = sub.model_copy(update={"rooms": [
-                r.model_copy(update=dict.fromkeys(relax)) for r in sub.rooms]})
-            sub = sub.with_options(time_limit=max(MIN_PART_SECONDS, share / 2))
-            inner = solve(sub, should_stop=should_stop)
+        inner = _solve_part(problem, part, rooms, share, deadline, left_rooms, stage, solve,
+                            progress, should_stop)
         terminations.append(inner.report.termination)
         levels = max(levels, inner.report.levels)
         for room in inner.rooms:
@@ -204,6 +175,55 @@ def solve_regions(
     return _merge(problem, list(shapes), network, placed, owner,
                   Termination.of_parts(terminations, interrupted=stopped), levels, started,
                   progress)
+
+
+def _region_layout(problem: Problem, given: Sequence[Region], limit: float, solve: Solve,
+                   progress: _Progress, should_stop: Callable[[], bool] | None) -> Layout:
+    """The user's regions laid out as the rooms of a first problem (step 2)."""
+    level_one = region_problem(problem, given, max(1.0, min(
+        limit * REGION_SHARE, REGION_SECONDS_PER_REGION * len(given))))
+    return solve(level_one, on_event=progress.sink("regions", incumbents=False),
+                 should_stop=should_stop)
+
+
+def _solve_part(
+    problem: Problem, part: Polygon, rooms: list[Room], share: float, deadline: float,
+    left_rooms: int, stage: str, solve: Solve, progress: _Progress,
+    should_stop: Callable[[], bool] | None,
+) -> Layout:
+    """One region part's rooms (step 4) in its `share` of the time; retried with the
+    part's whole share when the time ran out, then without what cannot hold there.
+    `left_rooms` counts the rooms of the parts after this one."""
+    sub = room_problem(problem, part, rooms, share)
+    if not slicing_has_demands(sub):
+        # Sizes alone: slicing lays the rows out at once and the search after it
+        # does not pay for its time (measured: no step improved on office-154).
+        sub = sub.with_options(time_limit=min(
+            share, MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms)))
+    inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
+                  should_stop=should_stop)
+    longer = max(share, (deadline - time.monotonic()) * len(rooms)
+                 / (left_rooms + len(rooms)))
+    if (not inner.rooms and inner.report.termination is Termination.NO_SOLUTION
+            and longer > sub.options.time_limit
+            and not (should_stop is not None and should_stop())):
+        # The time ran out, not the constraints (a loaded machine, a part slicing
+        # cannot lay out): the part's whole share before anything is given up.
+        progress.say(f"{stage}: no layout yet, retrying with {longer:.1f} s")
+        sub = sub.with_options(time_limit=longer)
+        inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
+                      should_stop=should_stop)
+    for relax in RELAXATIONS:
+        if inner.rooms or (should_stop is not None and should_stop()):
+            break
+        # A part the region layout made awkward: keep the rooms, give up what
+        # cannot hold there; the final check reports it against the user's problem.
+        progress.say(f"{stage}: no layout, retrying without {', '.join(relax)}")
+        sub = sub.model_copy(update={"rooms": [
+            r.model_copy(update=dict.fromkeys(relax)) for r in sub.rooms]})
+        sub = sub.with_options(time_limit=max(MIN_PART_SECONDS, share / 2))
+        inner = solve(sub, should_stop=should_stop)
+    return inner
 
 
 def _merge(problem: Problem, region_ids: Sequence[str], network: AisleNetwork,
