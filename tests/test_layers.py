@@ -1,0 +1,62 @@
+"""The layers of docs/architecture.md, as import-linter contracts (pyproject.toml): they
+hold today, and each import cycle the code once had would break one of them again."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+
+import grimp
+import pytest
+from importlinter.api import read_configuration
+from importlinter.contracts.acyclic_siblings import AcyclicSiblingsContract
+from importlinter.contracts.forbidden import ForbiddenContract
+from importlinter.contracts.layers import LayersContract
+
+from tests.paths import ROOT
+
+CONTRACT_TYPES = {"layers": LayersContract, "forbidden": ForbiddenContract,
+                  "acyclic_siblings": AcyclicSiblingsContract}
+#: The cycles the code had before the restructure (issue 18), each as the imports that
+#: would bring it back in today's module names.
+OLD_CYCLES = {
+    "solve <-> regions": [("solver.pipeline.regions.run", "solver.pipeline.dispatch")],
+    "solve <-> storeys": [("solver.pipeline.storeys", "solver.pipeline.dispatch")],
+    "the solve child <-> the Celery backend": [
+        ("service.jobs.child", "service.jobs.celery.backend")],
+    "problem <-> storeys": [("models.storeys", "models.problem")],
+}
+
+
+def _broken(extra: list[tuple[str, str]]) -> list[str]:
+    """The names of the contracts broken once the imports `extra` are added."""
+    options = read_configuration(str(ROOT / "pyproject.toml"))
+    session = options["session_options"]
+    graph = grimp.build_graph(*session["root_packages"],
+                              exclude_type_checking_imports=True, cache_dir=None)
+    for importer, imported in extra:
+        graph.add_import(importer=importer, imported=imported)
+    broken = []
+    for contract_options in options["contracts_options"]:
+        kind = CONTRACT_TYPES[contract_options["type"]]
+        contract = kind(name=contract_options["name"], session_options=session,
+                        contract_options=contract_options)
+        if not contract.check(graph, verbose=False).kept:
+            broken.append(contract_options["name"])
+    return broken
+
+
+def test_every_layer_contract_holds() -> None:
+    assert _broken([]) == []
+
+
+def test_the_command_line_linter_agrees() -> None:
+    lint = shutil.which("lint-imports")
+    assert lint is not None
+    done = subprocess.run([lint], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+@pytest.mark.parametrize("cycle", sorted(OLD_CYCLES))
+def test_each_old_import_cycle_would_break_a_contract(cycle: str) -> None:
+    assert _broken(OLD_CYCLES[cycle])
