@@ -262,74 +262,94 @@ class Annealer:
 
     def _propose(self, scale: float) -> list[int] | None:
         """Apply a random move in place; returns the rooms it changed (None: no move)."""
-        rng, n = self.rng, self.n
+        rng = self.rng
         kind = rng.choices([m for m, _ in MOVES], weights=[p for _, p in MOVES])[0]
-        i = rng.randrange(n)
+        i = rng.randrange(self.n)
         if kind == "swap":
-            if n < 2:
-                return None
-            j = rng.randrange(n - 1)
-            j += j >= i
-            for arr in (self.x0, self.y0, self.x1, self.y1):
-                arr[i], arr[j] = arr[j], arr[i]
-            return [i, j]
+            return self._swap(i)
         if kind == "slide":
-            axis, high = rng.randrange(2), rng.random() < 0.5
-            lo_arr, hi_arr = (self.x0, self.x1) if axis == 0 else (self.y0, self.y1)
-            arr = hi_arr if high else lo_arr
-            old = float(arr[i])
-            pick = rng.random()
-            new = None
-            if pick < 0.4:
-                new = self._snap_line(axis, old, 3 * scale, i)
-            elif pick < 0.6:
-                # The side lands where the room's extent meets one of its own bounds.
-                sizes = [self.min_w[i], self.max_w[i]] if axis == 0 else [
-                    self.min_d[i], self.max_d[i]]
-                if self.targets[i] is not None:
-                    sizes.append(self.targets[i][axis])
-                size = float(rng.choice(sizes))
-                new = lo_arr[i] + size if high else hi_arr[i] - size
-            if new is None:
-                new = old + self._step(scale)
-            if (high and new <= lo_arr[i] + GRID) or (not high and new >= hi_arr[i] - GRID):
-                return None
-            moved = [i]
-            if rng.random() < 0.3:
-                # The shared wall: rooms whose facing side is on the same line and overlap
-                # room i along it move with it.
-                other_lo, other_hi = (self.y0, self.y1) if axis == 0 else (self.x0, self.x1)
-                facing = lo_arr if high else hi_arr
-                along = (np.minimum(other_hi[i], other_hi) - np.maximum(other_lo[i], other_lo)
-                         > 0)
-                near = np.abs(facing - old) < 1e-9
-                for j in np.flatnonzero(near & along).tolist():
-                    if j == i:
-                        continue
-                    opposite = hi_arr[j] if high else lo_arr[j]
-                    if (high and new >= opposite - GRID) or (not high and new <= opposite + GRID):
-                        return None
-                    moved.append(j)
-            arr[i] = new
-            for j in moved[1:]:
-                (lo_arr if high else hi_arr)[j] = new
-            return moved
+            return self._slide(i, scale)
         if kind == "resize":
-            w, d = self.x1[i] - self.x0[i], self.y1[i] - self.y0[i]
-            t = self.targets[i]
-            if t is not None and rng.random() < 0.2:
-                nw, nd = t
-            else:
-                nw, nd = w + self._step(scale), d + self._step(scale)
-            if nw < GRID or nd < GRID:
-                return None
-            ax, ay = rng.choice((0.0, 0.5, 1.0)), rng.choice((0.0, 0.5, 1.0))
-            self.x0[i] += ax * (w - nw)
-            self.y0[i] += ay * (d - nd)
-            self.x1[i] = self.x0[i] + nw
-            self.y1[i] = self.y0[i] + nd
-            return [i]
-        # translate
+            return self._resize(i, scale)
+        return self._translate(i, scale)
+
+    def _swap(self, i: int) -> list[int] | None:
+        """Room i trades places with another."""
+        rng, n = self.rng, self.n
+        if n < 2:
+            return None
+        j = rng.randrange(n - 1)
+        j += j >= i
+        for arr in (self.x0, self.y0, self.x1, self.y1):
+            arr[i], arr[j] = arr[j], arr[i]
+        return [i, j]
+
+    def _slide(self, i: int, scale: float) -> list[int] | None:
+        """One side of room i moves (onto a line, to a bound, or by a step), sometimes
+        with the rooms sharing that wall."""
+        rng = self.rng
+        axis, high = rng.randrange(2), rng.random() < 0.5
+        lo_arr, hi_arr = (self.x0, self.x1) if axis == 0 else (self.y0, self.y1)
+        arr = hi_arr if high else lo_arr
+        old = float(arr[i])
+        pick = rng.random()
+        new = None
+        if pick < 0.4:
+            new = self._snap_line(axis, old, 3 * scale, i)
+        elif pick < 0.6:
+            # The side lands where the room's extent meets one of its own bounds.
+            sizes = [self.min_w[i], self.max_w[i]] if axis == 0 else [
+                self.min_d[i], self.max_d[i]]
+            if self.targets[i] is not None:
+                sizes.append(self.targets[i][axis])
+            size = float(rng.choice(sizes))
+            new = lo_arr[i] + size if high else hi_arr[i] - size
+        if new is None:
+            new = old + self._step(scale)
+        if (high and new <= lo_arr[i] + GRID) or (not high and new >= hi_arr[i] - GRID):
+            return None
+        moved = [i]
+        if rng.random() < 0.3:
+            # The shared wall: rooms whose facing side is on the same line and overlap
+            # room i along it move with it.
+            other_lo, other_hi = (self.y0, self.y1) if axis == 0 else (self.x0, self.x1)
+            facing = lo_arr if high else hi_arr
+            along = (np.minimum(other_hi[i], other_hi) - np.maximum(other_lo[i], other_lo)
+                     > 0)
+            near = np.abs(facing - old) < 1e-9
+            for j in np.flatnonzero(near & along).tolist():
+                if j == i:
+                    continue
+                opposite = hi_arr[j] if high else lo_arr[j]
+                if (high and new >= opposite - GRID) or (not high and new <= opposite + GRID):
+                    return None
+                moved.append(j)
+        arr[i] = new
+        for j in moved[1:]:
+            (lo_arr if high else hi_arr)[j] = new
+        return moved
+
+    def _resize(self, i: int, scale: float) -> list[int] | None:
+        """Room i takes its target size or a step from its size, around a random anchor."""
+        rng = self.rng
+        w, d = self.x1[i] - self.x0[i], self.y1[i] - self.y0[i]
+        t = self.targets[i]
+        if t is not None and rng.random() < 0.2:
+            nw, nd = t
+        else:
+            nw, nd = w + self._step(scale), d + self._step(scale)
+        if nw < GRID or nd < GRID:
+            return None
+        ax, ay = rng.choice((0.0, 0.5, 1.0)), rng.choice((0.0, 0.5, 1.0))
+        self.x0[i] += ax * (w - nw)
+        self.y0[i] += ay * (d - nd)
+        self.x1[i] = self.x0[i] + nw
+        self.y1[i] = self.y0[i] + nd
+        return [i]
+
+    def _translate(self, i: int, scale: float) -> list[int] | None:
+        """Room i moves by a step, or so that one side lands on a nearby line."""
+        rng = self.rng
         dx, dy = self._step(scale), self._step(scale)
         if rng.random() < 0.5:
             axis, high = rng.randrange(2), rng.random() < 0.5
