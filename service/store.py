@@ -3,7 +3,8 @@ or PostgreSQL (the distributed mode), one schema for both, kept by Alembic migra
 
 A job answered with 202 is a row before the answer leaves; everything a runner or a
 worker learns (status, progress, incumbents, the result) is written here, and the event
-stream reads it back, so a restart loses nothing but the work in flight.
+stream reads it back, so a restart loses nothing but the work in flight. The records
+it hands out (`Job`, `Event`, `JobStatus`) are service/records.py's.
 
 In the distributed mode several workers write here: a job is claimed by one worker at
 a time (`claim`), which renews its lease (`heartbeat`) while it solves; every write of
@@ -18,8 +19,6 @@ import time
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
-from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
@@ -46,22 +45,10 @@ from sqlalchemy import (
 from sqlalchemy.engine import Connection
 from sqlalchemy.exc import IntegrityError
 
+from service.records import Event, Job, JobStatus
+
 #: Attempts at appending an event when another writer took its sequence number.
 EVENT_RETRIES = 5
-
-
-class JobStatus(StrEnum):
-    """Where a job is in its life."""
-
-    QUEUED = "queued"
-    RUNNING = "running"
-    SUCCEEDED = "succeeded"
-    FAILED = "failed"
-    CANCELED = "canceled"
-
-    @property
-    def terminal(self) -> bool:
-        return self in (JobStatus.SUCCEEDED, JobStatus.FAILED, JobStatus.CANCELED)
 
 
 metadata = MetaData()
@@ -101,38 +88,6 @@ events = Table(
     Column("data", Text, nullable=False),
     Column("created_at", Float, nullable=False),
 )
-
-
-@dataclass(frozen=True)
-class Job:
-    id: str
-    owner: str
-    status: JobStatus
-    termination: str | None
-    problem: str
-    time_limit: float
-    result: str | None
-    incumbent: str | None
-    progress: dict[str, Any] | None
-    error: dict[str, Any] | None
-    idempotency_key: str | None
-    body_hash: str | None
-    attempts: int
-    cancel_requested: bool
-    created_at: float
-    started_at: float | None
-    finished_at: float | None
-    updated_at: float
-    worker: str | None = None
-    heartbeat_at: float | None = None
-
-
-@dataclass(frozen=True)
-class Event:
-    job_id: str
-    seq: int
-    kind: str
-    data: str
 
 
 class IdempotencyConflict(Exception):
