@@ -1,6 +1,6 @@
 """The HTTP API: asynchronous layout jobs (submit, follow, fetch, cancel, delete, list),
 validation without solving, health. Routes validate, delegate and reply; solving is
-the job backend's (embedded or Celery, service/backends.py), geometry the solver's."""
+the job backend's (embedded or Celery, service/jobs/), geometry the solver's."""
 
 from __future__ import annotations
 
@@ -25,8 +25,9 @@ from models import ConflictSet, Layout
 from models import Problem as LayoutProblem
 from models.templates import TemplatedProblem
 from service import web
-from service.backends import JobBackend, make_backend
 from service.errors import ApiError, FieldError, ProblemDetails, field_errors, install
+from service.jobs.backend import JobBackend
+from service.jobs.factory import make_backend
 from service.settings import Settings, get_settings
 from service.store import IdempotencyConflict, Job, JobStatus, JobStore
 from solver.export import MEDIA_TYPES, render

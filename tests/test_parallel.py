@@ -19,8 +19,8 @@ import httpx2 as httpx
 import pytest
 
 from models import Problem
-from service.runner import SolveProcesses
-from service.worker import run_job, standby
+from service.jobs.child import run_job, standby
+from service.jobs.processes import SolveProcesses
 from solver.geometry import Box, make_domain
 from solver.openings import connection_demands
 from solver.pipeline.hierarchy import SubDomain, room_boxes

@@ -50,7 +50,7 @@ def cmd_worker(args: argparse.Namespace) -> int:
     from service.settings import Settings
 
     try:
-        from service.distributed import run_worker, worker_alive
+        from service.jobs.celery.worker import run_worker, worker_alive
     except ModuleNotFoundError as err:
         raise SystemExit(f"floorplan worker needs the distributed extra "
                          f"(pip install 'floorplan[distributed]'): {err}") from err

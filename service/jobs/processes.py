@@ -3,7 +3,8 @@
 `SolveProcesses` keeps warmed-up solve processes ready; `watch` supervises one job's
 process and records what it reports; both serve the embedded `Runner` here (at most
 `workers` at once, first in first out) and the Celery workers of the distributed mode
-(service/distributed.py), so a solve runs the same way in either.
+(service/jobs/celery/), so a solve runs the same way in either. What runs inside a
+solve's process is service/jobs/child.py.
 
 The watchdog enforces the job's time limit plus a grace period: first it sets the
 child's stop flag (SCIP is interrupted and the incumbent is returned), then, after
@@ -25,9 +26,10 @@ from dataclasses import dataclass, field
 from multiprocessing.synchronize import Event
 from typing import Any
 
+from service.jobs.child import standby
+from service.records import Job, JobStatus
 from service.settings import Settings
-from service.store import Job, JobStatus, JobStore
-from service.worker import standby
+from service.store import JobStore
 
 log = logging.getLogger("floorplan.runner")
 
