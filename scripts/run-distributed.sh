@@ -115,7 +115,7 @@ for k in $(seq 1 "$subdomain_workers"); do
     --without-gossip --without-mingle --without-heartbeat >>"$logs/subdomain-worker-$k.log" 2>&1 &
   worker_pids+=("$!")
 done
-"$python" -m uvicorn service.app:create_app --factory --host "$host" --port "$port" \
+"$python" -m uvicorn service.api.app:create_app --factory --host "$host" --port "$port" \
   --timeout-graceful-shutdown 5 >>"$logs/api.log" 2>&1 &
 api_pid="$!"
 

@@ -65,7 +65,7 @@ def cmd_worker(args: argparse.Namespace) -> int:
 def cmd_serve(args: argparse.Namespace) -> int:
     import uvicorn
 
-    from service.app import create_app
+    from service.api.app import create_app
     from service.settings import Settings
 
     overrides = {k: v for k, v in {"host": args.host, "port": args.port,
