@@ -15,7 +15,7 @@ import pytest
 from pydantic import ValidationError
 
 from models import Layout, Problem, Termination
-from service.cli.solve import summary_line
+from service.cli.progress import summary_line
 from solver.geometry import Box, make_domain
 from solver.heuristics.level_one import level_one_spec
 from solver.miqp.formulation import build_level, level_objective, spec_shortfall
