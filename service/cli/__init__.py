@@ -1,5 +1,6 @@
-"""The `floorplan` command: the solver's subcommands plus `serve` (and `submit`, from
-the Python client, when it is installed)."""
+"""The `floorplan` command: the solver's subcommands plus `serve` and `worker` (and
+`submit`, from the Python client, when it is installed). The solve command is solve.py,
+with progress.py (what it prints), interrupt.py (Ctrl-C) and exits.py (exit codes)."""
 
 from __future__ import annotations
 

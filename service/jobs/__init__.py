@@ -7,6 +7,7 @@ machines through Redis, with the records in PostgreSQL; `make_backend` (factory.
 picks one. Either way a solve runs in its own spawned process (child.py) under the same
 watchdog (processes.py).
 
-Imports point down: factory -> embedded, celery -> processes -> child -> celery's small
-subdomains module; backend.py, the interface, knows none of the implementations.
+Imports point down: factory.py -> embedded.py and celery/backend.py -> backend.py;
+celery/runtime.py -> processes.py -> child.py -> celery/subdomains.py, which needs only
+celery/config.py. backend.py, the interface, knows none of the implementations.
 """
