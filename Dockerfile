@@ -13,7 +13,7 @@ COPY pyproject.toml README.md alembic.ini ./
 COPY models ./models
 COPY solver ./solver
 COPY service ./service
-# service/examples links here: the web page serves the example problems.
+# service/api/examples links here: the web page serves the example problems.
 COPY examples ./examples
 RUN pip install ".[distributed]"
 

@@ -3,7 +3,8 @@ or PostgreSQL (the distributed mode), one schema for both, kept by Alembic migra
 
 A job answered with 202 is a row before the answer leaves; everything a runner or a
 worker learns (status, progress, incumbents, the result) is written here, and the event
-stream reads it back, so a restart loses nothing but the work in flight.
+stream reads it back, so a restart loses nothing but the work in flight. The records
+it hands out (`Job`, `Event`, `JobStatus`) are service/records.py's.
 
 In the distributed mode several workers write here: a job is claimed by one worker at
 a time (`claim`), which renews its lease (`heartbeat`) while it solves; every write of
@@ -18,21 +19,11 @@ import time
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
-from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
 from sqlalchemy import (
-    Boolean,
-    Column,
     Engine,
-    Float,
-    Integer,
-    MetaData,
-    String,
-    Table,
-    Text,
     and_,
     create_engine,
     delete,
@@ -46,93 +37,11 @@ from sqlalchemy import (
 from sqlalchemy.engine import Connection
 from sqlalchemy.exc import IntegrityError
 
+from service.records import Event, Job, JobStatus
+from service.tables import events, jobs
+
 #: Attempts at appending an event when another writer took its sequence number.
 EVENT_RETRIES = 5
-
-
-class JobStatus(StrEnum):
-    """Where a job is in its life."""
-
-    QUEUED = "queued"
-    RUNNING = "running"
-    SUCCEEDED = "succeeded"
-    FAILED = "failed"
-    CANCELED = "canceled"
-
-    @property
-    def terminal(self) -> bool:
-        return self in (JobStatus.SUCCEEDED, JobStatus.FAILED, JobStatus.CANCELED)
-
-
-metadata = MetaData()
-
-jobs = Table(
-    "jobs", metadata,
-    Column("id", String(36), primary_key=True),
-    Column("owner", String(64), nullable=False, default=""),
-    Column("status", String(16), nullable=False, index=True),
-    Column("termination", String(32)),
-    Column("problem", Text, nullable=False),
-    Column("time_limit", Float, nullable=False),
-    Column("result", Text),
-    Column("incumbent", Text),
-    Column("progress", Text),
-    Column("error", Text),
-    Column("idempotency_key", String(200)),
-    Column("body_hash", String(64)),
-    Column("attempts", Integer, nullable=False, default=0),
-    Column("cancel_requested", Boolean, nullable=False, default=False),
-    Column("created_at", Float, nullable=False, index=True),
-    Column("started_at", Float),
-    Column("finished_at", Float),
-    Column("updated_at", Float, nullable=False),
-    # The distributed mode: who holds the job, when it last said so, when it was sent to
-    # the broker (NULL: not yet, or the broker lost it).
-    Column("worker", String(200)),
-    Column("heartbeat_at", Float),
-    Column("dispatched_at", Float),
-)
-
-events = Table(
-    "events", metadata,
-    Column("job_id", String(36), primary_key=True),
-    Column("seq", Integer, primary_key=True),
-    Column("kind", String(16), nullable=False),
-    Column("data", Text, nullable=False),
-    Column("created_at", Float, nullable=False),
-)
-
-
-@dataclass(frozen=True)
-class Job:
-    id: str
-    owner: str
-    status: JobStatus
-    termination: str | None
-    problem: str
-    time_limit: float
-    result: str | None
-    incumbent: str | None
-    progress: dict[str, Any] | None
-    error: dict[str, Any] | None
-    idempotency_key: str | None
-    body_hash: str | None
-    attempts: int
-    cancel_requested: bool
-    created_at: float
-    started_at: float | None
-    finished_at: float | None
-    updated_at: float
-    worker: str | None = None
-    heartbeat_at: float | None = None
-
-
-@dataclass(frozen=True)
-class Event:
-    job_id: str
-    seq: int
-    kind: str
-    data: str
 
 
 class IdempotencyConflict(Exception):

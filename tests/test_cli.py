@@ -16,15 +16,9 @@ from typing import Any
 import pytest
 
 from models import ConstraintCheck, Layout, Report
-from service.cli.solve import (
-    EXIT_INTERRUPTED,
-    EXIT_INVALID,
-    EXIT_NO_LAYOUT,
-    EXIT_OK,
-    ProgressPrinter,
-    invalid_layout_warning,
-)
-from service.cli.solve import progress_line as format_progress
+from service.cli.exits import EXIT_INTERRUPTED, EXIT_INVALID, EXIT_NO_LAYOUT, EXIT_OK
+from service.cli.progress import ProgressPrinter, invalid_layout_warning
+from service.cli.progress import progress_line as format_progress
 from solver.events import Phase, SolveEvent
 from tests.test_parallel import TWO_WINGS
 

@@ -62,7 +62,7 @@ def test_every_floorplan_variable_in_compose_is_a_setting() -> None:
 
 def test_the_commands_compose_runs_exist() -> None:
     api = compose()["services"]["api"]["command"]
-    assert api[:2] == ["uvicorn", "service.app:create_app"] and "--factory" in api
+    assert api[:2] == ["uvicorn", "service.api.app:create_app"] and "--factory" in api
     for argv in (["-m", "service", "worker", "--help"], ["-m", "uvicorn", "--help"]):
         subprocess.run([sys.executable, *argv], check=True, capture_output=True)
 

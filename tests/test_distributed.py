@@ -22,7 +22,9 @@ import redis
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 
-from service.store import JobStatus, JobStore, metadata
+from service.records import JobStatus
+from service.store import JobStore
+from service.tables import metadata
 from tests.servers import Cluster, free_port, schema_url
 from tests.test_service import LONG, SMALL, TERMINAL, solve_processes, submit, wait
 

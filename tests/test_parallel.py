@@ -19,8 +19,8 @@ import httpx2 as httpx
 import pytest
 
 from models import Problem
-from service.runner import SolveProcesses
-from service.worker import run_job, standby
+from service.jobs.child import run_job, standby
+from service.jobs.processes import SolveProcesses
 from solver import solve
 from solver.events import Phase, SolveEvent
 from solver.geometry import Box, make_domain

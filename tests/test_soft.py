@@ -15,13 +15,12 @@ import pytest
 from pydantic import ValidationError
 
 from models import Layout, Problem, Termination
-from service.cli.solve import summary_line
+from service.cli.progress import summary_line
 from solver import solve
 from solver.geometry import Box, make_domain
 from solver.heuristics.level_one import level_one_spec
-from solver.miqp.formulation import build_level
+from solver.miqp.formulation import build_level, level_objective, spec_shortfall
 from solver.miqp.scip_run import LevelStatus, run_level
-from solver.miqp.spec import level_objective, spec_shortfall
 from solver.verify.checker import check_layout
 from solver.verify.precheck import find_impossibilities
 from tests.servers import Server

@@ -1,5 +1,6 @@
-"""The `floorplan` command: the solver's subcommands plus `serve` (and `submit`, from
-the Python client, when it is installed)."""
+"""The `floorplan` command: the solver's subcommands plus `serve` and `worker` (and
+`submit`, from the Python client, when it is installed). The solve command is solve.py,
+with progress.py (what it prints), interrupt.py (Ctrl-C) and exits.py (exit codes)."""
 
 from __future__ import annotations
 
@@ -50,7 +51,7 @@ def cmd_worker(args: argparse.Namespace) -> int:
     from service.settings import Settings
 
     try:
-        from service.distributed import run_worker, worker_alive
+        from service.jobs.celery.worker import run_worker, worker_alive
     except ModuleNotFoundError as err:
         raise SystemExit(f"floorplan worker needs the distributed extra "
                          f"(pip install 'floorplan[distributed]'): {err}") from err
@@ -65,7 +66,7 @@ def cmd_worker(args: argparse.Namespace) -> int:
 def cmd_serve(args: argparse.Namespace) -> int:
     import uvicorn
 
-    from service.app import create_app
+    from service.api.app import create_app
     from service.settings import Settings
 
     overrides = {k: v for k, v in {"host": args.host, "port": args.port,

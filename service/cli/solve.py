@@ -5,14 +5,15 @@
 
 Progress goes to stderr (one line per solver event, new incumbents at most a few
 times a second), then a one-line summary; the layout JSON goes to ``-o`` (stdout when
-``-o`` is ``-`` or omitted). Exit codes are the module constants ``EXIT_*`` below.
+``-o`` is ``-`` or omitted); progress.py writes those lines. Exit codes are the
+constants ``EXIT_*`` of exits.py.
 
 Ctrl-C stops the solve gracefully: the best layout found so far is written (exit 0,
 ``report.termination`` "interrupted"; 130 when there was none yet). A second Ctrl-C
-aborts at once with 130 (see `sigint_flag` for how the
-signal is kept from SCIP). For that, this module imports the solver (and with it numpy,
-which starts native threads) only once SIGINT is blocked: keep its top-level imports
-to the standard library.
+aborts at once with 130 (see `sigint_flag` in interrupt.py for how the signal is kept
+from SCIP). For that, this module imports the solver (and with it numpy, which starts
+native threads) only once SIGINT is blocked: keep its top-level imports, and those of
+the modules it imports (exits.py, interrupt.py, progress.py), to the standard library.
 
 The parser is built from subcommands so that ``serve`` and ``submit`` can join ``solve``.
 """
@@ -21,49 +22,38 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
-import signal
 import sys
-import threading
-import time
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager, suppress
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from types import FrameType
-from typing import TYPE_CHECKING, Any, Literal, TextIO
+from typing import TYPE_CHECKING, Any, Literal
+
+from service.cli.exits import (
+    EXIT_FAILURE,
+    EXIT_INTERRUPTED,
+    EXIT_INVALID,
+    EXIT_NO_LAYOUT,
+    EXIT_OK,
+    PROG,
+)
+from service.cli.interrupt import keep_sigint_blocked, sigint_flag
+from service.cli.progress import (
+    ProgressPrinter,
+    invalid_layout_warning,
+    no_layout_message,
+    soft_violations_note,
+    summary_line,
+)
 
 if TYPE_CHECKING:
     from pydantic import ValidationError
 
     from models import Layout, Problem
-    from solver.events import SolveEvent
 
-EXIT_OK = 0
-"""A layout with rooms was written (it may still fail checks: see the warning; a
-Ctrl-C may have cut the solve short: see ``report.termination``)."""
-EXIT_FAILURE = 1
-"""The output could not be written."""
-EXIT_INVALID = 2
-"""Bad arguments or an invalid problem; nothing was solved."""
-EXIT_NO_LAYOUT = 3
-"""No layout: infeasible, or no solution within the time limit. The JSON report says why."""
-EXIT_INTERRUPTED = 130
-"""Stopped by Ctrl-C before there was a layout, or aborted by a second one
-(128 + SIGINT, the shell's convention)."""
-
-#: Least seconds between two printed INCUMBENT events (other events are always printed).
-INCUMBENT_INTERVAL = 0.25
-#: Bounds at or beyond this magnitude are SCIP's infinity and printed as such.
-SCIP_INFINITY = 1e19
-#: `solver.events.Phase.INCUMBENT` (a StrEnum), spelt out to keep the solver import lazy.
-INCUMBENT = "incumbent"
 #: Objects up to this many characters (with their indent) stay on one line in --expand.
 READABLE_WIDTH = 88
 #: Stands for "stdin" / "stdout" in file arguments.
 STDIO = "-"
-
-PROG = "floorplan"
 
 
 class UsageError(Exception):
@@ -357,204 +347,3 @@ def _write_text(target: str, text: str) -> None:
         tmp.replace(path)
     finally:
         tmp.unlink(missing_ok=True)
-
-
-# -- Ctrl-C -----------------------------------------------------------------------------
-
-
-@contextmanager
-def sigint_flag() -> Iterator[Callable[[], bool]]:
-    """Within the block the first SIGINT only sets a flag (read it with the yielded
-    function, a `should_stop` for `solve`); a second one aborts the process at once.
-
-    SCIP installs its own SIGINT handler while it optimises (misc/catchctrlc): it ends
-    the current MIQP only, and a Python handler never hears of the signal, so the solve
-    would go on with the next one. Hence SIGINT is blocked in this thread (and in the
-    threads it starts) and a watcher thread takes it with ``sigwait``: no handler, ours
-    or SCIP's, ever runs. Where ``pthread_sigmask`` is missing a plain handler does.
-
-    Threads started before the block keep SIGINT unblocked and may take it (numpy's
-    OpenBLAS starts some on import): enter it before the solver is imported."""
-    if threading.current_thread() is not threading.main_thread():
-        yield lambda: False  # signals reach the main thread only; leave them alone
-        return
-    if not hasattr(signal, "pthread_sigmask"):
-        with _sigint_handler() as received:
-            yield received
-        return
-    watcher = _SigintWatcher()
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        watcher.start()
-        yield watcher.received
-    finally:
-        watcher.stop()
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-
-
-def keep_sigint_blocked() -> None:
-    """Block SIGINT in this thread again, within `sigint_flag`. Starting a process pool
-    starts multiprocessing's resource tracker, which unblocks SIGINT in the calling
-    thread once the tracker runs; SCIP's handler or a KeyboardInterrupt would then
-    take the next Ctrl-C instead of the watcher."""
-    if threading.current_thread() is threading.main_thread() and hasattr(
-            signal, "pthread_sigmask"):
-        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-
-
-class _SigintWatcher:
-    """A daemon thread waiting for SIGINT with ``sigwait`` (see `sigint_flag`)."""
-
-    def __init__(self) -> None:
-        self._received = False
-        self._closing = False
-        self._thread = threading.Thread(target=self._watch, name="sigint-watcher", daemon=True)
-
-    def received(self) -> bool:
-        return self._received
-
-    def start(self) -> None:
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._closing = True
-        if self._thread.ident is not None and self._thread.is_alive():
-            with suppress(OSError):  # it may have just taken a last real SIGINT and ended
-                signal.pthread_kill(self._thread.ident, signal.SIGINT)
-        self._thread.join()
-
-    def _watch(self) -> None:
-        while True:
-            signal.sigwait({signal.SIGINT})
-            if self._closing:
-                return
-            if self._received:
-                print(f"{PROG}: aborted", file=sys.stderr, flush=True)
-                os._exit(EXIT_INTERRUPTED)
-            self._received = True
-            print(f"{PROG}: stopping; the best layout so far will be written "
-                  "(Ctrl-C again to abort)", file=sys.stderr, flush=True)
-
-
-@contextmanager
-def _sigint_handler() -> Iterator[Callable[[], bool]]:
-    received = False
-
-    def handler(_signum: int, _frame: FrameType | None) -> None:
-        nonlocal received
-        if received:
-            raise KeyboardInterrupt
-        received = True
-
-    previous = signal.signal(signal.SIGINT, handler)
-    try:
-        yield lambda: received
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-# -- messages ---------------------------------------------------------------------------
-
-
-class ProgressPrinter:
-    """An `on_event` sink printing one line per event, incumbents throttled.
-
-    An incumbent that came too soon after the last printed one is held back and
-    printed before the next other event, so each MIQP's last incumbent shows."""
-
-    def __init__(self, stream: TextIO, interval: float = INCUMBENT_INTERVAL,
-                 clock: Callable[[], float] = time.monotonic) -> None:
-        self.stream = stream
-        self.interval = interval
-        self.clock = clock
-        self._last_incumbent = -math.inf
-        self._held: SolveEvent | None = None
-
-    def __call__(self, event: SolveEvent) -> None:
-        if event.phase == INCUMBENT:
-            now = self.clock()
-            if now - self._last_incumbent < self.interval:
-                self._held = event
-                return
-            self._last_incumbent = now
-        elif self._held is not None:
-            self._print(self._held)
-        self._held = None
-        self._print(event)
-
-    def _print(self, event: SolveEvent) -> None:
-        print(progress_line(event), file=self.stream, flush=True)
-
-
-def progress_line(event: SolveEvent) -> str:
-    """E.g. ``[  1.23s] level 2 sub 1/3  obj 12.41  bound 3.20  rooms a, b: optimal``."""
-    parts = [f"[{event.elapsed:6.2f}s] level {event.level}"]
-    if event.subdomains:
-        parts[0] += f" sub {event.subdomain}/{event.subdomains}"
-    if event.objective is not None:
-        parts.append(f"obj {_number(event.objective)}")
-    if event.dual_bound is not None:
-        parts.append(f"bound {_number(event.dual_bound)}")
-    detail = event.detail.removeprefix(f"level {event.level}: ")  # said already
-    parts.append(detail or ("new incumbent" if event.phase == INCUMBENT else event.phase))
-    return "  ".join(parts)
-
-
-def summary_line(layout: Layout) -> str:
-    r = layout.report
-    soft = (f"  soft violations {len(r.violations)} ({r.total_shortfall:.2f} m short)"
-            if r.violations else "")
-    floors = f" on {len(layout.floors)} floors" if layout.floors is not None else ""
-    return (f"{len(layout.all_rooms)} rooms{floors}  coverage {r.coverage:.1%}  "
-            f"levels {r.levels}  termination {r.termination.value}  "
-            f"valid {'yes' if r.valid else 'no'}{soft}  solve time {r.solve_time:.2f} s")
-
-
-def invalid_layout_warning(layout: Layout) -> str:
-    failed = [c for c in layout.report.constraints if not c.satisfied]
-    lines = [f"{PROG}: warning: the layout fails {len(failed)} check(s):"]
-    for c in failed:
-        rooms = ", ".join(c.rooms)
-        lines.append(f"  {c.kind}{' ' + rooms if rooms else ''}"
-                     f"{' on floor ' + c.floor if c.floor else ''}"
-                     f"{': ' + c.detail if c.detail else ''}")
-    return "\n".join(lines)
-
-
-def soft_violations_note(layout: Layout) -> str:
-    """The soft constraints a valid layout breaks (issue 8), each with its shortfall."""
-    r = layout.report
-    lines = [f"{PROG}: {len(r.violations)} soft constraint(s) not met, "
-             f"{r.total_shortfall:.2f} m short in all:"]
-    for c in r.violations:
-        lines.append(f"  {c.kind} {', '.join(c.rooms)}: {c.shortfall:.2f} m short"
-                     f"{' (' + c.detail + ')' if c.detail else ''}")
-    return "\n".join(lines)
-
-
-def no_layout_message(layout: Layout) -> str:
-    r = layout.report
-    why = r.infeasibility
-    lines = [f"{PROG}: no layout ({r.termination.value}): "
-             f"{why.reason if why else 'no reason given'}"]
-    if why is not None:
-        if why.conflict is not None:
-            lines.append(f"  {why.conflict.explanation}")
-            lines += _section("constraints in conflict", [
-                f"{c.path}: {c.constraint}" for c in why.conflict.constraints])
-        lines += _section("findings", why.findings)
-        lines += _section("relaxations tried", why.relaxations_tried)
-        lines += _section("constraint families", why.active_families)
-    return "\n".join(lines)
-
-
-def _section(title: str, items: Sequence[str]) -> list[str]:
-    return [f"  {title}:", *(f"    - {item}" for item in items)] if items else []
-
-
-def _number(value: float) -> str:
-    if not math.isfinite(value) or abs(value) >= SCIP_INFINITY:
-        return "-inf" if value < 0 else "inf"
-    if abs(value) >= 1e6:
-        return f"{value:.3g}"
-    return f"{round(value, 2) + 0.0:.2f}"  # + 0.0: no "-0.00"

@@ -6,7 +6,7 @@ from __future__ import annotations
 from alembic import context
 from sqlalchemy import Connection, create_engine
 
-from service.store import metadata
+from service.tables import metadata
 
 
 def _migrate(connection: Connection) -> None:

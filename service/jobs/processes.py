@@ -3,7 +3,8 @@
 `SolveProcesses` keeps warmed-up solve processes ready; `watch` supervises one job's
 process and records what it reports; both serve the embedded `Runner` here (at most
 `workers` at once, first in first out) and the Celery workers of the distributed mode
-(service/distributed.py), so a solve runs the same way in either.
+(service/jobs/celery/), so a solve runs the same way in either. What runs inside a
+solve's process is service/jobs/child.py.
 
 The watchdog enforces the job's time limit plus a grace period: first it sets the
 child's stop flag (SCIP is interrupted and the incumbent is returned), then, after
@@ -25,9 +26,10 @@ from dataclasses import dataclass, field
 from multiprocessing.synchronize import Event
 from typing import Any
 
+from service.jobs.child import standby
+from service.records import Job, JobStatus
 from service.settings import Settings
-from service.store import Job, JobStatus, JobStore
-from service.worker import standby
+from service.store import JobStore
 
 log = logging.getLogger("floorplan.runner")
 
@@ -131,80 +133,131 @@ def watch(
     incumbents and end in the store. `notify(job_id)` is told after each event written.
     Returns how it ended: "finished" (recorded), "stopping" (the service is stopping:
     the caller hands the job back) or "lost" (the lease went to another worker)."""
-    process, messages, stop = child.process, child.messages, child.stop
-    worker = lease.worker if lease else None
     grace = settings.grace_seconds
     started = time.monotonic()
     interrupt_at = started + STARTUP_SECONDS + job.time_limit + grace
-    kill_at = interrupt_at + grace
-    pending: dict[str, Any] = {}
-    last_flush = 0.0
-    outcome: tuple[str, Any] | None = None
-    killed = False
-
-    def announce() -> None:
-        if notify is not None:
-            notify(job.id)
-
+    watched = _Watch(job, child, store, grace, lease, notify,
+                     interrupt_at=interrupt_at, kill_at=interrupt_at + grace)
+    process = child.process
     if job.cancel_requested:
-        stop.set()
-    while outcome is None:
+        child.stop.set()
+    while watched.outcome is None:
+        watched.receive()
+        now = time.monotonic()
+        watched.flush(now)
+        if not watched.renew_lease(now):
+            return "lost"
+        if stopping.is_set() and watched.outcome is None:
+            process.kill()
+        if watched.outcome is None and not process.is_alive() and child.messages.empty():
+            break
+        watched.enforce_limits(now)
+    watched.end_process()
+    if stopping.is_set() and watched.outcome is None:
+        return "stopping"
+    watched.record_end()
+    return "finished"
+
+
+@dataclass
+class _Watch:
+    """What `watch` keeps of one job's solve: the reports not yet written as events, how
+    the solve ended, and its deadlines (the time limit plus grace, then another grace)."""
+
+    job: Job
+    child: Child
+    store: JobStore
+    grace: float
+    lease: Lease | None
+    notify: Callable[[str], None] | None
+    interrupt_at: float
+    kill_at: float
+    pending: dict[str, Any] = field(default_factory=dict)
+    last_flush: float = 0.0
+    outcome: tuple[str, Any] | None = None
+    killed: bool = False
+
+    @property
+    def worker(self) -> str | None:
+        return self.lease.worker if self.lease else None
+
+    def announce(self) -> None:
+        if self.notify is not None:
+            self.notify(self.job.id)
+
+    def receive(self) -> None:
+        """Take the solve's next report, if one comes within a moment."""
+        job, store, worker = self.job, self.store, self.worker
         try:
-            kind, payload = messages.get(timeout=0.2)
+            kind, payload = self.child.messages.get(timeout=0.2)
         except queue.Empty:
-            kind, payload = "", None
+            return
         # A store that does not answer for a moment costs progress reports, not the job.
         if kind == "progress":
             _quietly(job, "progress", store.set_progress, job.id, payload, worker=worker)
-            pending["progress"] = payload
+            self.pending["progress"] = payload
         elif kind == "incumbent":
             progress, layout_json = payload
             _quietly(job, "incumbent", store.set_incumbent, job.id, layout_json, worker=worker)
-            pending["incumbent"] = {"progress": progress, "layout": json.loads(layout_json)}
+            self.pending["incumbent"] = {"progress": progress, "layout": json.loads(layout_json)}
         elif kind in ("done", "error"):
-            outcome = (kind, payload)
-        now = time.monotonic()
-        if pending and (now - last_flush >= EVENT_INTERVAL or outcome is not None):
-            for event_kind, data in pending.items():
-                _quietly(job, "event", store.add_event, job.id, event_kind, data)
-            pending.clear()
-            last_flush = now
-            announce()
-        if lease is not None and now - lease.last >= lease.every:
-            lease.last = now
-            cancel = _quietly(job, "lease", store.heartbeat, job.id, lease.worker,
-                              failed=False)
-            if cancel is None:  # the reconciler gave the job to another worker
-                process.kill()
-                process.join(timeout=grace + 1)
-                return "lost"
-            if cancel:
-                stop.set()
-        if stopping.is_set() and outcome is None:
+            self.outcome = (kind, payload)
+
+    def flush(self, now: float) -> None:
+        """Write the pending reports as events, at most every EVENT_INTERVAL, and at the
+        end at once."""
+        if self.pending and (now - self.last_flush >= EVENT_INTERVAL
+                             or self.outcome is not None):
+            for event_kind, data in self.pending.items():
+                _quietly(self.job, "event", self.store.add_event, self.job.id, event_kind, data)
+            self.pending.clear()
+            self.last_flush = now
+            self.announce()
+
+    def renew_lease(self, now: float) -> bool:
+        """Renew the lease when it is due, learning there whether a cancel was asked
+        for. False when the job went to another worker: the solve is then killed."""
+        lease = self.lease
+        if lease is None or now - lease.last < lease.every:
+            return True
+        lease.last = now
+        cancel = _quietly(self.job, "lease", self.store.heartbeat, self.job.id, lease.worker,
+                          failed=False)
+        if cancel is None:  # the reconciler gave the job to another worker
+            self.child.process.kill()
+            self.child.process.join(timeout=self.grace + 1)
+            return False
+        if cancel:
+            self.child.stop.set()
+        return True
+
+    def enforce_limits(self, now: float) -> None:
+        """Past the time limit and grace, stop the solve; past another grace, kill it."""
+        if now > self.interrupt_at:
+            self.child.stop.set()
+        if now > self.kill_at and self.child.process.is_alive():
+            self.child.process.kill()
+            self.killed = True
+
+    def end_process(self) -> None:
+        process = self.child.process
+        process.join(timeout=self.grace + 1)
+        if process.is_alive():
             process.kill()
-        if outcome is None and not process.is_alive() and messages.empty():
-            break
-        if now > interrupt_at:
-            stop.set()
-        if now > kill_at and process.is_alive():
-            process.kill()
-            killed = True
-    process.join(timeout=grace + 1)
-    if process.is_alive():
-        process.kill()
-    if stopping.is_set() and outcome is None:
-        return "stopping"
-    for attempt in range(FINISH_ATTEMPTS):  # the result is worth a few tries
-        try:
-            _finish(job, store, outcome, process.exitcode, killed, worker)
-            break
-        except Exception:
-            if attempt == FINISH_ATTEMPTS - 1:
-                raise
-            log.warning("job %s: the end not recorded yet; trying again", job.id)
-            time.sleep(1.0)
-    announce()
-    return "finished"
+
+    def record_end(self) -> None:
+        """Record how the job ended; the result is worth a few tries."""
+        for attempt in range(FINISH_ATTEMPTS):
+            try:
+                _finish(self.job, self.store, self.outcome, self.child.process.exitcode,
+                        self.killed, self.worker)
+                break
+            except Exception:
+                if attempt == FINISH_ATTEMPTS - 1:
+                    raise
+                log.warning("job %s: the end not recorded yet; trying again", self.job.id)
+                time.sleep(1.0)
+        self.announce()
 
 
 def _quietly(job: Job, what: str, write: Callable[..., Any], *args: Any,

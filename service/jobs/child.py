@@ -2,6 +2,10 @@
 
 Started with `spawn`, never `fork` (SCIP and threads do not survive a fork), so this
 module is imported afresh in the child and must stay light at import time.
+
+The one Celery piece a solve may need, the sub-domain executor, is imported only when
+it asks for it, from service/jobs/broker/subdomains.py, which imports nothing of the
+backends, the runner or this module.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ def subdomain_executor(processes: int, remote: bool) -> tuple[Executor | None, i
     for the sub-domain workers (`remote`, while any is alive), else a local pool of
     `processes` (None for one: one after the other)."""
     if remote:
-        from service.distributed import subdomain_executor as celery_executor
+        from service.jobs.broker.subdomains import subdomain_executor as celery_executor
         from service.settings import get_settings
 
         executor = celery_executor(get_settings())

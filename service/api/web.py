@@ -1,10 +1,10 @@
 """The web page at `/` and the example problems it offers.
 
-The page is static HTML, CSS and JavaScript shipped in `service/static/`; it talks to
-the same public API as every other client. The examples are the repository's
-`examples/*.json` problems, shipped as package data through the `service/examples`
-link so that a non-editable install serves them too. Nothing here draws or solves:
-the browser draws the polygons the API returns.
+The page is static HTML, CSS and JavaScript shipped in `service/api/static/`; it talks
+to the same public API as every other client. The examples are the repository's
+`examples/*.json` problems, shipped as package data through the `service/api/examples`
+link so that a non-editable install serves them too. Nothing here draws or solves: the
+browser draws the polygons the API returns.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from fastapi.staticfiles import StaticFiles
 from pydantic import BaseModel, Field
 
 from models import Problem as LayoutProblem
-from service.errors import ApiError
+from service.api.errors import ApiError
 
 STATIC_DIR = Path(__file__).with_name("static")
 EXAMPLES_DIR = Path(__file__).with_name("examples")

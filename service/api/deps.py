@@ -1,0 +1,64 @@
+"""What routes depend on: the settings, the job backend and its store, the caller (by
+its API key) and the caller's job; each with its `Annotated` alias for route signatures."""
+
+from __future__ import annotations
+
+import hashlib
+from typing import Annotated
+from uuid import UUID
+
+from fastapi import Depends, Header, Request
+
+from service.api.errors import ApiError
+from service.jobs.backend import JobBackend
+from service.records import Job
+from service.settings import Settings
+from service.store import JobStore
+
+
+def settings_dep(request: Request) -> Settings:
+    return request.app.state.settings
+
+
+def backend_dep(request: Request) -> JobBackend:
+    return request.app.state.backend
+
+
+def store_dep(request: Request) -> JobStore:
+    return request.app.state.backend.store
+
+
+SettingsDep = Annotated[Settings, Depends(settings_dep)]
+StoreDep = Annotated[JobStore, Depends(store_dep)]
+BackendDep = Annotated[JobBackend, Depends(backend_dep)]
+
+
+def owner_dep(
+    settings: SettingsDep,
+    authorization: Annotated[str | None, Header()] = None,
+    x_api_key: Annotated[str | None, Header()] = None,
+) -> str:
+    """The caller's identity: a digest of its API key ("" when keys are off)."""
+    if not settings.api_keys:
+        return ""
+    key = x_api_key
+    if authorization and authorization.lower().startswith("bearer "):
+        key = authorization[7:].strip()
+    if not key or key not in settings.api_keys:
+        raise ApiError(401, "a valid API key is required (Authorization: Bearer KEY)",
+                       kind="unauthorized", headers={"WWW-Authenticate": "Bearer"})
+    return hashlib.sha256(key.encode()).hexdigest()[:32]
+
+
+OwnerDep = Annotated[str, Depends(owner_dep)]
+
+
+def job_dep(job_id: UUID, store: StoreDep, owner: OwnerDep) -> Job:
+    """The caller's job, or 404 (also for another key's job: ids do not leak)."""
+    job = store.get(str(job_id), owner)
+    if job is None:
+        raise ApiError(404, f"job {job_id} not found", kind="job-not-found")
+    return job
+
+
+JobDep = Annotated[Job, Depends(job_dep)]

@@ -1,0 +1,177 @@
+"""The layout jobs (/v1/layouts): submit, list, status, result, events, cancel, delete."""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import hashlib
+import json
+import time
+from collections.abc import AsyncIterator
+from typing import Annotated, Literal
+
+from fastapi import APIRouter, Header, Query, Response
+from fastapi.responses import StreamingResponse
+
+from models import Layout
+from models import Problem as LayoutProblem
+from service.api.body import PROBLEM_BODY_DOC, ProblemBody
+from service.api.deps import BackendDep, JobDep, OwnerDep, SettingsDep, StoreDep
+from service.api.errors import ApiError
+from service.api.schemas import JobPage, JobPublic
+from service.jobs.backend import JobBackend
+from service.records import Job, JobStatus
+from service.store import IdempotencyConflict
+from solver.export import MEDIA_TYPES, render
+from solver.pipeline.storeys import job_time_limit
+
+#: Longest wait between two looks at the store while streaming events (the backend
+#: wakes the stream sooner when it knows of new events).
+STREAM_POLL = 1.0
+#: Seconds between keep-alive comments on a quiet event stream.
+HEARTBEAT = 15.0
+#: Retry-After (seconds) suggested when the queue is full.
+RETRY_AFTER = 5
+
+router = APIRouter(prefix="/v1/layouts", tags=["layouts"])
+
+
+@router.post("", status_code=202, response_model=JobPublic, openapi_extra=PROBLEM_BODY_DOC,
+             responses={409: {"description": "Idempotency-Key reused with another body"},
+                        413: {"description": "body too large"},
+                        422: {"description": "invalid problem"},
+                        429: {"description": "queue full"}})
+def submit_layout(
+    body: ProblemBody, response: Response, store: StoreDep, backend: BackendDep,
+    settings: SettingsDep, owner: OwnerDep,
+    idempotency_key: Annotated[str | None, Header(max_length=200)] = None,
+) -> JobPublic:
+    """Queue a layout job. The answer names it in `Location`; follow it with
+    GET /v1/layouts/{id}, its event stream, or its result."""
+    problem, raw = body
+    if store.count(JobStatus.QUEUED) >= settings.queue_limit:
+        raise ApiError(429, "the queue is full; try again later", kind="queue-full",
+                       headers={"Retry-After": str(RETRY_AFTER)})
+    time_limit = job_time_limit(problem)  # a building's floors each have their share
+    digest = hashlib.sha256(
+        json.dumps(json.loads(raw), sort_keys=True, separators=(",", ":")).encode()
+    ).hexdigest()
+    try:
+        job, new = store.create(problem=problem.model_dump_json(), time_limit=time_limit,
+                                 owner=owner, idempotency_key=idempotency_key, body_hash=digest)
+    except IdempotencyConflict as err:
+        raise ApiError(409, "this Idempotency-Key was used with another body",
+                       kind="idempotency-conflict") from err
+    if new:
+        backend.submitted(job)
+    response.headers["Location"] = f"/v1/layouts/{job.id}"
+    return JobPublic.of(job)
+
+
+@router.get("", response_model=JobPage)
+def list_layouts(
+    store: StoreDep, owner: OwnerDep,
+    status: JobStatus | None = None,
+    limit: Annotated[int, Query(ge=1, le=200)] = 50,
+    cursor: str | None = None,
+) -> JobPage:
+    """The caller's jobs, newest first, a page at a time."""
+    after = _decode_cursor(cursor) if cursor else None
+    found = store.list(owner=owner, status=status, limit=limit + 1, after=after)
+    page, more = found[:limit], len(found) > limit
+    next_cursor = _encode_cursor(page[-1]) if more and page else None
+    return JobPage(data=[JobPublic.of(j) for j in page], next_cursor=next_cursor)
+
+
+@router.get("/{job_id}", response_model=JobPublic, responses={404: {"description": "unknown"}})
+def get_layout(job: JobDep) -> JobPublic:
+    """Status, termination, progress and timestamps of a job."""
+    return JobPublic.of(job)
+
+
+@router.get("/{job_id}/result", response_model=Layout,
+            responses={200: {"content": {MEDIA_TYPES[f]: {} for f in ("svg", "dxf", "geojson")}},
+                       404: {"description": "unknown job, or no layout yet"}})
+def get_result(
+    job: JobDep, format: Literal["json", "svg", "dxf", "geojson"] = "json"
+) -> Response:
+    """The layout: the final one, or the best so far while the job runs; as JSON, an
+    SVG plan, a DXF drawing (metres) or GeoJSON (local metric frame)."""
+    text = job.result or job.incumbent
+    if text is None:
+        raise ApiError(404, f"job {job.id} has no layout yet (status {job.status})",
+                       kind="no-result-yet", title="No layout yet")
+    if format == "json":
+        return Response(text, media_type=MEDIA_TYPES["json"])
+    problem = LayoutProblem.model_validate_json(job.problem)
+    body = render(problem, Layout.model_validate_json(text), format)
+    # A plan shows in the browser; drawings and data download as files.
+    disposition = "inline" if format == "svg" else "attachment"
+    headers = {"Content-Disposition": f'{disposition}; filename="{job.id}.{format}"'}
+    return Response(body, media_type=MEDIA_TYPES[format], headers=headers)
+
+
+@router.get("/{job_id}/events", responses={200: {"content": {"text/event-stream": {}}}})
+async def stream_events(
+    job: JobDep, backend: BackendDep,
+    last_event_id: Annotated[str | None, Header()] = None,
+) -> StreamingResponse:
+    """Server-Sent Events: `status`, `progress`, `incumbent` (with the incumbent layout).
+    Each event's id works as Last-Event-ID to resume; progress and incumbents come at
+    most twice a second, always the newest. The stream ends with the job."""
+    after = int(last_event_id) if last_event_id and last_event_id.isdigit() else 0
+    return StreamingResponse(_events(backend, job.id, after), media_type="text/event-stream",
+                             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+
+
+async def _events(backend: JobBackend, job_id: str, after: int) -> AsyncIterator[str]:
+    store = backend.store
+    quiet_since = time.monotonic()
+    while True:
+        batch = await asyncio.to_thread(store.events_after, job_id, after)
+        for e in batch:
+            after = e.seq
+            yield f"id: {e.seq}\nevent: {e.kind}\ndata: {e.data}\n\n"
+        if batch:
+            quiet_since = time.monotonic()
+        job = await asyncio.to_thread(store.get, job_id)
+        if job is None or (job.status.terminal and not batch):
+            return
+        if time.monotonic() - quiet_since > HEARTBEAT:
+            quiet_since = time.monotonic()
+            yield ": keep-alive\n\n"
+        await backend.wait_for_events(job_id, STREAM_POLL)
+
+
+@router.post("/{job_id}/cancel", response_model=JobPublic)
+def cancel_layout(job: JobDep, backend: BackendDep, store: StoreDep) -> JobPublic:
+    """Stop the solve gracefully; the best layout so far becomes the result. Cancelling
+    a finished job changes nothing."""
+    if not job.status.terminal:
+        backend.cancel(job.id)
+    current = store.get(job.id)
+    assert current is not None
+    return JobPublic.of(current)
+
+
+@router.delete("/{job_id}", status_code=204, responses={409: {"description": "still running"}})
+def delete_layout(job: JobDep, store: StoreDep) -> Response:
+    """Remove a finished job and its data."""
+    if not job.status.terminal:
+        raise ApiError(409, f"job {job.id} is {job.status}; cancel it first",
+                       kind="job-not-finished")
+    store.delete(job.id)
+    return Response(status_code=204)
+
+
+def _encode_cursor(job: Job) -> str:
+    return base64.urlsafe_b64encode(json.dumps([job.created_at, job.id]).encode()).decode()
+
+
+def _decode_cursor(cursor: str) -> tuple[float, str]:
+    try:
+        created, job_id = json.loads(base64.urlsafe_b64decode(cursor.encode()))
+        return float(created), str(job_id)
+    except (ValueError, TypeError) as err:
+        raise ApiError(400, "the cursor is not one this service gave out",
+                       kind="bad-cursor") from err

@@ -1,0 +1,67 @@
+"""POST /v1/validate: a problem checked without solving it."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from typing import Annotated
+
+from fastapi import APIRouter, Query, Request
+
+from models import Problem as LayoutProblem
+from service.api.body import PROBLEM_BODY_DOC, problem_body
+from service.api.deps import SettingsDep
+from service.api.errors import ApiError
+from service.api.schemas import Validation
+from solver.geometry import make_domain
+from solver.verify.conflicts import Diagnosis, diagnose
+from solver.verify.precheck import find_impossibilities
+
+#: Seconds POST /v1/validate?explain=true spends by default, and at most (never more
+#: than FLOORPLAN_MAX_TIME_LIMIT either).
+EXPLAIN_SECONDS = 3.0
+EXPLAIN_MAX_SECONDS = 30.0
+#: Explaining validations at once: their SCIP checks run in this process, so a burst
+#: of them must not take every core from the solves.
+EXPLAINS_AT_ONCE = 2
+_explaining = threading.BoundedSemaphore(EXPLAINS_AT_ONCE)
+
+router = APIRouter(tags=["service"])
+
+
+@router.post("/v1/validate", response_model=Validation, openapi_extra=PROBLEM_BODY_DOC,
+             response_model_exclude_unset=True)
+async def validate_problem(
+    request: Request, settings: SettingsDep,
+    explain: Annotated[bool, Query(
+        description="also ask SCIP, briefly, whether a layout exists, and when none "
+        "does, which constraints cannot hold together")] = False,
+    time_limit: Annotated[float, Query(
+        gt=0, le=EXPLAIN_MAX_SECONDS, description="seconds explain may take (at most "
+        "the service's largest options.time_limit)")] = EXPLAIN_SECONDS,
+) -> Validation:
+    """Check a problem without solving it: the schema, then the cheap impossibilities
+    (total area, sizes that fit nowhere, contradictory ratios, ...). With `explain`,
+    a short SCIP check of the whole problem follows, and a conflict search when no
+    layout can exist. A well-formed problem comes back as it would be solved, a
+    template expanded."""
+    try:
+        problem, _raw = await problem_body(request, settings)
+    except ApiError as err:
+        if err.status != 422:
+            raise
+        return Validation(valid=False, errors=err.errors or [], findings=[])
+    if not explain:
+        findings = await asyncio.to_thread(find_impossibilities, problem, make_domain(problem))
+        # exclude_unset on the answer: the problem shows what was given or filled in.
+        return Validation(valid=not findings, errors=[], findings=findings, problem=problem)
+    seconds = min(time_limit, settings.max_time_limit)
+    found = await asyncio.to_thread(_diagnose, problem, seconds)
+    return Validation(valid=not found.findings and found.feasible is not False, errors=[],
+                      findings=found.findings, problem=problem, feasible=found.feasible,
+                      conflict=found.conflict)
+
+
+def _diagnose(problem: LayoutProblem, seconds: float) -> Diagnosis:
+    with _explaining:
+        return diagnose(problem, time_limit=seconds)

@@ -1,0 +1,56 @@
+"""A job as the store hands it out: its status, its record and its events, plain values
+that the API, the runners and the workers pass around (service/store.py reads and
+writes them)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Any
+
+
+class JobStatus(StrEnum):
+    """Where a job is in its life."""
+
+    QUEUED = "queued"
+    RUNNING = "running"
+    SUCCEEDED = "succeeded"
+    FAILED = "failed"
+    CANCELED = "canceled"
+
+    @property
+    def terminal(self) -> bool:
+        return self in (JobStatus.SUCCEEDED, JobStatus.FAILED, JobStatus.CANCELED)
+
+
+@dataclass(frozen=True)
+class Job:
+    id: str
+    owner: str
+    status: JobStatus
+    termination: str | None
+    problem: str
+    time_limit: float
+    result: str | None
+    incumbent: str | None
+    progress: dict[str, Any] | None
+    error: dict[str, Any] | None
+    idempotency_key: str | None
+    body_hash: str | None
+    attempts: int
+    cancel_requested: bool
+    created_at: float
+    started_at: float | None
+    finished_at: float | None
+    updated_at: float
+    worker: str | None = None
+    heartbeat_at: float | None = None
+
+
+@dataclass(frozen=True)
+class Event:
+    job_id: str
+    seq: int
+    kind: str
+    data: str
+

@@ -1,0 +1,52 @@
+"""The job store's tables (SQLAlchemy Core), one schema for SQLite and PostgreSQL: what
+service/store.py reads and writes and what the Alembic migrations (service/migrations)
+are checked against."""
+
+from sqlalchemy import (
+    Boolean,
+    Column,
+    Float,
+    Integer,
+    MetaData,
+    String,
+    Table,
+    Text,
+)
+
+metadata = MetaData()
+
+jobs = Table(
+    "jobs", metadata,
+    Column("id", String(36), primary_key=True),
+    Column("owner", String(64), nullable=False, default=""),
+    Column("status", String(16), nullable=False, index=True),
+    Column("termination", String(32)),
+    Column("problem", Text, nullable=False),
+    Column("time_limit", Float, nullable=False),
+    Column("result", Text),
+    Column("incumbent", Text),
+    Column("progress", Text),
+    Column("error", Text),
+    Column("idempotency_key", String(200)),
+    Column("body_hash", String(64)),
+    Column("attempts", Integer, nullable=False, default=0),
+    Column("cancel_requested", Boolean, nullable=False, default=False),
+    Column("created_at", Float, nullable=False, index=True),
+    Column("started_at", Float),
+    Column("finished_at", Float),
+    Column("updated_at", Float, nullable=False),
+    # The distributed mode: who holds the job, when it last said so, when it was sent to
+    # the broker (NULL: not yet, or the broker lost it).
+    Column("worker", String(200)),
+    Column("heartbeat_at", Float),
+    Column("dispatched_at", Float),
+)
+
+events = Table(
+    "events", metadata,
+    Column("job_id", String(36), primary_key=True),
+    Column("seq", Integer, primary_key=True),
+    Column("kind", String(16), nullable=False),
+    Column("data", Text, nullable=False),
+    Column("created_at", Float, nullable=False),
+)
