@@ -6,6 +6,8 @@ spanning it, laid out in its own outline (the top-level one unless it has its ow
 `floor_problem` builds it; validating the building validates every floor's problem
 and reports each error at the field the user wrote (``floors.1.rooms.2.positions.0``,
 ``vertical.0.min_size``), so a user never sees the assembled problem's indices.
+`floor_view` and `draft_floor` give one floor of a building's problem and of a draft
+layout, for drawing, export and progress displays.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from shapely import affinity
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
+from models.layout import FloorLayout, Layout
 from models.parts import (
     DEFAULT_MAX_ROOMS,
     Floor,
@@ -220,3 +223,18 @@ def _fit_errors(problem: Problem) -> list[InitErrorDetails]:
                                       "m, which fits nowhere in the area common to its floors"))
     return errors
 
+
+def floor_view(problem: Problem, floor_id: str) -> Problem:
+    """Floor `floor_id` as a single-floor problem, for drawing and export."""
+    assert problem.floors is not None
+    index = [f.id for f in problem.floors].index(floor_id)
+    return floor_problem(problem, index)
+
+
+def draft_floor(problem: Problem, floor_id: str, draft: Layout) -> Layout:
+    """An incumbent of floor `floor_id` (a single-floor draft) as a layout of the
+    building, that floor alone, for progress displays."""
+    assert problem.floors is not None
+    floor = next(f for f in problem.floors if f.id == floor_id)
+    return Layout(name=problem.name, report=draft.report, floors=[FloorLayout(
+        id=floor.id, name=floor.name or floor.id, rooms=draft.rooms, report=draft.report)])

@@ -39,7 +39,7 @@ def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
     In a building of several storeys, every feature of a floor has that floor's id as
     its `floor` property."""
     if layout.floors is not None and problem.floors is not None:
-        from solver.pipeline.storeys import floor_view
+        from models.storeys import floor_view
 
         features: list[dict[str, Any]] = []
         for floor in layout.floors:
@@ -92,7 +92,7 @@ def to_dxf(problem: Problem, layout: Layout) -> bytes:
     doc = ezdxf.new("R2010", setup=True)
     doc.units = ezdxf.units.M
     if layout.floors is not None and problem.floors is not None:
-        from solver.pipeline.storeys import floor_view
+        from models.storeys import floor_view
 
         for floor in layout.floors:
             _draw_dxf(doc, floor_view(problem, floor.id), _floor_layout(layout, floor.id),

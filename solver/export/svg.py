@@ -130,7 +130,7 @@ def render_svg(problem: Problem, layout: Layout, *, scale: float = 40.0) -> str:
 def _render_storeys(problem: Problem, layout: Layout, scale: float) -> str:
     """A building of several storeys: each floor's plan, titled with its name, side by
     side from the first floor on the left, on one page at one scale."""
-    from solver.pipeline.storeys import floor_view
+    from models.storeys import floor_view
 
     ns = f"{{{SVG_NS}}}"
     plans: list[ET.Element] = []

@@ -972,7 +972,7 @@ def draft_layout(problem: Problem, rooms: dict[str, list[Box]], objective: float
     (`termination: in_progress`, `valid: false` until the solve ends). In a building of
     several storeys, `floor` names the floor the incumbent is of (`SolveEvent.floor`)."""
     if problem.floors is not None and floor:
-        from solver.pipeline.storeys import draft_floor, floor_view
+        from models.storeys import draft_floor, floor_view
 
         return draft_floor(problem, floor, draft_layout(floor_view(problem, floor), rooms,
                                                         objective))
