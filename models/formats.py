@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import PurePath
-from typing import Literal, cast, get_args
+from typing import Literal, get_args
 
 #: The name of an output format (what ``format=`` and ``--format`` take).
 FormatName = Literal["json", "svg", "dxf", "geojson"]
@@ -64,7 +64,7 @@ BY_NAME: dict[str, OutputFormat] = {f.name: f for f in FORMATS}
 FORMAT_NAMES: tuple[FormatName, ...] = tuple(f.name for f in FORMATS)
 #: The names of the formats rendered from a layout (all but ``json``).
 RENDERED_FORMAT_NAMES: tuple[RenderedFormatName, ...] = tuple(
-    cast(RenderedFormatName, name) for name in FORMAT_NAMES if name != "json")
+    name for name in FORMAT_NAMES if name != "json")
 #: Format name -> media type.
 MEDIA_TYPES: dict[str, str] = {f.name: f.media_type for f in FORMATS}
 #: The format a layout is in unless asked otherwise.

@@ -56,9 +56,9 @@ class Progress(WireModel):
     level: int | None = None
     subdomain: int | None = None
     subdomains: int | None = None
-    objective: float | None = Field(None, description="Eq. 12 of the incumbent layout")
+    objective: float | None = Field(default=None, description="Eq. 12 of the incumbent layout")
     dual_bound: float | None = None
-    elapsed: float | None = Field(None, description="seconds since the solve started")
+    elapsed: float | None = Field(default=None, description="seconds since the solve started")
     detail: str | None = None
 
     def __str__(self) -> str:
@@ -90,7 +90,7 @@ class JobError(WireModel):
     message: str
     findings: list[str] = Field(default_factory=list)
     conflict: ConflictSet | None = Field(
-        None, description="for an infeasible problem: a small set of its constraints that "
+        default=None, description="for an infeasible problem: a small set of its constraints that "
         "cannot hold together, by path and in words")
 
 
@@ -109,7 +109,7 @@ class JobPublic(WireModel):
     id: JobId
     status: JobStatus
     termination: Termination | None = Field(
-        None, description="optimal, timelimit, stalled, infeasible, interrupted, "
+        default=None, description="optimal, timelimit, stalled, infeasible, interrupted, "
         "no_solution; set when the job ends")
     progress: Progress | None = None
     error: JobError | None = None
@@ -124,7 +124,7 @@ class JobPage(WireModel):
     """One page of ``GET /v1/layouts``, newest job first."""
 
     data: list[JobPublic]
-    next_cursor: str | None = Field(None, description="pass as ?cursor= for the next page")
+    next_cursor: str | None = Field(default=None, description="pass as ?cursor= for the next page")
 
 
 class FieldError(WireModel):
@@ -148,15 +148,15 @@ class Validation(WireModel):
     findings: list[str] = Field(default_factory=list,
                                 description="reasons no layout can exist")
     problem: Problem | None = Field(
-        None, description="the problem as it would be solved, a template expanded: the "
+        default=None, description="the problem as it would be solved, a template expanded: the "
         "fields given or filled in (defaults left out); edit it and send it as is. "
         "Absent when the problem is not well formed")
     feasible: bool | None = Field(
-        None, description="with explain: true when SCIP found a layout meeting every hard "
+        default=None, description="with explain: true when SCIP found a layout meeting every hard "
         "constraint, false when it proved there is none, null when neither in the time "
         "given; absent without explain")
     conflict: ConflictSet | None = Field(
-        None, description="with explain, when no layout can exist: a small set of the "
+        default=None, description="with explain, when no layout can exist: a small set of the "
         "problem's constraints that cannot hold together, by path and in words")
 
 

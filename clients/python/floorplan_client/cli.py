@@ -362,7 +362,7 @@ class JobState:
 
     def objective_text(self) -> str:
         """E.g. ``objective 12.41``; "" before the first incumbent."""
-        from floorplan_client.types import format_number
+        from models.jobs import format_number
 
         return "" if self.objective is None else f"objective {format_number(self.objective)}"
 
