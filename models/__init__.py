@@ -1,36 +1,71 @@
-"""The public contract: the problem a user sends and the layout we return. No solver, no HTTP."""
+"""The public contract: the problem a user sends and the layout we return. No solver, no HTTP.
 
-from models.layout import (
-    OUTSIDE,
-    Aisle,
-    Circulation,
-    ConflictItem,
-    ConflictSet,
-    ConstraintCheck,
-    Door,
-    ExtraRectangles,
-    FloorLayout,
-    Infeasibility,
-    Layout,
-    Rect,
-    Report,
-    RoomLayout,
-    Termination,
-    Window,
-)
-from models.problem import (
-    DEFAULT_MAX_ROOMS,
-    Adjacency,
-    Floor,
-    Obstacle,
-    Openings,
-    Options,
-    Problem,
-    Region,
-    Room,
-    VerticalRoom,
-    Weights,
-)
+The names below are imported on first use, not with the package, so that a module of
+it that needs nothing outside the standard library (`models.formats`) loads without
+pydantic, shapely or numpy: the `floorplan` command builds ``submit``'s options from it,
+and ``floorplan solve`` must not load numpy before it has set up its Ctrl-C handling.
+
+The modules: `models.parts` (the building blocks of a problem), `models.templates` and
+`models.storeys` (templated problems, buildings of several floors), `models.problem`
+(`Problem`, built on the three), `models.layout` (the answer), `models.jobs` (the
+service's jobs as its API shows them), `models.formats` (what a layout can be written
+as).
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from models.layout import (
+        OUTSIDE,
+        Aisle,
+        Circulation,
+        ConflictItem,
+        ConflictSet,
+        ConstraintCheck,
+        Door,
+        ExtraRectangles,
+        FloorLayout,
+        Infeasibility,
+        Layout,
+        Rect,
+        Report,
+        RoomLayout,
+        Termination,
+        Window,
+    )
+    from models.parts import (
+        DEFAULT_MAX_ROOMS,
+        Adjacency,
+        Floor,
+        Obstacle,
+        Openings,
+        Options,
+        Region,
+        Room,
+        VerticalRoom,
+        Weights,
+    )
+    from models.problem import Problem
+
+_WHERE = {
+    "models.layout": (
+        "OUTSIDE", "Aisle", "Circulation", "ConflictItem", "ConflictSet", "ConstraintCheck",
+        "Door", "ExtraRectangles", "FloorLayout", "Infeasibility", "Layout", "Rect", "Report",
+        "RoomLayout", "Termination", "Window",
+    ),
+    "models.parts": (
+        "DEFAULT_MAX_ROOMS", "Adjacency", "Floor", "Obstacle", "Openings", "Options", "Region",
+        "Room", "VerticalRoom", "Weights",
+    ),
+    "models.problem": ("Problem",),
+}
+_MODULE_OF = {name: module for module, names in _WHERE.items() for name in names}
+_SUBMODULES = frozenset({
+    "formats", "jobs", "layout", "parts", "problem", "storeys", "template_rules", "templates",
+})
 
 __all__ = [
     "DEFAULT_MAX_ROOMS",
@@ -61,3 +96,19 @@ __all__ = [
     "Weights",
     "Window",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _MODULE_OF.get(name)
+    if module is not None:
+        value = getattr(importlib.import_module(module), name)
+    elif name in _SUBMODULES:  # `import models; models.problem`, as when it was eager
+        value = importlib.import_module(f"models.{name}")
+    else:
+        raise AttributeError(f"module 'models' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -6,12 +6,14 @@ spanning it, laid out in its own outline (the top-level one unless it has its ow
 `floor_problem` builds it; validating the building validates every floor's problem
 and reports each error at the field the user wrote (``floors.1.rooms.2.positions.0``,
 ``vertical.0.min_size``), so a user never sees the assembled problem's indices.
+`floor_view` and `draft_floor` give one floor of a building's problem and of a draft
+layout, for drawing, export and progress displays.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
 from pydantic_core import InitErrorDetails
@@ -19,15 +21,20 @@ from shapely import affinity
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
-from models.problem import (
+from models.layout import FloorLayout, Layout
+from models.parts import (
     DEFAULT_MAX_ROOMS,
     Floor,
-    Problem,
     Room,
     VerticalRoom,
-    _boundary_errors,
-    _error,
+    boundary_errors,
+    field_error,
 )
+
+if TYPE_CHECKING:
+    # `Problem` is built on this module (its validator calls `storey_errors`); the
+    # functions below that make a problem make one of their argument's class.
+    from models.problem import Problem
 
 Loc = tuple[str | int, ...]
 
@@ -68,7 +75,7 @@ def floor_data(problem: Problem, index: int) -> dict[str, Any]:
 
 def floor_problem(problem: Problem, index: int) -> Problem:
     """Floor `index` of `problem` as an ordinary single-floor problem."""
-    return Problem.model_validate(floor_data(problem, index))
+    return type(problem).model_validate(floor_data(problem, index))
 
 
 def floor_title(problem: Problem, floor: Floor) -> str:
@@ -84,30 +91,30 @@ def storey_errors(problem: Problem, max_rooms: int = DEFAULT_MAX_ROOMS) -> list[
     """Every reason why `problem`'s floors and vertical rooms cannot be laid out, each
     naming the field as the user wrote it; `max_rooms` caps the building's rooms."""
     if problem.floors is None:
-        return [_error(("vertical",), [v.id for v in problem.vertical], "vertical_without_floors",
-                       "vertical rooms need `floors` to span")]
+        return [field_error(("vertical",), [v.id for v in problem.vertical],
+                            "vertical_without_floors", "vertical rooms need `floors` to span")]
     errors: list[InitErrorDetails] = []
     if problem.rooms:
-        errors.append(_error(("rooms",), [r.id for r in problem.rooms], "rooms_and_floors",
-                             "with `floors`, give each floor its rooms and leave the "
-                             "top-level `rooms` empty"))
+        errors.append(field_error(("rooms",), [r.id for r in problem.rooms], "rooms_and_floors",
+                                  "with `floors`, give each floor its rooms and leave the "
+                                  "top-level `rooms` empty"))
     if problem.adjacency:
-        errors.append(_error(("adjacency",), len(problem.adjacency), "adjacency_and_floors",
-                             "with `floors`, adjacencies go in each floor's `adjacency`"))
-    errors += _boundary_errors(problem.boundary)
+        errors.append(field_error(("adjacency",), len(problem.adjacency), "adjacency_and_floors",
+                                  "with `floors`, adjacencies go in each floor's `adjacency`"))
+    errors += boundary_errors(problem.boundary)
     errors += _identity_errors(problem)
     if errors:
         return errors  # the floors' problems would repeat these in other words
     total = sum(len(f.rooms) for f in problem.floors) + len(problem.vertical)
     if total > max_rooms:
-        errors.append(_error(("floors",), total, "too_many_rooms",
-                             f"{total} rooms exceed the limit of {max_rooms}"))
+        errors.append(field_error(("floors",), total, "too_many_rooms",
+                                  f"{total} rooms exceed the limit of {max_rooms}"))
     seen: set[tuple[Loc, str]] = set()
     for index in range(len(problem.floors)):
         for loc, kind, message, value in _floor_problem_errors(problem, index):
             if (loc, kind) not in seen:  # a vertical room's error shows once, not per floor
                 seen.add((loc, kind))
-                errors.append(_error(loc, value, kind, message))
+                errors.append(field_error(loc, value, kind, message))
     errors += _fit_errors(problem)
     return errors
 
@@ -119,24 +126,24 @@ def _identity_errors(problem: Problem) -> Iterator[InitErrorDetails]:
     ids: set[str] = set()
     for i, floor in enumerate(problem.floors):
         if floor.id in ids:
-            yield _error(("floors", i, "id"), floor.id, "duplicate_id",
-                         f"floor id '{floor.id}' is used twice")
+            yield field_error(("floors", i, "id"), floor.id, "duplicate_id",
+                              f"floor id '{floor.id}' is used twice")
         ids.add(floor.id)
     vertical_ids: set[str] = set()
     for j, vertical in enumerate(problem.vertical):
         if vertical.id in vertical_ids:
-            yield _error(("vertical", j, "id"), vertical.id, "duplicate_id",
-                         f"vertical room id '{vertical.id}' is used twice")
+            yield field_error(("vertical", j, "id"), vertical.id, "duplicate_id",
+                              f"vertical room id '{vertical.id}' is used twice")
         vertical_ids.add(vertical.id)
         for k, floor_id in enumerate(vertical.floors or []):
             if floor_id not in ids:
-                yield _error(("vertical", j, "floors", k), floor_id, "unknown_floor",
-                             f"unknown floor id '{floor_id}'")
+                yield field_error(("vertical", j, "floors", k), floor_id, "unknown_floor",
+                                  f"unknown floor id '{floor_id}'")
         spans = spanned_floors(problem, vertical)
         if len(spans) < 2 and all(f in ids for f in vertical.floors or []):
-            yield _error(("vertical", j, "floors"), vertical.floors, "single_floor",
-                         f"vertical room '{vertical.id}' spans {len(spans)} floor(s); it "
-                         "needs two at least (a room on one floor belongs in its `rooms`)")
+            yield field_error(("vertical", j, "floors"), vertical.floors, "single_floor",
+                              f"vertical room '{vertical.id}' spans {len(spans)} floor(s); it "
+                              "needs two at least (a room on one floor belongs in its `rooms`)")
 
 
 def _floor_problem_errors(
@@ -145,7 +152,7 @@ def _floor_problem_errors(
     """The errors of floor `index`'s own problem, at the fields the user wrote."""
     data = floor_data(problem, index)
     try:
-        Problem.model_validate(data)
+        type(problem).model_validate(data)
     except ValidationError as err:
         for e in err.errors(include_url=False):
             yield _user_loc(problem, index, tuple(e["loc"])), e["type"], e["msg"], e["input"]
@@ -210,7 +217,24 @@ def _fit_errors(problem: Problem) -> list[InitErrorDetails]:
         common = common_free_area(problem, spanned_floors(problem, vertical))
         scaled = affinity.scale(common, xfact=1 / w, yfact=1 / d, origin=(0, 0))
         if scaled.is_empty or scaled.buffer(-0.5 + 1e-9, join_style="mitre").is_empty:
-            errors.append(_error(("vertical", j, "min_size"), vertical.min_size, "fits_nowhere",
-                                 f"vertical room '{vertical.id}' needs at least {w:g} x {d:g} "
-                                 "m, which fits nowhere in the area common to its floors"))
+            errors.append(field_error(("vertical", j, "min_size"), vertical.min_size,
+                                      "fits_nowhere",
+                                      f"vertical room '{vertical.id}' needs at least {w:g} x {d:g} "
+                                      "m, which fits nowhere in the area common to its floors"))
     return errors
+
+
+def floor_view(problem: Problem, floor_id: str) -> Problem:
+    """Floor `floor_id` as a single-floor problem, for drawing and export."""
+    assert problem.floors is not None
+    index = [f.id for f in problem.floors].index(floor_id)
+    return floor_problem(problem, index)
+
+
+def draft_floor(problem: Problem, floor_id: str, draft: Layout) -> Layout:
+    """An incumbent of floor `floor_id` (a single-floor draft) as a layout of the
+    building, that floor alone, for progress displays."""
+    assert problem.floors is not None
+    floor = next(f for f in problem.floors if f.id == floor_id)
+    return Layout(name=problem.name, report=draft.report, floors=[FloorLayout(
+        id=floor.id, name=floor.name or floor.id, rooms=draft.rooms, report=draft.report)])

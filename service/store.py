@@ -37,7 +37,8 @@ from sqlalchemy import (
 from sqlalchemy.engine import Connection
 from sqlalchemy.exc import IntegrityError
 
-from service.records import Event, Job, JobStatus
+from models.jobs import JobStatus
+from service.records import Event, Job
 from service.tables import events, jobs
 
 #: Attempts at appending an event when another writer took its sequence number.

@@ -22,7 +22,7 @@ import redis
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 
-from service.records import JobStatus
+from models.jobs import JobStatus
 from service.store import JobStore
 from service.tables import metadata
 from tests.servers import Cluster, free_port, schema_url

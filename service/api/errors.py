@@ -10,8 +10,10 @@ from typing import Any
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
-from pydantic import BaseModel, Field, ValidationError
+from pydantic import BaseModel, ValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from models.jobs import FieldError
 
 log = logging.getLogger("floorplan.api")
 
@@ -19,15 +21,6 @@ PROBLEM_JSON = "application/problem+json"
 #: Problem type URIs are relative references into the docs; "about:blank" means the
 #: HTTP status says it all (RFC 9457 §4.2.1).
 TYPE_BASE = "/docs/problems/"
-
-
-class FieldError(BaseModel):
-    """One bad field of a request."""
-
-    field: str = Field(description="dotted path to the field, e.g. rooms.2.positions.0")
-    loc: list[str | int]
-    message: str
-    type: str
 
 
 class ProblemDetails(BaseModel):

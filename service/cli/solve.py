@@ -26,8 +26,9 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any
 
+from models.formats import FORMAT_NAMES, format_of, in_words
 from service.cli.exits import (
     EXIT_FAILURE,
     EXIT_INTERRUPTED,
@@ -96,9 +97,8 @@ def _add_solve(commands: Any) -> None:
     p.add_argument("-o", "--output", metavar="LAYOUT.json", default=STDIO,
                    help=f"where to write the layout JSON (default and '{STDIO}': stdout)")
     p.add_argument("--svg", metavar="PLAN.svg", help="also draw the layout as SVG here")
-    p.add_argument("--format", choices=["json", "svg", "dxf", "geojson"],
-                   help="what -o holds (default: from its extension, else json): the layout "
-                   "JSON, an SVG plan, a DXF drawing in metres, or GeoJSON in the local frame")
+    p.add_argument("--format", choices=FORMAT_NAMES,
+                   help=f"what -o holds (default: from its extension, else json): {in_words()}")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds for the whole solve (overrides options.time_limit)")
     p.add_argument("--seed", type=int, metavar="K", help="random seed (overrides options.seed)")
@@ -197,7 +197,7 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
 def write_expanded(args: argparse.Namespace, problem: Problem) -> int:
     """``--expand``: the validated problem as JSON, only the fields that were given or
     that a template filled in (the defaults stay implicit, as in a hand-written file)."""
-    if args.svg or (args.format or _format_of(args.output)) != "json":
+    if args.svg or (args.format or format_of(args.output)) != "json":
         raise UsageError("--expand writes the problem as JSON: drop --svg and --format, "
                          "and give -o a .json name")
     _check_writable(args.output)
@@ -308,7 +308,7 @@ def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -
     from solver.export.svg import render_svg
 
     ok = True
-    fmt = args.format or _format_of(args.output)
+    fmt = args.format or format_of(args.output)
     try:
         if fmt == "json":
             _write_text(args.output, layout.model_dump_json(indent=2) + "\n")
@@ -324,14 +324,6 @@ def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -
             print(f"{PROG}: error: cannot write {args.svg}: {err}", file=sys.stderr)
             ok = False
     return ok
-
-
-def _format_of(target: str) -> Literal["json", "svg", "dxf", "geojson"]:
-    """The output format an -o file name asks for."""
-    suffix = Path(target).suffix.lower().lstrip(".")
-    if suffix in ("svg", "dxf", "geojson"):
-        return suffix  # type: ignore[return-value]
-    return "json"
 
 
 def _write_text(target: str, text: str) -> None:

@@ -6,9 +6,10 @@ from __future__ import annotations
 import asyncio
 from typing import Any
 
+from models.jobs import JobStatus
 from service.jobs.backend import JobBackend
 from service.jobs.processes import Runner
-from service.records import Job, JobStatus
+from service.records import Job
 from service.settings import Settings
 from service.store import JobStore
 

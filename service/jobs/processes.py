@@ -26,8 +26,9 @@ from dataclasses import dataclass, field
 from multiprocessing.synchronize import Event
 from typing import Any
 
+from models.jobs import JobStatus
 from service.jobs.child import standby
-from service.records import Job, JobStatus
+from service.records import Job
 from service.settings import Settings
 from service.store import JobStore
 

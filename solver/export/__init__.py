@@ -2,30 +2,21 @@
 
 The formats are JSON (the layout itself), SVG plans (`svg.py`), DXF drawings (`dxf.py`)
 and GeoJSON (`geojson.py`), all in the problem's own metric frame. Adding a format is a
-writer here plus its entry in the formats list (docs/architecture.md)."""
+writer here plus its entry in `models.formats` (docs/architecture.md)."""
 
 from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from typing import Literal
 
 from models import Layout, Problem
+from models.formats import FormatName
 from solver.export.dxf import to_dxf
 from solver.export.geojson import to_geojson
 from solver.export.svg import render_svg
 
-Format = Literal["json", "svg", "dxf", "geojson"]
-#: Media types of the formats a layout can be written in.
-MEDIA_TYPES: dict[str, str] = {
-    "json": "application/json",
-    "svg": "image/svg+xml",
-    "dxf": "image/vnd.dxf",
-    "geojson": "application/geo+json",
-}
-
 Writer = Callable[[Problem, Layout], bytes]
-#: The writer of each format: the bytes of the file.
+#: The writer of each format of `models.formats`: the bytes of the file.
 WRITERS: dict[str, Writer] = {
     "json": lambda problem, layout: layout.model_dump_json(indent=2).encode(),
     "svg": lambda problem, layout: render_svg(problem, layout).encode(),
@@ -35,6 +26,6 @@ WRITERS: dict[str, Writer] = {
 }
 
 
-def render(problem: Problem, layout: Layout, fmt: Format) -> bytes:
+def render(problem: Problem, layout: Layout, fmt: FormatName) -> bytes:
     """`layout` in `fmt`, as the bytes of a file."""
     return WRITERS[fmt](problem, layout)

@@ -11,6 +11,7 @@ from ezdxf import colors
 from ezdxf.enums import TextEntityAlignment
 
 from models import Layout, Problem
+from models.storeys import floor_view
 from solver.export.floors import floor_layout
 
 #: DXF colour index per room type; other types get a colour from their name.
@@ -28,8 +29,6 @@ def to_dxf(problem: Problem, layout: Layout) -> bytes:
     doc = ezdxf.new("R2010", setup=True)
     doc.units = ezdxf.units.M
     if layout.floors is not None and problem.floors is not None:
-        from solver.pipeline.storeys import floor_view
-
         for floor in layout.floors:
             _draw_dxf(doc, floor_view(problem, floor.id), floor_layout(layout, floor.id),
                       prefix=f"{_layer_name(floor.id).removeprefix('ROOM_')}-")

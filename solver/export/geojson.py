@@ -8,6 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from models import OUTSIDE, Layout, Problem
+from models.storeys import floor_view
 from solver.export.floors import floor_layout
 
 
@@ -18,8 +19,6 @@ def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
     In a building of several storeys, every feature of a floor has that floor's id as
     its `floor` property."""
     if layout.floors is not None and problem.floors is not None:
-        from solver.pipeline.storeys import floor_view
-
         features: list[dict[str, Any]] = []
         for floor in layout.floors:
             single = floor_layout(layout, floor.id)

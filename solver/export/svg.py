@@ -22,6 +22,7 @@ from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from models import Aisle, Layout, Problem, RoomLayout
+from models.storeys import floor_view
 from solver.geometry import Box, boundary_edges, rectangles_of
 
 SVG_NS = "http://www.w3.org/2000/svg"
@@ -130,8 +131,6 @@ def render_svg(problem: Problem, layout: Layout, *, scale: float = 40.0) -> str:
 def _render_storeys(problem: Problem, layout: Layout, scale: float) -> str:
     """A building of several storeys: each floor's plan, titled with its name, side by
     side from the first floor on the left, on one page at one scale."""
-    from solver.pipeline.storeys import floor_view
-
     ns = f"{{{SVG_NS}}}"
     plans: list[ET.Element] = []
     for k, floor in enumerate(layout.floors or []):

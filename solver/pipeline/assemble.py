@@ -14,6 +14,7 @@ from models import (
     RoomLayout,
     Termination,
 )
+from models.storeys import draft_floor, floor_view
 from solver.events import Phase
 from solver.geometry import (
     Box,
@@ -28,7 +29,6 @@ from solver.miqp.scip_run import LevelStatus
 from solver.openings import add_openings
 from solver.pipeline.hierarchy import Piece, room_boxes
 from solver.pipeline.run import Run
-from solver.pipeline.storeys import draft_floor, floor_view
 from solver.soft import hard_part
 from solver.verify.checker import check_layout
 from solver.verify.conflicts import find_conflict

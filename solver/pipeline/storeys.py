@@ -463,22 +463,6 @@ def _user_conflict(
     return inner.conflict.model_copy(update={"constraints": items})
 
 
-def draft_floor(problem: Problem, floor_id: str, draft: Layout) -> Layout:
-    """An incumbent of floor `floor_id` (a single-floor draft) as a layout of the
-    building, that floor alone, for progress displays."""
-    assert problem.floors is not None
-    floor = next(f for f in problem.floors if f.id == floor_id)
-    return Layout(name=problem.name, report=draft.report, floors=[FloorLayout(
-        id=floor.id, name=floor.name or floor.id, rooms=draft.rooms, report=draft.report)])
-
-
-def floor_view(problem: Problem, floor_id: str) -> Problem:
-    """Floor `floor_id` as a single-floor problem, for drawing and export."""
-    assert problem.floors is not None
-    index = [f.id for f in problem.floors].index(floor_id)
-    return floor_problem(problem, index)
-
-
 def _stopped(should_stop: Callable[[], bool] | None) -> bool:
     return should_stop is not None and should_stop()
 

@@ -20,6 +20,7 @@ from floorplan_client._core import (
     BasePage,
     NotGiven,
     ProblemInput,
+    RenderedFormat,
     RequestOptions,
     ResultFormat,
     Timeout,
@@ -185,7 +186,7 @@ class AsyncJob(BaseJob):
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout: ...
 
     @overload
-    async def result(self, format: Literal["svg", "dxf", "geojson"], *,
+    async def result(self, format: RenderedFormat, *,
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> str: ...
 
     async def result(self, format: ResultFormat = "json", *,

@@ -18,6 +18,7 @@ from floorplan_client._core import (
     BasePage,
     NotGiven,
     ProblemInput,
+    RenderedFormat,
     RequestOptions,
     ResultFormat,
     Timeout,
@@ -222,7 +223,7 @@ class Job(BaseJob):
                timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout: ...
 
     @overload
-    def result(self, format: Literal["svg", "dxf", "geojson"], *,
+    def result(self, format: RenderedFormat, *,
                timeout: Timeout | NotGiven = NOT_GIVEN) -> str: ...
 
     def result(self, format: ResultFormat = "json", *,

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from email.utils import parsedate_to_datetime
 from http import HTTPStatus
 from pathlib import Path
-from typing import Any, Final, Generic, Literal, TypeVar
+from typing import Any, Final, Generic, TypeVar
 
 import httpx2 as httpx
 from pydantic import BaseModel, ValidationError
@@ -55,6 +55,7 @@ from floorplan_client.types import (
     Termination,
     event_from,
 )
+from models.formats import FormatName, RenderedFormatName
 
 T = TypeVar("T", bound=BaseModel)
 
@@ -87,8 +88,10 @@ Timeout = float | httpx.Timeout | None
 ProblemInput = Problem | Mapping[str, Any] | str | os.PathLike[str]
 
 #: What `Job.result` can fetch: the layout (a `models.Layout`), or as text an SVG plan,
-#: a DXF drawing or GeoJSON.
-ResultFormat = Literal["json", "svg", "dxf", "geojson"]
+#: a DXF drawing or GeoJSON (`models.formats`).
+ResultFormat = FormatName
+#: The formats `Job.result` returns as text, rendered from the layout.
+RenderedFormat = RenderedFormatName
 
 #: Failures in sending or receiving that another attempt may well not meet.
 RETRYABLE_ERRORS: tuple[type[httpx.TransportError], ...] = (

@@ -17,7 +17,8 @@ the same as ``floorplan solve``'s.
 The `floorplan` command (``service/cli.py``) adds this subcommand with `add_submit`
 when this package is installed. That command also runs ``floorplan solve``, which must
 not load numpy before it has set up its Ctrl-C handling: keep this module's top-level
-imports to the standard library.
+imports to the standard library and `models.formats` (the formats -o can hold, itself
+standard library only; the `models` package loads its other modules on first use).
 """
 
 from __future__ import annotations
@@ -32,11 +33,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, TextIO
 
+from models.formats import FORMAT_NAMES, format_of, in_words
+
 if TYPE_CHECKING:
     from rich.console import Console
 
     from floorplan_client import Event, Job
-    from floorplan_client._core import ResultFormat
     from models import Layout
 
 EXIT_OK = 0
@@ -55,7 +57,7 @@ PROG = "floorplan"
 #: Stands for stdin / stdout in file arguments.
 STDIO = "-"
 #: What -o can hold: the layout JSON, or the service's SVG, DXF or GeoJSON rendering.
-FORMATS = ("json", "svg", "dxf", "geojson")
+FORMATS = FORMAT_NAMES
 #: Seconds to wait for a job to end once Ctrl-C has canceled it.
 CANCEL_WAIT = 30.0
 #: Least seconds between two plain progress lines (status changes always print).
@@ -89,8 +91,7 @@ def add_submit(commands: Any) -> None:
     p.add_argument("-o", "--output", metavar="LAYOUT.json",
                    help=f"where to write the layout JSON (default and '{STDIO}': stdout)")
     p.add_argument("--format", choices=list(FORMATS),
-                   help="what -o holds (default: from its extension, else json): the layout "
-                   "JSON, an SVG plan, a DXF drawing in metres, or GeoJSON in the local frame")
+                   help=f"what -o holds (default: from its extension, else json): {in_words()}")
     p.add_argument("--svg", metavar="PLAN.svg", help="also write the plan as SVG here")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds for the solve (overrides options.time_limit)")
@@ -270,12 +271,6 @@ def _write_outputs(job: Job, layout: Layout, args: argparse.Namespace, *, svg: b
     return ok
 
 
-def format_of(target: str) -> ResultFormat:
-    """The output format an -o file name asks for: its extension, else json."""
-    suffix = Path(target).suffix.lower().lstrip(".")
-    return suffix if suffix in FORMATS else "json"  # type: ignore[return-value]
-
-
 def _write_text(target: str, text: str) -> None:
     if target == STDIO:
         sys.stdout.write(text)
@@ -367,7 +362,7 @@ class JobState:
 
     def objective_text(self) -> str:
         """E.g. ``objective 12.41``; "" before the first incumbent."""
-        from floorplan_client.types import format_number
+        from models.jobs import format_number
 
         return "" if self.objective is None else f"objective {format_number(self.objective)}"
 

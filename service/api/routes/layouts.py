@@ -8,21 +8,23 @@ import hashlib
 import json
 import time
 from collections.abc import AsyncIterator
-from typing import Annotated, Literal
+from typing import Annotated
 
 from fastapi import APIRouter, Header, Query, Response
 from fastapi.responses import StreamingResponse
 
 from models import Layout
 from models import Problem as LayoutProblem
+from models.formats import BY_NAME, DEFAULT_FORMAT, MEDIA_TYPES, RENDERED_FORMAT_NAMES, FormatName
+from models.jobs import JobStatus
 from service.api.body import PROBLEM_BODY_DOC, ProblemBody
 from service.api.deps import BackendDep, JobDep, OwnerDep, SettingsDep, StoreDep
 from service.api.errors import ApiError
-from service.api.schemas import JobPage, JobPublic
+from service.api.schemas import JobPage, JobPublic, job_public
 from service.jobs.backend import JobBackend
-from service.records import Job, JobStatus
+from service.records import Job
 from service.store import IdempotencyConflict
-from solver.export import MEDIA_TYPES, render
+from solver.export import render
 from solver.pipeline.storeys import job_time_limit
 
 #: Longest wait between two looks at the store while streaming events (the backend
@@ -65,7 +67,7 @@ def submit_layout(
     if new:
         backend.submitted(job)
     response.headers["Location"] = f"/v1/layouts/{job.id}"
-    return JobPublic.of(job)
+    return job_public(job)
 
 
 @router.get("", response_model=JobPage)
@@ -80,20 +82,20 @@ def list_layouts(
     found = store.list(owner=owner, status=status, limit=limit + 1, after=after)
     page, more = found[:limit], len(found) > limit
     next_cursor = _encode_cursor(page[-1]) if more and page else None
-    return JobPage(data=[JobPublic.of(j) for j in page], next_cursor=next_cursor)
+    return JobPage(data=[job_public(j) for j in page], next_cursor=next_cursor)
 
 
 @router.get("/{job_id}", response_model=JobPublic, responses={404: {"description": "unknown"}})
 def get_layout(job: JobDep) -> JobPublic:
     """Status, termination, progress and timestamps of a job."""
-    return JobPublic.of(job)
+    return job_public(job)
 
 
 @router.get("/{job_id}/result", response_model=Layout,
-            responses={200: {"content": {MEDIA_TYPES[f]: {} for f in ("svg", "dxf", "geojson")}},
+            responses={200: {"content": {MEDIA_TYPES[f]: {} for f in RENDERED_FORMAT_NAMES}},
                        404: {"description": "unknown job, or no layout yet"}})
 def get_result(
-    job: JobDep, format: Literal["json", "svg", "dxf", "geojson"] = "json"
+    job: JobDep, format: FormatName = DEFAULT_FORMAT
 ) -> Response:
     """The layout: the final one, or the best so far while the job runs; as JSON, an
     SVG plan, a DXF drawing (metres) or GeoJSON (local metric frame)."""
@@ -106,8 +108,9 @@ def get_result(
     problem = LayoutProblem.model_validate_json(job.problem)
     body = render(problem, Layout.model_validate_json(text), format)
     # A plan shows in the browser; drawings and data download as files.
-    disposition = "inline" if format == "svg" else "attachment"
-    headers = {"Content-Disposition": f'{disposition}; filename="{job.id}.{format}"'}
+    disposition = "inline" if BY_NAME[format].inline else "attachment"
+    headers = {"Content-Disposition":
+               f'{disposition}; filename="{job.id}.{BY_NAME[format].extension}"'}
     return Response(body, media_type=MEDIA_TYPES[format], headers=headers)
 
 
@@ -151,7 +154,7 @@ def cancel_layout(job: JobDep, backend: BackendDep, store: StoreDep) -> JobPubli
         backend.cancel(job.id)
     current = store.get(job.id)
     assert current is not None
-    return JobPublic.of(current)
+    return job_public(current)
 
 
 @router.delete("/{job_id}", status_code=204, responses={409: {"description": "still running"}})

@@ -14,10 +14,11 @@ from typing import Any
 import redis
 import redis.asyncio as aioredis
 
+from models.jobs import JobStatus
 from service.jobs.backend import JobBackend
 from service.jobs.broker.config import REDIS_CONNECT_TIMEOUT, Keys, make_celery
 from service.jobs.celery.dispatch import Dispatcher, Reconciler
-from service.records import Job, JobStatus
+from service.records import Job
 from service.settings import Settings
 from service.store import JobStore
 

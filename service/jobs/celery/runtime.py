@@ -15,10 +15,10 @@ import redis
 from celery import Celery
 from celery.exceptions import Reject
 
+from models.jobs import JobStatus
 from service.jobs.broker.config import Keys, redis_client
 from service.jobs.celery.dispatch import Dispatcher, Reconciler
 from service.jobs.processes import Child, Lease, SolveProcesses, watch
-from service.records import JobStatus
 from service.settings import Settings
 from service.store import JobStore
 

@@ -1,0 +1,92 @@
+"""What a layout can be written as: the one list of its output formats, each with its
+media type, its file extensions and whether it is text or bytes. The service's
+``GET /v1/layouts/{id}/result?format=``, ``floorplan solve --format`` and ``floorplan
+submit --format`` offer these.
+
+Standard library only: the `floorplan` command reads it while it builds its options,
+before anything heavy may load (see `models`).
+
+>>> [f.name for f in FORMATS]
+['json', 'svg', 'dxf', 'geojson']
+>>> format_of("plan.SVG"), format_of("layout.txt"), format_of("-")
+('svg', 'json', 'json')
+>>> MEDIA_TYPES["geojson"]
+'application/geo+json'
+>>> in_words()
+'the layout JSON, an SVG plan, a DXF drawing in metres, or GeoJSON in the local frame'
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import PurePath
+from typing import Literal, get_args
+
+#: The name of an output format (what ``format=`` and ``--format`` take).
+FormatName = Literal["json", "svg", "dxf", "geojson"]
+#: The formats rendered from a layout, as opposed to the layout JSON itself.
+RenderedFormatName = Literal["svg", "dxf", "geojson"]
+
+
+@dataclass(frozen=True)
+class OutputFormat:
+    """One format a layout can be written in."""
+
+    name: FormatName
+    media_type: str
+    extensions: tuple[str, ...]
+    """File name extensions, without the dot, lower case; the first is the one to give."""
+    binary: bool
+    """True when the file is bytes to be written as they are, False when it is UTF-8 text."""
+    description: str
+    """What the file holds, for help texts."""
+    inline: bool = False
+    """True when a browser should show it rather than download it (a plan)."""
+
+    @property
+    def extension(self) -> str:
+        """The extension a file of this format gets (``svg``)."""
+        return self.extensions[0]
+
+
+#: Every output format, the layout JSON first (the default).
+FORMATS: tuple[OutputFormat, ...] = (
+    OutputFormat("json", "application/json", ("json",), binary=False,
+                 description="the layout JSON"),
+    OutputFormat("svg", "image/svg+xml", ("svg",), binary=False,
+                 description="an SVG plan", inline=True),
+    OutputFormat("dxf", "image/vnd.dxf", ("dxf",), binary=False,
+                 description="a DXF drawing in metres"),
+    OutputFormat("geojson", "application/geo+json", ("geojson",), binary=False,
+                 description="GeoJSON in the local frame"),
+)
+#: The formats by name.
+BY_NAME: dict[str, OutputFormat] = {f.name: f for f in FORMATS}
+#: The names of the formats, in order (for ``choices=``).
+FORMAT_NAMES: tuple[FormatName, ...] = tuple(f.name for f in FORMATS)
+#: The names of the formats rendered from a layout (all but ``json``).
+RENDERED_FORMAT_NAMES: tuple[RenderedFormatName, ...] = tuple(
+    name for name in FORMAT_NAMES if name != "json")
+#: Format name -> media type.
+MEDIA_TYPES: dict[str, str] = {f.name: f.media_type for f in FORMATS}
+#: The format a layout is in unless asked otherwise.
+DEFAULT_FORMAT: FormatName = "json"
+
+# The type checkers' names and the registry must agree.
+assert get_args(FormatName) == FORMAT_NAMES, "FormatName and FORMATS disagree"
+assert get_args(RenderedFormatName) == RENDERED_FORMAT_NAMES, "RenderedFormatName disagrees"
+
+
+def format_of(filename: str, default: FormatName = DEFAULT_FORMAT) -> FormatName:
+    """The format a file name asks for by its extension (any case), else `default`."""
+    suffix = PurePath(filename).suffix.lower().lstrip(".")
+    for fmt in FORMATS:
+        if suffix in fmt.extensions:
+            return fmt.name
+    return default
+
+
+def in_words() -> str:
+    """The formats for a help text: ``the layout JSON, an SVG plan, ..., or GeoJSON ...``."""
+    words = [f.description for f in FORMATS]
+    return ", ".join(words[:-1]) + ", or " + words[-1]
