@@ -25,11 +25,9 @@ from floorplan_client._core import (
     ResultFormat,
     Timeout,
     Tracker,
-    deadline_after,
-    expired,
     problem_body,
-    remaining,
 )
+from floorplan_client._deadlines import deadline_after, expired, remaining
 from floorplan_client._exceptions import APIConnectionError, NoResultYet, WaitTimeout
 from floorplan_client.types import Event, JobInfo, JobPage, JobStatus, Layout, Validation
 

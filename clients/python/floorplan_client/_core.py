@@ -22,6 +22,7 @@ from pydantic import BaseModel, ValidationError
 
 from floorplan_client import __version__
 from floorplan_client import _constants as C
+from floorplan_client._deadlines import remaining
 from floorplan_client._exceptions import (
     APIConnectionError,
     APIStatusError,
@@ -417,24 +418,6 @@ class BasePage(Generic[_Job]):
 def as_timeout(timeout: Timeout | httpx.Timeout) -> httpx.Timeout:
     """An `httpx2.Timeout` from seconds, a Timeout, or None (no limit)."""
     return timeout if isinstance(timeout, httpx.Timeout) else httpx.Timeout(timeout)
-
-
-def deadline_after(timeout: float | None) -> float | None:
-    """The monotonic time `timeout` seconds from now; None for no deadline."""
-    if timeout is not None and timeout < 0:
-        raise ValueError("timeout must be 0 or more (None: no limit)")
-    return None if timeout is None else time.monotonic() + timeout
-
-
-def remaining(deadline: float | None) -> float | None:
-    """Seconds left until `deadline` (negative once past); None for no deadline."""
-    return None if deadline is None else deadline - time.monotonic()
-
-
-def expired(deadline: float | None) -> bool:
-    """True once `deadline` has passed."""
-    left = remaining(deadline)
-    return left is not None and left <= 0
 
 
 def retry_after(headers: httpx.Headers) -> float | None:

@@ -12,11 +12,14 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+import pytest
 import yaml
 
 from service.settings import Settings
+from tests.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
+#: End to end (the deployment files against real processes): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
 
 
 def compose() -> dict[str, Any]:

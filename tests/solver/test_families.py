@@ -4,13 +4,11 @@ must follow it: the MIQP's builders, the independent checker, and the docs' tabl
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 from solver.families import FAMILIES, family, markdown_table
 from solver.miqp import formulation
 from solver.verify.checker import FAMILY_CHECKS
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.paths import ROOT
 
 
 def test_every_family_has_its_builder_citing_its_equation() -> None:

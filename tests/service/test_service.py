@@ -19,6 +19,9 @@ import pytest
 
 from tests.servers import BACKENDS, AnyServer, service
 
+#: End to end (real server processes on loopback): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 TERMINAL = {"succeeded", "failed", "canceled"}
 
 SMALL: dict[str, Any] = {

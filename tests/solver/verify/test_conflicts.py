@@ -25,9 +25,9 @@ from solver.heuristics.level_one import level_one_spec
 from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import LevelStatus, run_level
 from solver.verify.conflicts import Verdict, deletion_filter, diagnose, find_conflict
+from tests.paths import ROOT
 from tests.servers import Server
 
-ROOT = Path(__file__).resolve().parents[1]
 #: Seconds SCIP gets for each independent check of a set.
 CHECK_SECONDS = 5.0
 

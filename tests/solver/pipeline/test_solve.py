@@ -6,7 +6,6 @@ import itertools
 import json
 import random
 import time
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -22,8 +21,7 @@ from solver.miqp.formulation import build_level
 from solver.miqp.objective import e_band_shortfall
 from solver.miqp.scip_run import LevelStatus, run_level
 from solver.verify.checker import check_layout
-
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+from tests.paths import EXAMPLES
 
 
 def problem(**fields: Any) -> Problem:

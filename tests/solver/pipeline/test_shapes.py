@@ -4,7 +4,6 @@ room cannot give still come back, and the report says which rooms changed shape.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -17,8 +16,7 @@ from solver.heuristics.level_one import demand_order, level_one_spec, reach_wing
 from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import LevelStatus, run_level
 from solver.miqp.spec import level_objective
-
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+from tests.paths import EXAMPLES
 
 
 def example(name: str, **options: Any) -> Problem:

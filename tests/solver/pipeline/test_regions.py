@@ -7,7 +7,6 @@ import itertools
 import random
 import statistics
 import time
-from pathlib import Path
 
 import pytest
 import shapely
@@ -23,8 +22,10 @@ from solver.pipeline.regions.aisles import aisle_network
 from solver.pipeline.regions.bands import band_regions
 from solver.pipeline.regions.partition import auto_partition, regions_apply
 from solver.verify.checker import check_layout
+from tests.paths import CASES
 
-CASES = Path(__file__).resolve().parents[2] / "shared" / "bench" / "cases"
+#: End to end (large layouts of up to 150 rooms): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
 
 
 def _offices(count: int, seed: int, prefix: str = "o") -> list[dict]:

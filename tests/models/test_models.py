@@ -14,8 +14,7 @@ from pydantic import ValidationError
 from shapely.geometry import Polygon
 
 from models import DEFAULT_MAX_ROOMS, Problem
-
-CASES = Path(__file__).resolve().parents[2] / "shared" / "bench" / "cases"
+from tests.paths import CASES
 
 RECTANGLE = [[0, 0], [10, 0], [10, 8], [0, 8]]
 #: 10 x 8 with the north-west 4 x 2 corner cut away: a notch that is outside the domain.

@@ -39,10 +39,13 @@ from floorplan_client import (
 )
 
 from models import Layout, Problem, Termination
+from tests.paths import ROOT
 from tests.servers import BACKENDS, AnyServer, service
-from tests.test_service import LONG, SMALL
+from tests.service.test_service import LONG, SMALL
 
-ROOT = Path(__file__).resolve().parents[1]
+#: End to end (the client against a real server): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 KEY = "alpha"
 #: Two rooms whose minimum sizes need 32 m² of a 24 m² flat: infeasible at once.
 CROWDED: dict[str, Any] = {**SMALL, "name": "crowded", "adjacency": [],

@@ -1,5 +1,5 @@
 """The asynchronous client against a real `floorplan serve` process: the calls of
-tests/test_client.py, awaited (each test runs its own event loop)."""
+tests/client/test_client.py, awaited (each test runs its own event loop)."""
 
 from __future__ import annotations
 
@@ -27,9 +27,12 @@ from floorplan_client import (
 )
 
 from models import Layout, Problem, Termination
+from tests.client.test_client import CROWDED
 from tests.servers import BACKENDS, AnyServer, service
-from tests.test_client import CROWDED
-from tests.test_service import LONG, SMALL
+from tests.service.test_service import LONG, SMALL
+
+#: End to end (the client against a real server): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
 
 T = TypeVar("T")
 

@@ -23,12 +23,14 @@ import httpx2 as httpx
 import pytest
 
 from models import Problem
+from tests.paths import EXAMPLES, ROOT
 from tests.servers import Server
 
+#: End to end (the page in headless Chromium, a real server): not in `-m "not slow"`.
+pytestmark = pytest.mark.slow
+
 CHROMIUM = Path("/usr/bin/chromium")
-ROOT = Path(__file__).resolve().parents[1]
 SCREENSHOTS = ROOT / "build" / "screenshots"
-EXAMPLES = ROOT / "examples"
 VIEWPORT = {"width": 1280, "height": 860}
 #: Milliseconds to wait for a job to end; apartment-5 takes about a second.
 JOB_TIMEOUT_MS = 30_000

@@ -10,7 +10,6 @@ import json
 import time
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import httpx2 as httpx
@@ -24,9 +23,9 @@ from solver.events import Phase, SolveEvent
 from solver.export.dxf import to_dxf
 from solver.export.geojson import to_geojson
 from solver.export.svg import render_svg
+from tests.paths import EXAMPLES
 from tests.servers import Server
 
-EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 HOUSE = json.loads((EXAMPLES / "two-storey-house.json").read_text())
 
 

@@ -13,6 +13,9 @@ from bench.evaluate import RunRecord
 from bench.report import build_results, complexity, markdown
 from models import Problem
 
+#: End to end (benchmark runs): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 TINY = {
     "name": "tiny-3",
     "boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],

@@ -1,6 +1,6 @@
 """The Python client's decisions, offline: retries and their pauses, the mapping of
 answers to errors, timeouts, API keys, resuming a broken event stream. A
-`MockTransport` plays the service; the live tests are tests/test_client*.py."""
+`MockTransport` plays the service; the live tests are tests/client/test_client*.py."""
 
 from __future__ import annotations
 

@@ -15,8 +15,7 @@ from shapely.geometry import shape
 from models import Layout, Problem
 from solver.export import render
 from solver.export.geojson import to_geojson
-
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+from tests.paths import EXAMPLES
 
 
 @pytest.fixture(scope="module")
@@ -91,3 +90,10 @@ def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) 
     )
     assert done.returncode == 0, done.stderr
     assert json.loads(geo.read_text())["type"] == "FeatureCollection"
+
+
+def test_every_output_format_has_a_writer() -> None:
+    from models.formats import FORMAT_NAMES
+    from solver.export import WRITERS
+
+    assert tuple(WRITERS) == FORMAT_NAMES

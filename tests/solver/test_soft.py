@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import httpx2 as httpx
@@ -19,14 +18,14 @@ from service.cli.progress import summary_line
 from solver import solve
 from solver.geometry import Box, make_domain
 from solver.heuristics.level_one import level_one_spec
-from solver.miqp.formulation import build_level, level_objective, spec_shortfall
+from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import LevelStatus, run_level
+from solver.miqp.spec import level_objective, spec_shortfall
 from solver.verify.checker import check_layout
 from solver.verify.precheck import find_impossibilities
+from tests.paths import ROOT
 from tests.servers import Server
-from tests.test_conflicts import CHAIN, CONTRADICTIONS, CROWDED, OUT_OF_REACH
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.solver.verify.test_conflicts import CHAIN, CONTRADICTIONS, CROWDED, OUT_OF_REACH
 
 # A real brief that asks too much: a flat 6 m wide along its only facade (south) and
 # 12 m deep, whose living room, kitchen and both bedrooms all want that facade. Their

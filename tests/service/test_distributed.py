@@ -25,8 +25,12 @@ from alembic.migration import MigrationContext
 from models.jobs import JobStatus
 from service.store import JobStore
 from service.tables import metadata
+from tests.paths import ROOT
 from tests.servers import Cluster, free_port, schema_url
-from tests.test_service import LONG, SMALL, TERMINAL, solve_processes, submit, wait
+from tests.service.test_service import LONG, SMALL, TERMINAL, solve_processes, submit, wait
+
+#: End to end (Celery workers on the machine's Redis and PostgreSQL): not in `-m "not slow"`.
+pytestmark = pytest.mark.slow
 
 
 def store_of(cluster: Cluster) -> JobStore:
@@ -218,7 +222,7 @@ def test_a_redis_restart_loses_no_accepted_job(tmp_path: Path) -> None:
 
 
 def test_sub_domains_go_as_celery_tasks_to_a_sub_domain_worker(tmp_path: Path) -> None:
-    from tests.test_parallel import TWO_WINGS
+    from tests.solver.pipeline.test_parallel import TWO_WINGS
 
     cluster = Cluster(tmp_path, workers=1, WORKERS="1", FLOORPLAN_SUBDOMAINS="celery").start()
     try:
@@ -330,7 +334,7 @@ def test_an_embedded_store_from_before_migrations_is_upgraded_in_place(tmp_path:
         " attempts, cancel_requested, created_at, updated_at) VALUES ('old', '', 'queued',"
         " '{}', 1, 0, 0, 1, 1)\"))\n"
     )
-    first = Path(__file__).resolve().parents[1] / "service/migrations/versions"
+    first = ROOT / "service/migrations/versions"
     subprocess.run([sys.executable, "-c", script, str(path),
                     str(first / "0001_jobs_and_events.py")], check=True)
     store = JobStore.sqlite(path)

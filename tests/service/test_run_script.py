@@ -13,7 +13,9 @@ import uuid
 from pathlib import Path
 
 import httpx2 as httpx
+import pytest
 
+from tests.paths import ROOT
 from tests.servers import (
     DISTRIBUTED_ENV,
     REDIS_URL,
@@ -21,9 +23,12 @@ from tests.servers import (
     free_port,
     schema_url,
 )
-from tests.test_service import SMALL, submit, wait
+from tests.service.test_service import SMALL, submit, wait
 
-SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "run-distributed.sh"
+#: End to end (the distributed topology from plain processes): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
+SCRIPT = ROOT / "scripts" / "run-distributed.sh"
 
 
 def test_the_start_script_runs_the_topology_and_stops_it(tmp_path: Path) -> None:

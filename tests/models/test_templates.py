@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 import time
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -18,6 +17,7 @@ from models.templates import KNOWN_TYPES, RESIDENTIAL, TemplatedProblem, expand
 from solver import solve
 from solver.geometry import make_domain
 from solver.verify.precheck import find_impossibilities
+from tests.paths import EXAMPLES
 
 FLAT: list[str] = ["living", "kitchen", "bedroom", "bedroom", "bathroom"]
 
@@ -330,7 +330,7 @@ def test_the_template_only_makes_problems_the_precheck_finds_nothing_against(
 def test_the_example_and_its_committed_expansion_agree() -> None:
     """examples/flat-7-template.expanded.json is what `floorplan solve --expand` writes;
     regenerate it when the template changes."""
-    examples = Path(__file__).resolve().parents[1] / "examples"
+    examples = EXAMPLES
     templated_file = examples / "flat-7-template.json"
     expanded_file = examples / "flat-7-template.expanded.json"
     assert Problem.model_validate_json(templated_file.read_text()) == (

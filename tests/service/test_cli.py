@@ -20,9 +20,12 @@ from service.cli.exits import EXIT_INTERRUPTED, EXIT_INVALID, EXIT_NO_LAYOUT, EX
 from service.cli.progress import ProgressPrinter, invalid_layout_warning
 from service.cli.progress import progress_line as format_progress
 from solver.events import Phase, SolveEvent
-from tests.test_parallel import TWO_WINGS
+from tests.paths import ROOT
+from tests.solver.pipeline.test_parallel import TWO_WINGS
 
-ROOT = Path(__file__).resolve().parents[1]
+#: End to end (the floorplan command in subprocesses): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 # A 6 x 4 flat, two rooms side by side: solved in well under a second.
 TINY: dict[str, Any] = {
     "name": "tiny",

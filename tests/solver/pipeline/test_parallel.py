@@ -38,7 +38,10 @@ from solver.pipeline.subdomains import (
 )
 from solver.verify.checker import check_layout
 from tests.servers import Server
-from tests.test_service import submit, wait
+from tests.service.test_service import submit, wait
+
+#: End to end (process pools and solve processes): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
 
 #: Two wings behind a wall, two rooms each, too small to fill their wing: every
 #: refinement level has two sub-domains with no room in common.

@@ -33,9 +33,12 @@ from floorplan_client.cli import (
 from floorplan_client.types import Progress
 
 from models import Layout, Termination
+from tests.client.test_client import CROWDED
 from tests.servers import Server
-from tests.test_client import CROWDED
-from tests.test_service import LONG, SMALL
+from tests.service.test_service import LONG, SMALL
+
+#: End to end (floorplan submit against a real server): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
