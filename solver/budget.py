@@ -4,8 +4,6 @@ from __future__ import annotations
 
 #: Seconds per job up to `BASE_ROOMS` rooms (Sec. 5.4) ...
 BASE_TIME = 5.0
-
-
 BASE_ROOMS = 20
 
 

@@ -39,22 +39,14 @@ from solver.verify.precheck import find_impossibilities
 
 #: The second level-1 search of a portfolio runs under the seed plus this.
 SECOND_SEED_STEP = 1_000_003
-
-
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
-
-
 #: Above this many rooms the first layout is built in batches (solver/heuristics/construct.py):
 #: one feasibility MILP of all rooms rarely finds anything in time.
 CONSTRUCT_ABOVE = 20
-
-
 #: Share of level 1's time a row plan honouring adjacency and boundary demands may take
 #: (solver/heuristics/row_search.py): found in tens of milliseconds when rows can hold them.
 SLICE_DEMANDS_SHARE = 0.06
-
-
 #: With soft constraints, the share of level 1's time the search for a layout meeting
 #: every constraint may use before the soft model takes over.
 STRICT_FIRST_SHARE = 0.5

@@ -25,8 +25,6 @@ from solver.verify.precheck import find_impossibilities
 
 #: Share of the time limit level 1 may use.
 LEVEL_ONE_SHARE = 0.9
-
-
 #: Time kept per room for closing the last gaps and checking the layout.
 FINISH_SECONDS_PER_ROOM = 0.01
 

@@ -27,27 +27,15 @@ from solver.pipeline.run import Run, covered, goal_area
 
 #: Share of the neighbourhood search spent with coverage weighted first.
 COVERAGE_PHASE_SHARE = 0.85
-
-
 #: A fully covering layout's polish ends after this many steps in a row without gain.
 STALL_STEPS = 8
-
-
 #: Rooms given a second rectangle at level 1 to reach gaps, at most ...
 GAP_WINGS = 2
-
-
 #: ... for gaps larger than this (m²), trying this many rooms per gap.
 GAP_WING_AREA = 0.25
-
-
 WING_TRIES = 3
-
-
 #: Steps without gain after which a coverage pass gives up (and a gap wing is tried).
 COVER_PATIENCE = 6
-
-
 #: ... or after this share of its time without gain.
 COVER_STALL_SHARE = 0.2
 

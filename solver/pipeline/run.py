@@ -22,8 +22,6 @@ from solver.verify.checker import COVERAGE_GOAL, check_layout
 
 #: Separates a room's id from the number of a rectangle around an obstacle it wraps.
 WRAP_MARK = "~around"
-
-
 #: Share of the floor a layout must cover beyond the checker's goal to count as
 #: covering while solving.
 COVER_MARGIN = 5e-4

@@ -58,7 +58,6 @@ def listing_key(g: Group) -> tuple[bool, int, int, int]:
 
 
 AXIS_WORDS = (("wide", "width"), ("deep", "depth"))
-
 REQUIRE_CONNECTED = "options.require_connected"
 
 

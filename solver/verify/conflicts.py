@@ -59,7 +59,7 @@ CHECK_CAP = 2.0
 MAX_UNDECIDED = 3
 
 #: SCIP is asked only about models of at most this many rooms: beyond, one MILP of
-#: all rooms rarely settles anything in seconds (solve.py builds large first layouts
+#: all rooms rarely settles anything in seconds (the pipeline builds large first layouts
 #: in batches for that reason), and building it alone takes a good part of a second.
 MAX_SCIP_ROOMS = 20
 

@@ -2,7 +2,7 @@
 widened into corridors of the aisle width, joined into one network that reaches the
 entrance, and what is left of each region is where its rooms go.
 
-Pure geometry on shapely polygons; no SCIP. `solver/pipeline/regions.py` drives it.
+Pure geometry on shapely polygons; no SCIP. `regions/run.py` drives it.
 """
 
 from __future__ import annotations

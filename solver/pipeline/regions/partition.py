@@ -17,22 +17,17 @@ from models import (
 
 #: Rooms per region the automatic partition aims for (the paper's Fig. 8 blocks).
 REGION_ROOMS = 14
-
 #: What a band plan pays, in estimated E_size per room (m²), for having all its rows
 #: off the aisles (in proportion for a share of them): without a price the fewest
 #: aisles would always win, rooms being largest there.
 ACCESS_PRICE = 1.0
-
 #: Planned bands (automatic regions) thinner than this share of a row are not kept.
 THINNEST_BAND = 0.75
-
 #: Name of the region that gathers the rooms no explicit region names.
 REST_REGION = "rest"
-
 #: Guide points closer than this (metres) go to one region: an aisle between them
 #: would leave one of them in the aisle.
 NEAR_POINTS = 8.0
-
 #: How much fuller than the mean a region may get to keep rooms of one facade together.
 BALANCE_SLACK = 1.15
 

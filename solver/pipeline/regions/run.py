@@ -45,22 +45,17 @@ from solver.verify.precheck import find_impossibilities
 
 #: Share of the time limit the region layout may use ...
 REGION_SHARE = 0.2
-
 #: ... and at most this many seconds per region: slicing lays the regions out at once
 #: and the search after it rarely improves on that (measured: 0 of 8 steps on office-154).
 REGION_SECONDS_PER_REGION = 0.25
-
 #: The least time (s) a room sub-problem is given ...
 MIN_PART_SECONDS = 0.15
-
 #: ... and, when its rooms ask for sizes and guide points only, at most this many
 #: seconds per room on top: slicing lays a part's rows out in a fraction of a second,
 #: and the search after it found nothing better on office-154 or mall-140.
 PART_SECONDS_PER_ROOM = 0.01
-
 #: Time kept per room for merging, doors and the check.
 FINISH_SECONDS_PER_ROOM = 0.01
-
 #: What a room sub-problem gives up, in turn, when it finds no layout (model fields
 #: set to None; `positions` and `boundary` become empty).
 RELAXATIONS: tuple[tuple[str, ...], ...] = (("aspect_ratio",), ("min_size",))
