@@ -36,8 +36,12 @@ UNIT = 0.05
 MIN_SIDE = 30
 #: Longest side of a cell over its shortest.
 MAX_CELL_RATIO = 4.5
+#: Corridors and balconies are at most this wide, in grid units (2 m).
+THIN = 40
 #: Shortest shared wall that takes a door, in grid units (0.9 m).
 DOOR = 18
+#: The entrance keeps this far from the ends of its wall, in grid units (0.5 m).
+END_GAP = 10
 #: The entrance's guide point lies this far inside the room (m).
 INSIDE = 0.3
 #: Compass sides in the order a brief lists them.
@@ -81,9 +85,8 @@ class Truth:
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> Truth:
         source = data.get("source", {})
-        rooms = tuple(PlantedRoom(r["id"], r["type"], tuple((float(x), float(y))
-                                                           for x, y in r["polygon"]))
-                      for r in data["rooms"])
+        rooms = tuple(PlantedRoom(r["id"], r["type"], tuple((float(x), float(y)) for x, y
+                                                           in r["polygon"])) for r in data["rooms"])
         return cls(data["name"], source.get("seed"), rooms, source.get("generator", ""))
 
 
@@ -110,13 +113,10 @@ def _ceil2(x: float) -> float:
 
 def _notch(w: int, d: int, side: str, start: int, length: int, depth: int) -> Polygon:
     """A notch of `length` along `side` of the w x d box, from `start`, `depth` deep."""
-    if side == "north":
-        return box(start, d - depth, start + length, d)
-    if side == "south":
-        return box(start, 0, start + length, depth)
-    if side == "east":
-        return box(w - depth, start, w, start + length)
-    return box(0, start, depth, start + length)
+    return {"north": box(start, d - depth, start + length, d),
+            "south": box(start, 0, start + length, depth),
+            "east": box(w - depth, start, w, start + length),
+            "west": box(0, start, depth, start + length)}[side]
 
 
 def _outline(rng: random.Random, n: int) -> Polygon:
@@ -223,10 +223,6 @@ def _merge(rng: random.Random, cells: list[Cell], pairs: int) -> list[Polygon] |
     return merged + [box(*c) for k, c in enumerate(cells) if k not in used]
 
 
-def _facade(room: Polygon, outline: Polygon) -> float:
-    return float(room.boundary.intersection(outline.exterior).length)
-
-
 def _types(rooms: list[Polygon], outline: Polygon) -> list[str]:
     """Largest -> living; long thin -> corridor; thin on the facade -> balcony; the
     smallest -> bathroom (and wc, a second bathroom in large flats); the one nearest
@@ -247,9 +243,9 @@ def _types(rooms: list[Polygon], outline: Polygon) -> list[str]:
             types[i] = kind
             free.remove(i)
 
-    take("corridor", [i for i in free if side(i)[0] <= 40 and side(i)[1] >= 2.8 * side(i)[0]][:2])
-    take("balcony", [i for i in free if side(i)[0] <= 40 and rooms[i].area == box(
-        *rooms[i].bounds).area and _facade(rooms[i], outline) >= 0.95 * side(i)[1]][:1])
+    take("corridor", [i for i in free if side(i)[0] <= THIN and side(i)[1] >= 2.8 * side(i)[0]][:2])
+    take("balcony", [i for i in free if side(i)[0] <= THIN and rooms[i].area == box(
+        *rooms[i].bounds).area and _shared(rooms[i], outline) >= 0.95 * side(i)[1]][:1])
     wet = ["bathroom", "wc"] + (["bathroom"] if n >= 10 else [])
     for kind, i in zip(wet, list(free[: len(wet) if n >= 7 else 1]), strict=False):
         take(kind, [i])
@@ -260,6 +256,7 @@ def _types(rooms: list[Polygon], outline: Polygon) -> list[str]:
 
 
 def _shared(a: Polygon, b: Polygon) -> float:
+    """The length of wall `a` and `b` share (b the outline: a's facade)."""
     return float(a.boundary.intersection(b.boundary).length)
 
 
@@ -279,15 +276,16 @@ def _doors(rooms: list[Polygon], start: int) -> list[tuple[int, int, float]] | N
 
 
 def _entrance(rng: random.Random, room: Polygon, outline: Polygon) -> tuple[Point, Point] | None:
-    """A point on the room's facade (at least 0.5 m from its ends) and one `INSIDE` in."""
-    walls = room.boundary.intersection(outline.exterior)
-    segments = [s for g in getattr(walls, "geoms", [walls]) if isinstance(g, LineString)
-                for s in _segments(g) if s.length >= 2 * 10 + 2]
+    """A point on the room's facade (`END_GAP` from a wall's ends) and one `INSIDE` in."""
+    lines = shapely.get_parts(room.boundary.intersection(outline.exterior))
+    runs = [list(g.coords) for g in lines if isinstance(g, LineString)]
+    segments = [(c[k], c[k + 1]) for c in runs for k in range(len(c) - 1)
+                if math.dist(c[k], c[k + 1]) >= 2 * END_GAP + 2]
     if not segments:
         return None
-    seg = rng.choice(segments)
-    (xa, ya), (xb, yb) = seg.coords[0], seg.coords[-1]
-    t = rng.randint(10, round(seg.length) - 10) / seg.length
+    (xa, ya), (xb, yb) = rng.choice(segments)
+    length = math.dist((xa, ya), (xb, yb))
+    t = rng.randint(END_GAP, round(length) - END_GAP) / length
     door = Point(round(xa + t * (xb - xa)), round(ya + t * (yb - ya)))
     nx, ny = (0, 1) if ya == yb else (1, 0)
     for sign in (1, -1):
@@ -295,11 +293,6 @@ def _entrance(rng: random.Random, room: Polygon, outline: Polygon) -> tuple[Poin
         if room.contains(inside):
             return door, inside
     return None
-
-
-def _segments(line: LineString) -> list[LineString]:
-    c = list(line.coords)
-    return [LineString([c[k], c[k + 1]]) for k in range(len(c) - 1)]
 
 
 def _plan(rng: random.Random, n: int) -> _Plan:
@@ -321,8 +314,7 @@ def draw(seed: int, rooms: int | None = None) -> tuple[Problem, Truth]:
     n = rooms if rooms is not None else rng.randint(5, 14)
     for _ in range(1000):
         plan = _plan(rng, n)
-        first = next((t for t in ("living", "corridor") if t in plan.types), "living")
-        start = plan.types.index(first)
+        start = plan.types.index("living")  # the entrance opens into the living room
         doors = _doors(plan.rooms, start)
         entrance = _entrance(rng, plan.rooms[start], plan.outline)
         if doors is not None and entrance is not None:
