@@ -148,8 +148,20 @@ def _cell(run: dict[str, Any] | None, key: str) -> str:
     return _f(run[key], ".3f" if key == "area_error" else ".1f")
 
 
+def _summary_rows(summary: dict[str, dict[str, Any]], label: str) -> list[str]:
+    lines = []
+    for column, t in summary.items():
+        cover = None if t["median_coverage"] is None else 100 * t["median_coverage"]
+        lines.append(f"| {label}{column} | {t['briefs']} | {t['with_layout']} | {t['valid']} | "
+                     f"{_f(cover, '.1f')} | "
+                     f"{_f(t['median_area_error'], '.3f')} | {_f(t['median_objective'], '.1f')}"
+                     f" | {t.get('within_2x', '-')} |")
+    return lines
+
+
 def markdown(results: dict[str, Any]) -> str:
-    """results.md: the medians, then one row per brief."""
+    """results.md: the medians (all briefs, then by source when there are several), then
+    one row per brief."""
     m, s, rows = results["machine"], results["settings"], results["briefs"]
     lines = [
         "# Planted briefs: ours and the flat model against the planted plan", "",
@@ -158,13 +170,15 @@ def markdown(results: dict[str, Any]) -> str:
         f"flat at 10x ours capped at {s['flat_limit']:g} s; one run each. Area error: mean "
         "over rooms of |area - target area| / target area. Valid: the checker passes "
         "it and it covers >= 99 %. Within 2x: valid and area error <= 2x the plan's.", "",
-        "| | briefs | valid | median coverage % | median area error | median Eq. 12 "
-        "| within 2x the plan's error |", "|---|---|---|---|---|---|---|"]
-    for column, t in results["summary"].items():
-        cover = None if t["median_coverage"] is None else 100 * t["median_coverage"]
-        lines.append(f"| {column} | {t['briefs']} | {t['valid']} | {_f(cover, '.1f')} | "
-                     f"{_f(t['median_area_error'], '.3f')} | {_f(t['median_objective'], '.1f')}"
-                     f" | {t.get('within_2x', '-')} |")
+        "Medians over the briefs with a layout.", "",
+        "| | briefs | with a layout | valid | median coverage % | median area error "
+        "| median Eq. 12 | within 2x the plan's error |", "|---|---|---|---|---|---|---|---|"]
+    lines += _summary_rows(results["summary"], "")
+    sources = list(dict.fromkeys(r.get("source", "") for r in rows))
+    for source in sources if len(sources) > 1 else []:
+        label = "drawn seeds" if source == "seed" else source
+        lines += _summary_rows(summarise([r for r in rows if r.get("source") == source]),
+                               f"{label}: ")
     keys = ("valid", "coverage", "area_error", "objective")
     lines += ["", "Per brief: plan / ours / flat.", "",
               "| brief | rooms | valid | coverage % | area error | Eq. 12 |",
