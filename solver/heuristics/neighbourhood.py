@@ -71,11 +71,10 @@ def search_neighbourhoods(
     since_improvement = 0
     last_gain = time.monotonic()
     while time.monotonic() < deadline - 0.05 and not (should_stop and should_stop()):
-        if patience is not None and since_improvement >= patience:
-            break
-        if good_enough is not None and since_improvement == 0 and good_enough(best.rects):
-            break
-        if stall_seconds is not None and time.monotonic() - last_gain > stall_seconds:
+        if (patience is not None and since_improvement >= patience) or (
+                good_enough is not None and since_improvement == 0
+                and good_enough(best.rects)) or (
+                stall_seconds is not None and time.monotonic() - last_gain > stall_seconds):
             break
         free, gap = choose_neighbourhood(best.rects, domain, rng, size=size,
                                          around_gap=best.steps % 3 != 2, min_sizes=min_sizes,
@@ -90,9 +89,7 @@ def search_neighbourhoods(
         gain = best.objective - objective
         improved = result.rects is not None and gain > MIN_GAIN * max(1.0, abs(best.objective))
         if improved and keep_coverage:
-            now = covered_area(domain, candidate)
-            improved = now >= coverage - GAP_AREA
-            coverage = max(coverage, now) if improved else coverage
+            improved, coverage = _keeps_coverage(domain, candidate, coverage)
         best = Incumbent(candidate if improved else best.rects,
                          objective if improved else best.objective,
                          best.steps + 1, best.improvements + int(improved))
@@ -111,6 +108,15 @@ def search_neighbourhoods(
         if result.status is LevelStatus.INTERRUPTED:
             break
     return best
+
+
+def _keeps_coverage(domain: Domain, candidate: dict[str, Box],
+                    coverage: float) -> tuple[bool, float]:
+    """Whether `candidate` covers no less than `coverage` (within a gap's area), and the
+    coverage to hold later steps to."""
+    now = covered_area(domain, candidate)
+    kept = now >= coverage - GAP_AREA
+    return kept, max(coverage, now) if kept else coverage
 
 
 def _partners(spec: LevelSpec) -> dict[str, set[str]]:

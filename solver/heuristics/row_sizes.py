@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -57,27 +58,7 @@ def size_rows(
                     return None
                 w = m.addVar(f"w[{g},{k},{c}]", lb=w_lo, ub=w_hi)
                 col_widths.append(w)
-                y: Any = y_row
-                depths = []
-                for room in col:
-                    (_, (d_lo, d_hi)) = size_bounds(room)
-                    d = h if len(col) == 1 else m.addVar(
-                        f"d[{room.id}]", lb=d_lo, ub=min(d_hi, region.depth))
-                    if len(col) == 1:
-                        m.addCons(h >= d_lo, name=f"depth_lo[{room.id}]")
-                        if d_hi < region.depth:
-                            m.addCons(h <= d_hi, name=f"depth_hi[{room.id}]")
-                    depths.append(d)
-                    q.width[room.id], q.west[room.id] = w, x
-                    q.depth[room.id], q.south[room.id] = d, y
-                    y = y + d
-                    _c_ratio(m, room, w, d, typical)
-                    if room.target_size is not None:
-                        e = m.addVar(f"e[{room.id}]", lb=0)
-                        tw, td = room.target_size
-                        m.addCons((w - tw) * (w - tw) + (d - td) * (d - td) <= e,
-                                  name=f"size_error[{room.id}]")
-                        errors.append(e)
+                depths = _size_column(q, col, region, w, h, (x, y_row), typical, errors)
                 if len(col) > 1:
                     m.addCons(quicksum(depths) == h, name=f"fill_column[{g},{k},{c}]")
                 x = x + w
@@ -95,6 +76,36 @@ def size_rows(
     if m.getNSols() == 0:
         return None
     return m.getObjVal(), _boxes(plan, q, m.getBestSol())
+
+
+def _size_column(q: _Sizes, col: Sequence[Room], region: Box, w: Any, h: Any,
+                 corner: tuple[Any, Any], typical: float, errors: list[Any]) -> list[Any]:
+    """The rooms of one column, stacked from `corner` (its south-west, expressions of
+    the widths and heights before it) in a column `w` wide of a row `h` deep: each
+    room's depth, bounds, ratio and size error (added to `errors`); their depths."""
+    m = q.model
+    x, y = corner
+    depths = []
+    for room in col:
+        (_, (d_lo, d_hi)) = size_bounds(room)
+        d = h if len(col) == 1 else m.addVar(
+            f"d[{room.id}]", lb=d_lo, ub=min(d_hi, region.depth))
+        if len(col) == 1:
+            m.addCons(h >= d_lo, name=f"depth_lo[{room.id}]")
+            if d_hi < region.depth:
+                m.addCons(h <= d_hi, name=f"depth_hi[{room.id}]")
+        depths.append(d)
+        q.width[room.id], q.west[room.id] = w, x
+        q.depth[room.id], q.south[room.id] = d, y
+        y = y + d
+        _c_ratio(m, room, w, d, typical)
+        if room.target_size is not None:
+            e = m.addVar(f"e[{room.id}]", lb=0)
+            tw, td = room.target_size
+            m.addCons((w - tw) * (w - tw) + (d - td) * (d - td) <= e,
+                      name=f"size_error[{room.id}]")
+            errors.append(e)
+    return depths
 
 
 def _boxes(plan: RowPlan, q: _Sizes, sol: Any) -> dict[str, Box]:

@@ -142,11 +142,7 @@ def solve_regions(
         shapes = {r.id: Polygon(r.polygon) for r in laid.rooms}
         terminations.append(laid.report.termination)
         levels = laid.report.levels
-    keep = points_kept(problem, given, shapes)
-    network = aisle_network(problem.free_area(), problem.outline(), shapes,
-                            problem.aisle_width, entrance=problem.entrance, keep=keep)
-    progress.say(f"aisles: {len(network.pieces)} aisle(s), "
-                 f"{network.union.area:.1f} m²")
+    network = _aisles(problem, given, shapes, progress)
     jobs = region_jobs(problem, list(shapes), given, network)
     placed: dict[str, list[Box]] = {}
     owner: dict[str, str] = {}
@@ -170,6 +166,18 @@ def solve_regions(
     return _merge(problem, list(shapes), network, placed, owner,
                   Termination.of_parts(terminations, interrupted=stopped), levels, started,
                   progress)
+
+
+def _aisles(problem: Problem, given: Sequence[Region], shapes: dict[str, Polygon],
+            progress: _Progress) -> AisleNetwork:
+    """Step 3: the walls the regions share widened into aisles reaching the entrance,
+    kept off the guide points of each region's rooms."""
+    keep = points_kept(problem, given, shapes)
+    network = aisle_network(problem.free_area(), problem.outline(), shapes,
+                            problem.aisle_width, entrance=problem.entrance, keep=keep)
+    progress.say(f"aisles: {len(network.pieces)} aisle(s), "
+                 f"{network.union.area:.1f} m²")
+    return network
 
 
 def _region_layout(problem: Problem, given: Sequence[Region], limit: float, solve: Solve,
