@@ -16,13 +16,12 @@ import gc
 import json
 import sys
 import time
-import traceback
 from pathlib import Path
 
 from bench.evaluate import RunRecord, evaluate
 from bench.planted_report import main as planted_main
 from bench.report import build_results, machine_info, write_outputs
-from bench.solvers import BASELINE_CAP, SOLVERS, Trace, baseline_limit, our_limit
+from bench.solvers import BASELINE_CAP, SOLVERS, baseline_limit, our_limit, run_guarded
 from models import Problem
 from solver.geometry import make_domain
 
@@ -107,13 +106,7 @@ def main(argv: list[str] | None = None) -> int:
             seed = problem.options.seed + repeat
             for solver in args.solvers:
                 gc.collect()
-                try:
-                    trace = SOLVERS[solver](problem, seed=seed, cap=args.flat_limit)
-                except Exception as err:  # a solver's bug is a result, not the end of the run
-                    log(traceback.format_exc())
-                    limit = (our_limit(problem) if solver in ("ours", "ours-parallel")
-                             else baseline_limit(problem, args.flat_limit))
-                    trace = Trace(solver, limit, status=f"error: {type(err).__name__}: {err}")
+                trace = run_guarded(solver, problem, seed=seed, cap=args.flat_limit, log=log)
                 record = evaluate(problem, domain, trace, case=name, repeat=repeat, seed=seed)
                 records.append(record)
                 log(f"  {solver:6} run {repeat + 1}: first valid {_t(record.first_valid)}, "

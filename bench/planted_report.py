@@ -18,10 +18,8 @@ from __future__ import annotations
 import argparse
 import gc
 import json
-import statistics
 import sys
 import time
-import traceback
 from pathlib import Path
 from typing import Any
 
@@ -29,8 +27,8 @@ import shapely
 
 from bench.evaluate import evaluate
 from bench.planted import Truth, draw, load
-from bench.report import machine_info
-from bench.solvers import SOLVERS, Rooms, Trace, baseline_limit, our_limit
+from bench.report import machine_info, median
+from bench.solvers import Rooms, run_guarded
 from models import Problem
 from solver import check_layout, layout_objective
 from solver.geometry import make_domain
@@ -79,13 +77,8 @@ def measure_run(problem: Problem, solver: str, name: str, flat_limit: float) -> 
     """One run of `solver` through the harness's runners and `bench.evaluate`."""
     seed = problem.options.seed
     gc.collect()
-    try:
-        trace = SOLVERS[solver](problem, seed=seed, cap=flat_limit)
-    except Exception as err:  # a solver's bug is a result, not the end of the run
-        traceback.print_exc()
-        limit = our_limit(problem) if solver.startswith("ours") else baseline_limit(
-            problem, flat_limit)
-        trace = Trace(solver, limit, status=f"error: {type(err).__name__}: {err}")
+    trace = run_guarded(solver, problem, seed=seed, cap=flat_limit,
+                        log=lambda text: print(text, file=sys.stderr, flush=True))
     record = evaluate(problem, make_domain(problem), trace, case=name, repeat=0, seed=seed)
     return {"valid": record.valid, "coverage": record.coverage,
             "area_error": area_error(problem, trace.final) if trace.final else None,
@@ -112,11 +105,6 @@ def within(row: dict[str, Any], solver: str) -> bool:
                 and run["area_error"] <= WITHIN * plan["area_error"] + 1e-9)
 
 
-def _median(values: list[float | None]) -> float | None:
-    xs = [float(v) for v in values if v is not None]
-    return statistics.median(xs) if xs else None
-
-
 def summarise(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """Per column: briefs, valid count, medians of coverage, area error and Eq. 12 (over
     the briefs with a layout), and for solvers the count within 2x the plan's error."""
@@ -127,7 +115,7 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
             continue
         out[column] = {"briefs": len(runs), "valid": sum(1 for r in runs if r["valid"]),
                        "with_layout": sum(1 for r in runs if r["coverage"] is not None),
-                       **{f"median_{k}": _median([r[k] for r in runs])
+                       **{f"median_{k}": median([r[k] for r in runs], none_is_inf=False)
                           for k in ("coverage", "area_error", "objective")}}
         if column != "plan":
             out[column]["within_2x"] = sum(1 for r in rows if within(r, column))

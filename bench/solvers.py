@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import re
 import time
+import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -212,3 +213,17 @@ Runner = Callable[..., Trace]
 SOLVERS: dict[str, Runner] = {"ours": run_ours, "ours-parallel": run_ours_parallel,
                                "ours-long": run_ours_long, "flat": run_flat,
                                "anneal": run_anneal}
+
+
+def run_guarded(solver: str, problem: Problem, *, seed: int, cap: float,
+                log: Callable[[str], None]) -> Trace:
+    """`SOLVERS[solver]` on `problem`; a solver's exception is a result (a trace with
+    an error status and the solver's limit, its traceback sent to `log`), not the end
+    of the benchmark."""
+    try:
+        return SOLVERS[solver](problem, seed=seed, cap=cap)
+    except Exception as err:
+        log(traceback.format_exc())
+        limit = (our_limit(problem) if solver in ("ours", "ours-parallel")
+                 else baseline_limit(problem, cap))
+        return Trace(solver, limit, status=f"error: {type(err).__name__}: {err}")
