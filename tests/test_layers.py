@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import shutil
 import subprocess
+from typing import Any
 
 import grimp
 import pytest
@@ -28,26 +29,41 @@ OLD_CYCLES = {
 }
 
 
-def _broken(extra: list[tuple[str, str]]) -> list[str]:
-    """The names of the contracts broken once the imports `extra` are added."""
-    options = read_configuration(str(ROOT / "pyproject.toml"))
+@pytest.fixture(scope="module")
+def options() -> dict[str, Any]:
+    return read_configuration(str(ROOT / "pyproject.toml"))
+
+
+@pytest.fixture(scope="module")
+def graph(options: dict[str, Any]) -> grimp.ImportGraph:
+    """The project's import graph, built once for the module's tests."""
+    return grimp.build_graph(*options["session_options"]["root_packages"],
+                             exclude_type_checking_imports=True, cache_dir=None)
+
+
+def _broken(options: dict[str, Any], graph: grimp.ImportGraph,
+            extra: list[tuple[str, str]]) -> list[str]:
+    """The names of the contracts broken once the imports `extra` are added (they are
+    taken out again afterwards, so the graph serves the next test)."""
     session = options["session_options"]
-    graph = grimp.build_graph(*session["root_packages"],
-                              exclude_type_checking_imports=True, cache_dir=None)
     for importer, imported in extra:
         graph.add_import(importer=importer, imported=imported)
-    broken = []
-    for contract_options in options["contracts_options"]:
-        kind = CONTRACT_TYPES[contract_options["type"]]
-        contract = kind(name=contract_options["name"], session_options=session,
-                        contract_options=contract_options)
-        if not contract.check(graph, verbose=False).kept:
-            broken.append(contract_options["name"])
-    return broken
+    try:
+        broken = []
+        for contract_options in options["contracts_options"]:
+            kind = CONTRACT_TYPES[contract_options["type"]]
+            contract = kind(name=contract_options["name"], session_options=session,
+                            contract_options=contract_options)
+            if not contract.check(graph, verbose=False).kept:
+                broken.append(contract_options["name"])
+        return broken
+    finally:
+        for importer, imported in extra:
+            graph.remove_import(importer=importer, imported=imported)
 
 
-def test_every_layer_contract_holds() -> None:
-    assert _broken([]) == []
+def test_every_layer_contract_holds(options: dict[str, Any], graph: grimp.ImportGraph) -> None:
+    assert _broken(options, graph, []) == []
 
 
 def test_the_command_line_linter_agrees() -> None:
@@ -58,5 +74,6 @@ def test_the_command_line_linter_agrees() -> None:
 
 
 @pytest.mark.parametrize("cycle", sorted(OLD_CYCLES))
-def test_each_old_import_cycle_would_break_a_contract(cycle: str) -> None:
-    assert _broken(OLD_CYCLES[cycle])
+def test_each_old_import_cycle_would_break_a_contract(
+        cycle: str, options: dict[str, Any], graph: grimp.ImportGraph) -> None:
+    assert _broken(options, graph, OLD_CYCLES[cycle])
