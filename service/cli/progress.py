@@ -17,8 +17,6 @@ if TYPE_CHECKING:
 
 #: Least seconds between two printed INCUMBENT events (other events are always printed).
 INCUMBENT_INTERVAL = 0.25
-#: Bounds at or beyond this magnitude are SCIP's infinity and printed as such.
-SCIP_INFINITY = 1e19
 #: `solver.events.Phase.INCUMBENT` (a StrEnum), spelt out to keep the solver import lazy.
 INCUMBENT = "incumbent"
 
@@ -55,13 +53,17 @@ class ProgressPrinter:
 
 def progress_line(event: SolveEvent) -> str:
     """E.g. ``[  1.23s] level 2 sub 1/3  obj 12.41  bound 3.20  rooms a, b: optimal``."""
+    # Here, not at the top: this module loads before the Ctrl-C handling, and the
+    # contract's modules bring pydantic; an event means the solver is loaded already.
+    from models.jobs import format_number
+
     parts = [f"[{event.elapsed:6.2f}s] level {event.level}"]
     if event.subdomains:
         parts[0] += f" sub {event.subdomain}/{event.subdomains}"
     if event.objective is not None:
-        parts.append(f"obj {_number(event.objective)}")
+        parts.append(f"obj {format_number(event.objective)}")
     if event.dual_bound is not None:
-        parts.append(f"bound {_number(event.dual_bound)}")
+        parts.append(f"bound {format_number(event.dual_bound)}")
     detail = event.detail.removeprefix(f"level {event.level}: ")  # said already
     parts.append(detail or ("new incumbent" if event.phase == INCUMBENT else event.phase))
     return "  ".join(parts)
@@ -117,11 +119,3 @@ def no_layout_message(layout: Layout) -> str:
 
 def _section(title: str, items: Sequence[str]) -> list[str]:
     return [f"  {title}:", *(f"    - {item}" for item in items)] if items else []
-
-
-def _number(value: float) -> str:
-    if not math.isfinite(value) or abs(value) >= SCIP_INFINITY:
-        return "-inf" if value < 0 else "inf"
-    if abs(value) >= 1e6:
-        return f"{value:.3g}"
-    return f"{round(value, 2) + 0.0:.2f}"  # + 0.0: no "-0.00"
