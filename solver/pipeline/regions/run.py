@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import shapely
 from shapely.geometry import Polygon
@@ -73,18 +73,18 @@ class _Progress:
     def sink(self, stage: str, *, incumbents: bool) -> EventSink | None:
         if self.on_event is None:
             return None
-        def forward(event: object) -> None:
+
+        def forward(event: SolveEvent) -> None:
             assert self.on_event is not None
-            rooms = getattr(event, "rooms", None)
-            if getattr(event, "phase", None) is Phase.INCUMBENT:
+            rooms = event.rooms
+            if event.phase is Phase.INCUMBENT:
                 if not incumbents or rooms is None:
                     return
                 rooms = self.placed | rooms
-            if getattr(event, "phase", None) is Phase.DONE:
+            if event.phase is Phase.DONE:
                 return
-            self.on_event(_replace(event, elapsed=time.monotonic() - self.started,
-                                   detail=f"{stage}: {getattr(event, 'detail', '')}",
-                                   rooms=rooms))
+            self.on_event(replace(event, elapsed=time.monotonic() - self.started,
+                                  detail=f"{stage}: {event.detail}", rooms=rooms))
         return forward
 
     def say(self, detail: str, *, subdomain: int = 0, subdomains: int = 0) -> None:
@@ -93,12 +93,6 @@ class _Progress:
         self.on_event(SolveEvent(phase=Phase.LEVEL, level=1,
                                  elapsed=time.monotonic() - self.started, detail=detail,
                                  subdomain=subdomain, subdomains=subdomains))
-
-
-def _replace(event: object, **changes: object) -> object:
-    import dataclasses
-
-    return dataclasses.replace(event, **changes)  # type: ignore[type-var]
 
 
 def solve_regions(
