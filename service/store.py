@@ -38,6 +38,7 @@ from sqlalchemy.engine import Connection
 from sqlalchemy.exc import IntegrityError
 
 from models.jobs import JobStatus
+from service.migrations import upgrade
 from service.records import Event, Job
 from service.tables import events, jobs
 
@@ -57,8 +58,6 @@ class JobStore:
         if url.startswith("sqlite"):
             event.listen(self.engine, "connect", _sqlite_pragmas)
         if migrate:
-            from service.migrations import upgrade
-
             upgrade(self.engine)
 
     @classmethod
