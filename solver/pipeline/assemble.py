@@ -28,15 +28,10 @@ from solver.geometry import (
 from solver.miqp.scip_run import LevelStatus
 from solver.openings import add_openings
 from solver.pipeline.hierarchy import Piece, room_boxes
-from solver.pipeline.run import Run
+from solver.pipeline.run import OUTPUT_SNAP, Run
 from solver.soft import hard_part
 from solver.verify.checker import check_layout
 from solver.verify.conflicts import find_conflict
-
-#: Output coordinates closer than this (metres) are made equal: SCIP's feasibility
-#: tolerance is relative, so at 60 m two walls meant to meet may lie 6e-5 m apart.
-#: The same tolerance as the checker's.
-OUTPUT_SNAP = 1e-4
 
 
 def termination(run: Run) -> Termination:

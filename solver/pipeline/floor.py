@@ -18,13 +18,18 @@ from solver.openings import connection_demands
 from solver.pipeline.assemble import explained, final_layout, no_layout
 from solver.pipeline.first_layout import better_start, first_level, second_start
 from solver.pipeline.hierarchy import absorb_gaps
-from solver.pipeline.refine import refine
+from solver.pipeline.refine import refine, reshaped
 from solver.pipeline.run import Run
 from solver.pipeline.subdomains import SubdomainExecutor
 from solver.verify.precheck import find_impossibilities
 
 #: Share of the time limit level 1 may use.
 LEVEL_ONE_SHARE = 0.9
+#: Share of the search time kept for reshaping the rooms at the end (issue 19), up to
+#: `RESHAPE_SECONDS` and `RESHAPE_SECONDS_PER_ROOM` more per room.
+RESHAPE_SHARE = 0.25
+RESHAPE_SECONDS = 1.0
+RESHAPE_SECONDS_PER_ROOM = 0.1
 #: Time kept per room for closing the last gaps and checking the layout.
 FINISH_SECONDS_PER_ROOM = 0.01
 
@@ -46,7 +51,12 @@ def solve_floor(
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
     # The last gaps and the check run after the search: keep time for them.
     reserve = min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
-    run = Run(problem, started + limit - reserve, started, on_event, should_stop, asked=asked)
+    # Level 1 and the hierarchy search until `search_end`; the reshaping has the rest.
+    end = started + limit - reserve
+    reshaping = min(RESHAPE_SHARE * (end - started),
+                    RESHAPE_SECONDS + RESHAPE_SECONDS_PER_ROOM * len(problem.rooms))
+    search_end = end - reshaping
+    run = Run(problem, search_end, started, on_event, should_stop, asked=asked)
     domain = make_domain(problem)
     findings = find_impossibilities(problem, domain)  # soft constraints never refuse
     if findings:
@@ -67,4 +77,6 @@ def solve_floor(
         return failure
     pieces, levels = refine(run, domain, pieces, subdomains)
     pieces = run.better_of(domain, absorb_gaps(problem, domain, pieces))
+    run.deadline = end
+    pieces = reshaped(run, domain, pieces, min(end, time.monotonic() + reshaping))
     return final_layout(run, domain, pieces, levels)

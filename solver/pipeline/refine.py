@@ -8,7 +8,8 @@ import time
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 
 from solver.events import Phase
-from solver.geometry import Domain
+from solver.geometry import Domain, domain_lines, snap_rooms
+from solver.heuristics.reshape import reshape
 from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import complete_start
 from solver.pipeline.hierarchy import (
@@ -20,7 +21,7 @@ from solver.pipeline.hierarchy import (
     room_boxes,
     select_subdomains,
 )
-from solver.pipeline.run import Run
+from solver.pipeline.run import OUTPUT_SNAP, Run, covers, layout_objective
 from solver.pipeline.subdomains import (
     LATE_SECONDS,
     SubdomainExecutor,
@@ -29,6 +30,7 @@ from solver.pipeline.subdomains import (
     overlaps_others,
     solve_subdomain,
 )
+from solver.verify.checker import check_layout
 
 #: Python time per room to plan one refinement sub-domain (measured: 0.16 s at 154).
 PLAN_SECONDS_PER_ROOM = 0.002
@@ -147,3 +149,25 @@ def _refine_at_once(
                  detail=f"rooms {', '.join(sorted(rooms))}: {outcome.status} "
                         f"in {outcome.seconds:.2f} s")
     return pieces
+
+
+def reshaped(run: Run, domain: Domain, pieces: list[Piece], deadline: float) -> list[Piece]:
+    """The size-error trigger of Sec. 5.3 carried to its end (issue 19): strips of
+    floor move between neighbouring rooms until `deadline`, so a room the first
+    layout had to stretch gives back floor and a neighbour becomes an L or a T. Kept
+    only when the result is valid, covers, and lowers Eq. 12."""
+    if deadline <= time.monotonic() or run.stopped():
+        return pieces
+    # Walls SCIP placed 1e-7 apart made one, as the output will have them.
+    rooms = snap_rooms(room_boxes(pieces), *domain_lines(run.problem), OUTPUT_SNAP)
+    before = layout_objective(run.problem, domain, rooms, soft=run.soft)
+    run.emit(Phase.LEVEL, detail="reshaping: strips of floor between neighbours")
+    result = reshape(run.problem, domain, rooms, deadline=deadline,
+                     seed=run.problem.options.seed, should_stop=run.should_stop)
+    after = layout_objective(run.problem, domain, result.rooms, soft=run.soft)
+    if (result.steps == 0 or after > before or not covers(domain, result.rooms)
+            or not check_layout(run.problem, result.rooms).valid):
+        return pieces
+    run.incumbent(domain, result.rooms)
+    return [Piece(f"{room_id}#{k}", room_id, b)
+            for room_id, boxes in result.rooms.items() for k, b in enumerate(boxes)]

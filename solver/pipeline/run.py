@@ -22,6 +22,10 @@ from solver.verify.checker import COVERAGE_GOAL, check_layout
 
 #: Separates a room's id from the number of a rectangle around an obstacle it wraps.
 WRAP_MARK = "~around"
+#: Output coordinates closer than this (metres) are made equal: SCIP's feasibility
+#: tolerance is relative, so at 60 m two walls meant to meet may lie 6e-5 m apart.
+#: The same tolerance as the checker's.
+OUTPUT_SNAP = 1e-4
 #: Share of the floor a layout must cover beyond the checker's goal to count as
 #: covering while solving.
 COVER_MARGIN = 5e-4

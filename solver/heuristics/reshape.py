@@ -1,0 +1,385 @@
+"""Reshaping a covering layout (issue 19; the size-error trigger of paper Sec. 5.3 done
+by moving walls): floor passes from a room to a neighbour across the wall they share,
+so a room stretched to cover the outline gives back what a neighbour needs, and either
+may become an L or a T on the way, as rooms of real plans do.
+
+The refinement levels only grow rooms (C_refine, Eq. 13), so a room the first layout
+made too large stays too large. Here a step moves one strip of floor between two
+neighbours: coverage never changes, and a step is taken only when it lowers the two
+rooms' size error (Eq. 6 on bounding boxes, the E_size of Eq. 12) without breaking any
+constraint of the brief more than before. Among steps of equal size error, the one
+bringing areas nearer the targets' wins (`AREA_WEIGHT`): a room's bounding box at its
+target says nothing of the floor inside it.
+
+Plain geometry on shapely polygons: no SCIP. Every candidate is a strip across one
+straight stretch of a shared wall, as deep as a target or an existing corner asks.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+import time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+
+import shapely
+from shapely.geometry import LineString, MultiLineString, Point, Polygon, box
+from shapely.geometry.base import BaseGeometry
+
+from models import Problem, Room
+from solver.geometry import GRID, Box, Domain, edges_named, rectangles_of, shared_wall_length
+
+#: Rectangles a room may become when the brief leaves it open (`max_rects` unset): an
+#: L takes two, a T, U or Z three.
+DEFAULT_MAX_RECTS = 3
+#: A room's arms stay at least this thick (metres), or as thick as its minimum size
+#: allows when that is less: a thinner arm is no floor anyone can use.
+MIN_ARM = 0.9
+#: Weight of the area term, against E_size's 1 per square metre of dimension error:
+#: breaks ties between shapes of the same bounding box.
+AREA_WEIGHT = 8.0
+#: Size errors and shortfalls are compared to this tolerance (m² and m).
+TOL = 1e-6
+#: A strip thinner than this (metres) is not worth a corner.
+MIN_STRIP = 0.05
+#: The annealing's first temperature (m² of Eq. 6) and its last, as a share of it.
+TEMPERATURE = 0.3
+COOLED = 0.01
+#: Steps tried between two looks at the stop flag.
+STOP_EVERY = 64
+#: Pseudo-rooms of uncovered floor are named so.
+GAP = "~gap"
+#: The share of the floor a result must cover: the checker's goal with a margin.
+COVER_GOAL = 0.9905
+#: Share of the steps tried that swap two rooms' floors.
+SWAP_SHARE = 0.2
+
+
+@dataclass(frozen=True)
+class _Needs:
+    """What the brief asks of one room, for checking a changed shape quickly."""
+
+    room: Room
+    corners: int
+    arm: float
+    edges: tuple[LineString, ...]
+
+
+@dataclass(frozen=True)
+class ReshapeResult:
+    rooms: dict[str, list[Box]]
+    steps: int
+    candidates: int
+
+
+def reshape(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]], *,
+            deadline: float, seed: int = 0,
+            should_stop: Callable[[], bool] | None = None) -> ReshapeResult:
+    """Lower Eq. 12 of a layout by moving strips of floor between neighbours (a gap
+    counts as a neighbour that costs lambda_cover per m²), annealing until `deadline`
+    (time.monotonic()). Returns the best layout found that covers as much as the
+    coverage goal asks (`goal`, m²) and has no higher Eq. 12 than `rooms`; unchanged
+    rooms as given."""
+    shapes = {r: _polygon(boxes) for r, boxes in rooms.items() if boxes}
+    unchanged = ReshapeResult({r: list(b) for r, b in rooms.items()}, 0, 0)
+    if len(shapes) < 2 or any(s is None for s in shapes.values()):
+        return unchanged
+    state: dict[str, Polygon] = {r: s for r, s in shapes.items() if s is not None}
+    needs = {room.id: _needs(problem, domain, room, state.get(room.id))
+             for room in problem.rooms if room.id in state}
+    adjacency = [(adj.a, adj.partners, adj.min_contact) for adj in problem.adjacency]
+    by_room: dict[str, list[int]] = {}
+    for k, (a, partners, _) in enumerate(adjacency):
+        for r in (a, *partners):
+            by_room.setdefault(r, []).append(k)
+    cover = problem.weights.cover
+    size_weight = problem.weights.size
+    goal = COVER_GOAL * domain.area
+
+    def costs(room: str, shape: BaseGeometry) -> _Cost:
+        if room.startswith(GAP):
+            return _Cost(cover * shape.area, cover * shape.area)
+        c = _cost(needs.get(room), shape)
+        return _Cost(size_weight * c.size, size_weight * c.total)
+
+    state.update(_gaps(domain, state))
+    cost = {r: costs(r, p) for r, p in state.items()}
+    start = sum(c.size for c in cost.values())
+    best = (sum(c.total for c in cost.values()), dict(state))
+    rng = random.Random(seed)
+    steps = candidates = 0
+    began = time.monotonic()
+    span = max(deadline - began, 1e-3)
+    pairs = _neighbour_pairs(state)
+    strips: dict[tuple[str, str], list[BaseGeometry]] = {}
+    movable = sorted(needs)
+    while pairs and time.monotonic() < deadline:
+        candidates += 1
+        if should_stop is not None and candidates % STOP_EVERY == 0 and should_stop():
+            break
+        # Annealing: worse steps are taken at first, ever more rarely.
+        heat = TEMPERATURE * (COOLED ** ((time.monotonic() - began) / span))
+        if rng.random() < SWAP_SHARE:
+            # Two rooms trade floors: the one step that moves a room across the plan.
+            a, b = rng.sample(movable, 2)
+            new_a, new_b = state[b], state[a]
+        else:
+            a, b = rng.choice(pairs)
+            if (a, b) not in strips:
+                strips[a, b] = list(_strips(state[a], state[b], needs.get(a), needs.get(b)))
+            if not strips[a, b]:
+                continue
+            strip = rng.choice(strips[a, b])
+            new_a = _clean(state[a].difference(strip), a.startswith(GAP))
+            new_b = _clean(state[b].union(strip), b.startswith(GAP))
+            if new_a is None or new_b is None:
+                continue
+        ca, cb = costs(a, new_a), costs(b, new_b)
+        delta = ca.total + cb.total - cost[a].total - cost[b].total
+        if delta > 0 and rng.random() >= math.exp(-delta / heat):
+            continue
+        if not all(r.startswith(GAP) or _shape_ok(needs[r], new, state[r])
+                   for r, new in ((a, new_a), (b, new_b))):
+            continue
+        trial = {**state, a: new_a, b: new_b}
+        if not _keeps_demands(adjacency, by_room, state, trial, (a, b)):
+            continue
+        state, cost[a], cost[b] = trial, ca, cb
+        steps += 1
+        if a.startswith(GAP) or b.startswith(GAP):
+            # Gaps merge and split: recount them.
+            state = {r: p for r, p in state.items() if not r.startswith(GAP)}
+            state.update(_gaps(domain, state))
+            cost = {r: cost[r] if not r.startswith(GAP) else costs(r, p)
+                    for r, p in state.items()}
+        pairs = _neighbour_pairs(state)
+        strips = {}
+        total = sum(c.total for c in cost.values())
+        if (total < best[0] - TOL and sum(c.size for c in cost.values()) <= start + TOL
+                and _covered(domain, state) >= goal):
+            best = (total, dict(state))
+    final = {r: p for r, p in best[1].items() if not r.startswith(GAP)}
+    changed = {r for r in final if not final[r].equals(shapes[r])}
+    out = {r: list(boxes) for r, boxes in rooms.items()}
+    for r in changed:
+        out[r] = rectangles_of(final[r])
+    return ReshapeResult(out, steps, candidates)
+
+
+def _gaps(domain: Domain, state: Mapping[str, Polygon]) -> dict[str, Polygon]:
+    """The uncovered parts of the floor as pseudo-rooms (`GAP` and a number)."""
+    rest = shapely.set_precision(
+        domain.free.difference(shapely.union_all(list(state.values()))), GRID)
+    parts = [g for g in getattr(rest, "geoms", [rest])
+             if isinstance(g, Polygon) and g.area > MIN_STRIP * MIN_STRIP]
+    return {f"{GAP}{k}": g for k, g in enumerate(parts)}
+
+
+def _covered(domain: Domain, state: Mapping[str, Polygon]) -> float:
+    return domain.area - sum(p.area for r, p in state.items() if r.startswith(GAP))
+
+
+@dataclass(frozen=True)
+class _Cost:
+    size: float  # E_size (Eq. 6) of the bounding box
+    total: float  # plus the area term
+
+
+def _cost(needs: _Needs | None, shape: Polygon) -> _Cost:
+    if needs is None or needs.room.target_size is None:
+        return _Cost(0.0, 0.0)
+    tw, td = needs.room.target_size
+    x0, y0, x1, y1 = shape.bounds
+    size = (x1 - x0 - tw) ** 2 + (y1 - y0 - td) ** 2
+    # The area's shortfall in metres of the target's half perimeter.
+    area = (shape.area - tw * td) / max(tw + td, TOL)
+    return _Cost(size, size + AREA_WEIGHT * area * area)
+
+
+def _needs(problem: Problem, domain: Domain, room: Room, shape: Polygon | None) -> _Needs:
+    allowed = room.max_rects if room.max_rects is not None else DEFAULT_MAX_RECTS
+    # A rectangle has 4 corners, each further rectangle adds 2 (L: 6, T or U: 8); a room
+    # that already has more (it wraps an obstacle) may keep them.
+    corners = 2 + 2 * allowed
+    if shape is not None:
+        corners = max(corners, _corners(shape))
+    short = min(room.min_size) if room.min_size else MIN_ARM
+    edges = tuple(LineString([e.start, e.end])
+                  for e in edges_named(problem, domain.edges, room.boundary))
+    return _Needs(room, corners, min(MIN_ARM, short), edges)
+
+
+def _polygon(boxes: Sequence[Box]) -> Polygon | None:
+    shape = shapely.set_precision(shapely.union_all([b.to_polygon() for b in boxes]), GRID)
+    return shape if isinstance(shape, Polygon) and not shape.interiors else None
+
+
+def _clean(shape: BaseGeometry, gap: bool = False) -> BaseGeometry | None:
+    """A step's result as one polygon without holes on the grid, or None; a gap may be
+    anything (an emptied gap is gone)."""
+    shape = shapely.set_precision(shape, GRID)
+    if gap:
+        return shape
+    if (not isinstance(shape, Polygon) or shape.is_empty or shape.interiors
+            or not shape.is_valid):
+        return None
+    return shapely.orient_polygons(shape.simplify(0))
+
+
+def _corners(shape: Polygon) -> int:
+    return len(shape.exterior.coords) - 1
+
+
+def _neighbour_pairs(state: Mapping[str, Polygon]) -> list[tuple[str, str]]:
+    """Ordered pairs of rooms sharing a wall (a gives, b takes)."""
+    ids = sorted(state)
+    tree = shapely.STRtree([state[r] for r in ids])
+    pairs = []
+    for i, j in zip(*tree.query([state[r] for r in ids], "touches"), strict=True):
+        if i != j and shared_wall_length(state[ids[i]], state[ids[j]]) > MIN_STRIP:
+            pairs.append((ids[i], ids[j]))
+    return pairs
+
+
+def _strips(a: Polygon, b: Polygon, needs_a: _Needs | None,
+            needs_b: _Needs | None) -> Iterator[BaseGeometry]:
+    """Strips of `a` along the walls it shares with `b`: across each straight stretch
+    of the shared wall, or part of it, as deep as one of `a`'s own corners, or as makes
+    the width (or depth) of `a` or `b` its target's."""
+    shared = a.boundary.intersection(b.boundary)
+    for x0, y0, x1, y1 in _segments(shared):
+        vertical = abs(x0 - x1) <= TOL
+        c = x0 if vertical else y0
+        lo, hi = (min(y0, y1), max(y0, y1)) if vertical else (min(x0, x1), max(x0, x1))
+        if hi - lo <= MIN_STRIP:
+            continue
+        mid = (lo + hi) / 2
+        probe = Point(c - 1e-3, mid) if vertical else Point(mid, c - 1e-3)
+        sign = -1.0 if a.contains(probe) else 1.0  # which way a lies from the wall
+        axis = 0 if vertical else 1
+        a_lo, a_hi = _extent(a, axis)
+        b_lo, b_hi = _extent(b, axis)
+        depths = {abs(c - v) for v in _coords(a, axis)}
+        ta, tb = _target(needs_a, axis), _target(needs_b, axis)
+        if ta is not None:
+            depths.add((a_hi - a_lo) - ta)  # a shrinks to its target across the wall
+        if tb is not None:
+            depths.add(tb - (b_hi - b_lo))  # b grows to its target across the wall
+        depths = {t for t in depths if MIN_STRIP <= t <= (a_hi - a_lo) - MIN_STRIP + TOL}
+        cuts = {lo, hi} | {v for v in (*_coords(a, 1 - axis), *_coords(b, 1 - axis))
+                           if lo + MIN_STRIP < v < hi - MIN_STRIP}
+        ends = sorted(cuts)
+        spans = [(s, e) for i, s in enumerate(ends) for e in ends[i + 1:]]
+        for t in sorted(depths):
+            for s, e in spans:
+                near, far = c, c + sign * t
+                if vertical:
+                    cut = box(min(near, far), s, max(near, far), e)
+                else:
+                    cut = box(s, min(near, far), e, max(near, far))
+                strip = a.intersection(cut)
+                if strip.area > MIN_STRIP * MIN_STRIP:
+                    yield strip
+
+
+def _segments(shared: BaseGeometry) -> Iterator[tuple[float, float, float, float]]:
+    """The straight stretches of a shared wall."""
+    if shared.is_empty:
+        return
+    merged = shapely.line_merge(shared) if not isinstance(shared, LineString) else shared
+    lines = (merged.geoms if isinstance(merged, MultiLineString)
+             else [g for g in getattr(merged, "geoms", [merged]) if isinstance(g, LineString)])
+    for line in lines:
+        if not isinstance(line, LineString):
+            continue
+        pts = list(line.coords)
+        start = 0
+        for k in range(1, len(pts)):
+            turn = k + 1 < len(pts) and not _collinear(pts[start], pts[k], pts[k + 1])
+            if turn or k == len(pts) - 1:
+                (x0, y0), (x1, y1) = pts[start], pts[k]
+                if abs(x0 - x1) <= TOL or abs(y0 - y1) <= TOL:
+                    yield x0, y0, x1, y1
+                start = k
+
+
+def _collinear(p: tuple[float, ...], q: tuple[float, ...], r: tuple[float, ...]) -> bool:
+    return (abs(p[0] - q[0]) <= TOL and abs(q[0] - r[0]) <= TOL) or (
+        abs(p[1] - q[1]) <= TOL and abs(q[1] - r[1]) <= TOL)
+
+
+def _extent(shape: Polygon, axis: int) -> tuple[float, float]:
+    x0, y0, x1, y1 = shape.bounds
+    return (x0, x1) if axis == 0 else (y0, y1)
+
+
+def _coords(shape: Polygon, axis: int) -> set[float]:
+    return {p[axis] for p in shape.exterior.coords}
+
+
+def _target(needs: _Needs | None, axis: int) -> float | None:
+    target = None if needs is None else needs.room.target_size
+    return None if target is None else target[axis]
+
+
+def _shape_ok(needs: _Needs, new: Polygon, old: Polygon) -> bool:
+    """The room's own constraints on its changed shape: no more corners than it may
+    have, arms thick enough, and size, ratio, guide points and exterior wall no worse
+    than before."""
+    if _corners(new) > needs.corners:
+        return False
+    if not _thick(new, needs.arm):
+        return False
+    return _shortfall(needs, new) <= _shortfall(needs, old) + TOL
+
+
+def _thick(shape: Polygon, arm: float) -> bool:
+    """No part of `shape` thinner than `arm` (a square opening loses nothing)."""
+    half = arm / 2 - 1e-4
+    opened = shape.buffer(-half, join_style="mitre").buffer(half, join_style="mitre")
+    return opened.area >= shape.area - 1e-3
+
+
+def _shortfall(needs: _Needs, shape: Polygon) -> float:
+    """How far (metres) the shape misses its room's size, ratio, guide points and
+    exterior walls (a missed wall counts 1)."""
+    room = needs.room
+    x0, y0, x1, y1 = shape.bounds
+    w, d = x1 - x0, y1 - y0
+    miss = 0.0
+    if room.min_size:
+        miss += max(0.0, room.min_size[0] - w) + max(0.0, room.min_size[1] - d)
+    if room.max_size:
+        miss += max(0.0, w - room.max_size[0]) + max(0.0, d - room.max_size[1])
+    if room.aspect_ratio:
+        lo, hi = room.aspect_ratio
+        long, short = max(w, d), min(w, d)
+        miss += max(0.0, long - hi * short) + max(0.0, lo * short - long)
+    miss += sum(shape.distance(Point(p)) for p in room.positions)
+    if needs.edges and not any(shape.boundary.intersection(e).length > 1e-3
+                               for e in needs.edges):
+        miss += 1.0
+    return miss
+
+
+def _keeps_demands(adjacency: Sequence[tuple[str, Sequence[str], float]],
+                   by_room: Mapping[str, list[int]], before: Mapping[str, Polygon],
+                   after: Mapping[str, Polygon], moved: tuple[str, str]) -> bool:
+    """Every adjacency of the two changed rooms keeps its contact, or falls short by
+    no more than before."""
+    for k in {k for r in moved for k in by_room.get(r, ())}:
+        a, partners, contact = adjacency[k]
+        if _contact_miss(before, a, partners, contact) + TOL < _contact_miss(
+                after, a, partners, contact):
+            return False
+    return True
+
+
+def _contact_miss(state: Mapping[str, Polygon], a: str, partners: Sequence[str],
+                  contact: float) -> float:
+    if a not in state:
+        return math.inf
+    best = max((shared_wall_length(state[a], state[p]) for p in partners if p in state),
+               default=0.0)
+    return max(0.0, contact - best)
