@@ -27,6 +27,9 @@ FIRST_BAND = 0.5
 WING_JOIN = 1.2
 #: ... and is at least this wide and deep (metres).
 WING_MIN = 1.0
+#: Rectangles a room may become when the brief leaves it open (`max_rects` unset): an
+#: L takes two, a T, U or Z three (issue 19).
+DEFAULT_MAX_RECTS = 3
 #: Separates a room's id from the number of one of its extra rectangles.
 WING_MARK = "~wing"
 #: In the soft model every room keeps at least this width and depth (metres), or its
@@ -110,7 +113,8 @@ def level_one_spec(
                                         partners=((room.id,),), min_contact=WING_JOIN))
         if extra:
             envelopes.append(EnvelopeSpec(room.id, (room.id, *extra), None, hi,
-                                          room.aspect_ratio, soft=frozenset(relaxed)))
+                                          room.aspect_ratio, soft=frozenset(relaxed),
+                                          min_size=lo))
 
     def parts(room_id: str) -> tuple[str, ...]:
         return (room_id, *wing_names(room_id, wings.get(room_id, 0)))
@@ -146,8 +150,12 @@ def _main_rect(problem: Problem, domain: Domain, room: Room,
                bounds: tuple[tuple[float, float], tuple[float, float]], winged: bool,
                relaxed: frozenset[str], soft: bool) -> RectSpec:
     """A room's main level-1 rectangle, answering for its guide points, boundary and
-    target; its ratio holds on the envelope instead when it has wings."""
+    target; its minimum size and ratio hold on the envelope instead when it has wings."""
     lo, hi = bounds
+    if winged:
+        # The minimum holds on the bounding box (the envelope): the arm holding a
+        # guide point may be narrower than the room, as in any L.
+        lo = (min(lo[0], WING_MIN), min(lo[1], WING_MIN))
     return RectSpec(
         name=room.id,
         room=room.id,
@@ -161,6 +169,12 @@ def _main_rect(problem: Problem, domain: Domain, room: Room,
         floor=(min(SOFT_FLOOR, hi[0]), min(SOFT_FLOOR, hi[1])) if soft else (0.0, 0.0),
         may_wrap=room.max_rects != 1,
     )
+
+
+def shape_allowance(room: Room) -> int:
+    """The rectangles a room's shape may have: its `max_rects`, or `DEFAULT_MAX_RECTS`
+    (an L or a T) when the brief leaves it open."""
+    return room.max_rects if room.max_rects is not None else DEFAULT_MAX_RECTS
 
 
 def wing_names(room_id: str, count: int) -> tuple[str, ...]:

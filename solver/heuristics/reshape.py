@@ -29,10 +29,8 @@ from shapely.geometry.base import BaseGeometry
 
 from models import Problem, Room
 from solver.geometry import GRID, Box, Domain, edges_named, rectangles_of, shared_wall_length
+from solver.heuristics.level_one import shape_allowance
 
-#: Rectangles a room may become when the brief leaves it open (`max_rects` unset): an
-#: L takes two, a T, U or Z three.
-DEFAULT_MAX_RECTS = 3
 #: A room's arms stay at least this thick (metres), or as thick as its minimum size
 #: allows when that is less: a thinner arm is no floor anyone can use.
 MIN_ARM = 0.9
@@ -46,7 +44,9 @@ MIN_STRIP = 0.05
 #: The annealing's first temperature (m² of Eq. 6) and its last, as a share of it.
 TEMPERATURE = 0.3
 COOLED = 0.01
-#: Steps tried between two looks at the stop flag.
+#: Steps the annealing tries per room (about 0.1 ms each on 2020s hardware).
+TRIES_PER_ROOM = 600
+#: Steps tried between two looks at the clock and the stop flag.
 STOP_EVERY = 64
 #: Pseudo-rooms of uncovered floor are named so.
 GAP = "~gap"
@@ -109,17 +109,19 @@ def reshape(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
     best = (sum(c.total for c in cost.values()), dict(state))
     rng = random.Random(seed)
     steps = candidates = 0
-    began = time.monotonic()
-    span = max(deadline - began, 1e-3)
     pairs = _neighbour_pairs(state)
     strips: dict[tuple[str, str], list[BaseGeometry]] = {}
     movable = sorted(needs)
-    while pairs and time.monotonic() < deadline:
+    # The schedule counts steps tried, not seconds: the same layout and seed give the
+    # same result, unless the deadline cuts the schedule short.
+    planned = TRIES_PER_ROOM * len(movable)
+    while pairs and candidates < planned:
         candidates += 1
-        if should_stop is not None and candidates % STOP_EVERY == 0 and should_stop():
+        if candidates % STOP_EVERY == 0 and (time.monotonic() >= deadline or (
+                should_stop is not None and should_stop())):
             break
         # Annealing: worse steps are taken at first, ever more rarely.
-        heat = TEMPERATURE * (COOLED ** ((time.monotonic() - began) / span))
+        heat = TEMPERATURE * (COOLED ** (candidates / planned))
         if rng.random() < SWAP_SHARE:
             # Two rooms trade floors: the one step that moves a room across the plan.
             a, b = rng.sample(movable, 2)
@@ -198,7 +200,7 @@ def _cost(needs: _Needs | None, shape: Polygon) -> _Cost:
 
 
 def _needs(problem: Problem, domain: Domain, room: Room, shape: Polygon | None) -> _Needs:
-    allowed = room.max_rects if room.max_rects is not None else DEFAULT_MAX_RECTS
+    allowed = shape_allowance(room)
     # A rectangle has 4 corners, each further rectangle adds 2 (L: 6, T or U: 8); a room
     # that already has more (it wraps an obstacle) may keep them.
     corners = 2 + 2 * allowed

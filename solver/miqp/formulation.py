@@ -339,7 +339,7 @@ def c_envelope(lm: LevelModel) -> None:
 
 
 def _exact_envelope(lm: LevelModel, e: EnvelopeSpec) -> None:
-    """C_size (Eq. 5, the maximum) and C_ratio (Eq. 7) on the exact bounding box of a
+    """C_size (Eq. 5) and C_ratio (Eq. 7) on the exact bounding box of a
     room of several free rectangles: each side of the box is the extreme side of one
     rectangle, picked by a binary, and a binary picks the orientation as in c_ratio."""
     m, region = lm.model, lm.spec.region
@@ -364,6 +364,14 @@ def _exact_envelope(lm: LevelModel, e: EnvelopeSpec) -> None:
             m.addCons(outward * (edge - value) <= big * (1 - pick),
                       name=f"env_at[{tag},{side},{k}]")
     width, depth = box["x1"] - box["x0"], box["y1"] - box["y0"]
+    if "min_size" in e.soft:
+        m.addCons(width + _slack(lm, f"env_min_w[{tag}]") >= e.min_size[0],
+                  name=f"env_wmin[{tag}]")
+        m.addCons(depth + _slack(lm, f"env_min_d[{tag}]") >= e.min_size[1],
+                  name=f"env_dmin[{tag}]")
+    else:
+        m.addCons(width >= e.min_size[0], name=f"env_wmin[{tag}]")
+        m.addCons(depth >= e.min_size[1], name=f"env_dmin[{tag}]")
     if "max_size" in e.soft:
         m.addCons(width - _slack(lm, f"env_max_w[{tag}]") <= e.max_size[0],
                   name=f"env_wmax[{tag}]")

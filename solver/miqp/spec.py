@@ -94,8 +94,11 @@ class EnvelopeSpec:
     previous: Box | None
     max_size: tuple[float, float]
     aspect_ratio: tuple[float, float] | None
-    #: Soft families among max_size and aspect_ratio (exact envelopes only).
+    #: Soft families among min_size, max_size and aspect_ratio (exact envelopes only).
     soft: frozenset[str] = frozenset()
+    #: The room's minimum size, on its bounding box (exact envelopes only: a grown box
+    #: is never smaller than the previous one).
+    min_size: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -177,6 +180,8 @@ def spec_shortfall(spec: LevelSpec, boxes: dict[str, Box]) -> float:
         if e.soft and e.previous is None:
             b = bounding_box([boxes[n] for n in e.rects])
             size = (b.width, b.depth)
+            if "min_size" in e.soft:
+                total += size_shortfall(size, e.min_size, None)
             if "max_size" in e.soft:
                 total += size_shortfall(size, None, e.max_size)
             if e.aspect_ratio is not None and "aspect_ratio" in e.soft:

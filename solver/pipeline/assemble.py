@@ -73,6 +73,15 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
             # Soft, like the adjacencies require_connected added, which carry the shortfall.
             constraints[-1] = constraints[-1].model_copy(update={"soft": True})
         valid = valid and (connected or not problem.options.strict)
+    ended, why = termination(run), None
+    if not valid and ended is not Termination.INTERRUPTED:
+        # Issue 19: a layout breaking a hard constraint is no answer; it is kept as a
+        # diagnostic of how near the search came.
+        ended, why = Termination.NO_SOLUTION, Infeasibility(
+            reason="no layout meeting every hard constraint was found within the time "
+            "limit; the rooms given are the best one found, which breaks the constraints "
+            "the report marks unsatisfied, as a diagnostic",
+            relaxations_tried=run.relaxations)
     w = problem.weights
     violations = [c for c in constraints if c.soft and not c.satisfied]
     shortfall = sum(c.shortfall for c in violations)
@@ -82,7 +91,7 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
         coverage=check.coverage, uncovered_area=check.uncovered_area,
         constraints=constraints, size_error=check.size_error,
         objective=objective, levels=levels, solve_time=run.elapsed(),
-        termination=termination(run), valid=valid, circulation=openings.circulation,
+        termination=ended, valid=valid, infeasibility=why, circulation=openings.circulation,
         relaxation=run.window, extra_rectangles=run.extra,
         violations=violations, total_shortfall=round(shortfall, 6),
     )
@@ -136,7 +145,7 @@ def explained(run: Run, domain: Domain, why: Infeasibility) -> Infeasibility:
     searched in the time the solve has left (solver/verify/conflicts.py); soft constraints
     never are among them."""
     conflict = find_conflict(hard_part(run.asked or run.problem), domain,
-                             deadline=run.deadline, solved=hard_part(run.problem),
+                             deadline=max(run.deadline, run.end), solved=hard_part(run.problem),
                              should_stop=run.should_stop)
     if conflict is not None:
         run.emit(Phase.CONFLICT, detail=f"{len(conflict.constraints)} constraints cannot "

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import random
 import time
+from collections.abc import Mapping
 from concurrent.futures import Future, wait
 
 from models import ExtraRectangles, Infeasibility, Layout, Problem, Termination
@@ -16,6 +17,7 @@ from solver.heuristics.level_one import (
     FIRST_BAND,
     demand_order,
     level_one_spec,
+    shape_allowance,
     target_bands,
     windows_to_try,
     wings_wanted,
@@ -41,6 +43,10 @@ from solver.verify.precheck import find_impossibilities
 SECOND_SEED_STEP = 1_000_003
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
+#: After this many size windows proved infeasible, `WINGS_SHARE` of the first layout's
+#: time is kept for rooms of two rectangles (`_with_wings`).
+REFUTED_BEFORE_WINGS = 3
+WINGS_SHARE = 0.5
 #: Above this many rooms the first layout is built in batches (solver/heuristics/construct.py):
 #: one feasibility MILP of all rooms rarely finds anything in time.
 CONSTRUCT_ABOVE = 20
@@ -59,7 +65,9 @@ def first_level(
     report of why there is none."""
     problem = run.problem
     if not has_soft(problem):
-        return _level_one(run, domain, deadline)
+        # Nothing else needs the time when there is no first layout: the search for
+        # one may go on until the solve's end.
+        return _level_one(run, domain, deadline, first_by=max(deadline, run.end))
     # Issue 8: a layout meeting every constraint, soft ones too, is looked for first
     # (no price per metre makes a violating layout reliably lose to it); the soft
     # model takes over when there is none, or none found in its share of the time.
@@ -154,8 +162,12 @@ def _level_one(
     run.wings = wings_wanted(problem)
     run.extra = [ExtraRectangles(room=room_id, rectangles=count + 1, reason="asked")
                  for room_id, count in run.wings.items()]
-    # Keep time for extra rectangles when one rectangle per room is not enough.
-    may_widen = len(run.wings) < len(problem.rooms)
+    # Keep time for extra rectangles when one rectangle per room is not enough: a brief
+    # extracted from a plan with L-shaped rooms often has no one-rectangle layout, and
+    # SCIP may not prove it before the windows have used the time.
+    may_widen = any(shape_allowance(r) > 1 + run.wings.get(r.id, 0) for r in problem.rooms)
+    single_by = deadline
+    refuted = 0
     if slicing_applies(problem) and not run.wings:
         # Rows always exist for sizes alone; with demands they may not, so the MIQP
         # keeps most of the time.
@@ -164,7 +176,7 @@ def _level_one(
     if large and first is None:
         first = _construct(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
     for window in [] if first is not None else windows_to_try(problem):
-        left = deadline - time.monotonic()
+        left = single_by - time.monotonic()
         if left <= 0.05 or run.stopped():
             break
         spec = level_one_spec(problem, domain, window=window, wings=run.wings)
@@ -180,31 +192,50 @@ def _level_one(
             first, run.window = result, window
             break
         proven_infeasible = window is None and result.status is LevelStatus.INFEASIBLE
+        refuted += result.status is LevelStatus.INFEASIBLE
+        if may_widen and refuted == REFUTED_BEFORE_WINGS:
+            # Windows proved empty one after another: one rectangle per room may well
+            # be impossible (a brief extracted from a plan with L-shaped rooms), and
+            # SCIP may not prove it before the wider windows have used the time.
+            single_by = deadline - (deadline - time.monotonic()) * WINGS_SHARE
     if first is None and not proven_infeasible and not large:
-        first = _construct(run, domain, deadline - (deadline - time.monotonic()) * (
-            ATTEMPT_SHARE if may_widen else 0.0))
+        first = _construct(run, domain, single_by)
+    # What SCIP proved holds for the shapes it was given: the verdict is "infeasible"
+    # only when those are every shape the rooms may take (`max_rects`).
+    proven_for_all = proven_infeasible and every_shape_tried(problem, run.wings)
     if first is None and may_widen:
-        first = _with_wings(run, domain, deadline, why=(
+        first, proven_winged = _with_wings(run, domain, deadline, why=(
             "one rectangle per room is infeasible (proved by SCIP)" if proven_infeasible
             else "no one-rectangle-per-room layout was found in its share of the time"))
-        proven_infeasible = proven_infeasible and first is None
+        proven_for_all = proven_for_all or (first is None and proven_winged
+                                            and every_shape_tried(problem, run.tried_wings))
     if first is None:
-        return None, _no_first_layout(run, domain, proven_infeasible, explain)
+        return None, _no_first_layout(run, domain, proven_infeasible, proven_for_all,
+                                      explain)
     assert first.rects is not None
     run.incumbent(domain, run.by_room(domain, first.rects))
     boxes = improve_level_one(run, domain, first.rects, improve_by)
     return run.pieces(domain, boxes), None
 
+def every_shape_tried(problem: Problem, wings: Mapping[str, int]) -> bool:
+    """Whether rooms of one rectangle plus `wings` are every shape the rooms may take
+    (`shape_allowance`)."""
+    return all(shape_allowance(room) <= 1 + wings.get(room.id, 0) for room in problem.rooms)
+
+
 def _no_first_layout(run: Run, domain: Domain, proven_infeasible: bool,
-                     explain: bool) -> Layout:
-    """The answer when level 1 found nothing: infeasible when SCIP proved it (with the
-    constraints that cannot hold together, if `explain`), else interrupted or out of
-    time."""
+                     proven_for_all: bool, explain: bool) -> Layout:
+    """The answer when level 1 found nothing (issue 19, honest verdicts): infeasible
+    only when SCIP proved it for every shape the rooms may take (with the constraints
+    that cannot hold together, if `explain`); else interrupted or out of time, saying
+    what was proved for the shapes tried."""
     problem = run.problem
     spec = level_one_spec(problem, domain, window=None, wings=run.wings)
-    if proven_infeasible:
+    if proven_for_all:
+        shapes = ("single-rectangle" if all(r.max_rects == 1 for r in problem.rooms)
+                  else "allowed (max_rects)")
         why = Infeasibility(
-            reason="SCIP proved that no single-rectangle layout satisfies the constraints",
+            reason=f"SCIP proved that no layout of {shapes} rooms satisfies the constraints",
             active_families=active_families(spec), relaxations_tried=run.relaxations)
         if explain:
             why = explained(run, domain, why)
@@ -212,6 +243,11 @@ def _no_first_layout(run: Run, domain: Domain, proven_infeasible: bool,
     if run.stopped():
         termination = Termination.INTERRUPTED
         reason = "stopped on request before any layout was found"
+    elif proven_infeasible:
+        termination = Termination.NO_SOLUTION
+        reason = ("SCIP proved that no layout of one rectangle per room exists; none with "
+                  "L- or T-shaped rooms was found within the time limit, so feasibility is "
+                  "unknown")
     else:
         termination = Termination.NO_SOLUTION
         reason = "no layout was found within the time limit; feasibility is unknown"
@@ -245,7 +281,7 @@ def _soft_level_one(
     run.relaxations.append(f"user bounds, soft constraints priced: {outcome}")
     run.emit(Phase.RELAXATION, detail=f"soft constraints priced: {outcome}")
     if rects is None:
-        if status is LevelStatus.INFEASIBLE:
+        if status is LevelStatus.INFEASIBLE and every_shape_tried(problem, run.wings):
             why = Infeasibility(
                 reason="SCIP proved that no single-rectangle layout satisfies the hard "
                 "constraints (inside, no overlap, obstacles and those not soft)",
@@ -254,6 +290,9 @@ def _soft_level_one(
         termination = Termination.INTERRUPTED if run.stopped() else Termination.NO_SOLUTION
         return None, no_layout(run, termination, Infeasibility(
             reason="stopped on request before any layout was found" if run.stopped() else
+            "SCIP proved that no layout of one rectangle per room meets the hard "
+            "constraints; rooms of other shapes were not tried, so feasibility is unknown"
+            if status is LevelStatus.INFEASIBLE else
             "no layout was found within the time limit; feasibility is unknown",
             active_families=active_families(spec), relaxations_tried=run.relaxations))
     run.incumbent(domain, run.by_room(domain, rects))
@@ -261,33 +300,43 @@ def _soft_level_one(
     return run.pieces(domain, boxes), None
 
 
-def _with_wings(run: Run, domain: Domain, deadline: float, why: str) -> LevelResult | None:
+def _with_wings(run: Run, domain: Domain, deadline: float, why: str
+                ) -> tuple[LevelResult | None, bool]:
     """Issue 8: when one rectangle per room fails, let the rooms with the most demands
-    start as two rectangles (an L or T), one more room at each attempt, doubling."""
+    start as two rectangles (an L or T), one more room at each attempt, doubling.
+    Returns the first layout found, or None and whether SCIP proved the last attempt
+    (every room of two rectangles or more, `run.tried_wings`) infeasible."""
     problem = run.problem
-    order = [r for r in demand_order(problem) if r not in run.wings]
+    may = {room.id: shape_allowance(room) - 1 for room in problem.rooms}
+    order = [r for r in demand_order(problem) if r not in run.wings and may[r] > 0]
     count = 1
     while order and not run.stopped():
         left = deadline - time.monotonic()
         if left <= 0.05:
-            return None
+            return None, False
         chosen = order[:count]
         last = count >= len(order)
-        wings = run.wings | dict.fromkeys(chosen, 1)
+        # The last attempt gives every room all the rectangles it may have: what SCIP
+        # proves of it holds for every shape.
+        wings = run.wings | ({r: may[r] for r in chosen} if last else dict.fromkeys(chosen, 1))
         spec = level_one_spec(problem, domain, window=None, wings=wings)
         result = run.run(build_level(spec, feasibility=True),
                          left if last else left * ATTEMPT_SHARE)
-        label = f"user bounds, {', '.join(chosen)} as two rectangles"
+        label = (f"user bounds, every room of up to {max(may.values()) + 1} rectangles"
+                 if last and len(chosen) == len(problem.rooms)
+                 else f"user bounds, {', '.join(chosen)} as two rectangles")
         run.relaxations.append(f"{label}: {result.status}")
         run.emit(Phase.RELAXATION, detail=f"size bounds {label}: {result.status}")
         if result.rects is not None:
             run.wings = wings
-            run.extra += [ExtraRectangles(room=r, rectangles=2, reason=why) for r in chosen]
-            return result
+            run.extra += [ExtraRectangles(room=r, rectangles=1 + wings[r], reason=why)
+                          for r in chosen]
+            return result, False
         if last:
-            return None
+            run.tried_wings = wings
+            return None, result.status is LevelStatus.INFEASIBLE
         count *= 2
-    return None
+    return None, False
 
 
 def _slice(run: Run, domain: Domain, deadline: float) -> LevelResult | None:

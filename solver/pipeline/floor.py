@@ -56,7 +56,7 @@ def solve_floor(
     reshaping = min(RESHAPE_SHARE * (end - started),
                     RESHAPE_SECONDS + RESHAPE_SECONDS_PER_ROOM * len(problem.rooms))
     search_end = end - reshaping
-    run = Run(problem, search_end, started, on_event, should_stop, asked=asked)
+    run = Run(problem, search_end, started, on_event, should_stop, asked=asked, end=end)
     domain = make_domain(problem)
     findings = find_impossibilities(problem, domain)  # soft constraints never refuse
     if findings:
@@ -79,4 +79,4 @@ def solve_floor(
     pieces = run.better_of(domain, absorb_gaps(problem, domain, pieces))
     run.deadline = end
     pieces = reshaped(run, domain, pieces, min(end, time.monotonic() + reshaping))
-    return final_layout(run, domain, pieces, levels)
+    return final_layout(run, domain, run.valid_of(domain, pieces), levels)

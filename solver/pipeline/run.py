@@ -11,7 +11,16 @@ import shapely
 
 from models import ExtraRectangles, Problem
 from solver.events import EventSink, Phase, SolveEvent
-from solver.geometry import Box, Domain, bounding_box, edges_named, on_edge, unwrapped
+from solver.geometry import (
+    Box,
+    Domain,
+    bounding_box,
+    domain_lines,
+    edges_named,
+    on_edge,
+    snap_rooms,
+    unwrapped,
+)
 from solver.heuristics.level_one import wing_names
 from solver.heuristics.neighbourhood import covered_area
 from solver.miqp.model import LevelModel
@@ -51,9 +60,14 @@ class Run:
     asked: Problem | None = None
     #: Extra level-1 rectangles per room (issue 8), and the report's account of them.
     wings: dict[str, int] = field(default_factory=dict)
+    #: The extra rectangles of the last level-1 attempt with wings that found nothing.
+    tried_wings: dict[str, int] = field(default_factory=dict)
     extra: list[ExtraRectangles] = field(default_factory=list)
     #: The layout comes from the soft model: soft constraints carry priced slacks.
     soft: bool = False
+    #: The solve's own end; `deadline` ends the search before it, keeping time for
+    #: the reshaping (0: the same as `deadline`).
+    end: float = 0.0
     #: The incumbent of lowest Eq. 12 meeting the coverage goal (gaps absorbed).
     best: tuple[float, dict[str, list[Box]]] | None = None
 
@@ -129,6 +143,17 @@ class Run:
         return [Piece(f"{room_id}#{k}", room_id, b)
                 for room_id, boxes in self.best[1].items() for k, b in enumerate(boxes)]
 
+    def valid_of(self, domain: Domain, pieces: list[Piece]) -> list[Piece]:
+        """The final `pieces`, unless they break a hard constraint where the best
+        covering incumbent does not (issue 19: a layout breaking a hard constraint is
+        never the answer when a valid one was found)."""
+        if self.best is None or _valid(self.problem, room_boxes(pieces)):
+            return pieces
+        if not _valid(self.problem, self.best[1]):
+            return pieces
+        return [Piece(f"{room_id}#{k}", room_id, b)
+                for room_id, boxes in self.best[1].items() for k, b in enumerate(boxes)]
+
     def run(self, lm: LevelModel, limit: float, *,
             on_incumbent: Callable[[Incumbent], None] | None = None) -> LevelResult:
         result = run_level(lm, time_limit=limit, seed=self.problem.options.seed,
@@ -157,6 +182,11 @@ def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box
         penalty = problem.weights.violation * sum(
             c.shortfall for c in checks if c.soft and not c.satisfied)
     return problem.weights.cover * uncovered + problem.weights.size * size + penalty
+
+
+def _valid(problem: Problem, rooms: dict[str, list[Box]]) -> bool:
+    """Whether the checker passes `rooms` as the output will give them (snapped)."""
+    return check_layout(problem, snap_rooms(rooms, *domain_lines(problem), OUTPUT_SNAP)).valid
 
 
 def covered(domain: Domain, rooms: dict[str, list[Box]]) -> float:

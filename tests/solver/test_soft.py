@@ -28,20 +28,21 @@ from tests.servers import Server
 from tests.solver.verify.test_conflicts import CHAIN, CONTRADICTIONS, CROWDED, OUT_OF_REACH
 
 # A real brief that asks too much: a flat 6 m wide along its only facade (south) and
-# 12 m deep, whose living room, kitchen and both bedrooms all want that facade. Their
-# smallest widths add up to 11.6 m.
+# 12 m deep, whose living room, kitchen and both bedrooms, all rectangles, want that
+# facade. Their smallest widths add up to 11.6 m (as L-shaped rooms each could reach
+# the facade with a narrower arm).
 NARROW_FLAT: dict[str, Any] = {
     "name": "narrow-flat",
     "boundary": [[0, 0], [6, 0], [6, 12], [0, 12]],
     "rooms": [
         {"id": "living", "type": "living", "min_size": [3.5, 3.5], "target_size": [4, 4.5],
-         "boundary": ["south"]},
+         "boundary": ["south"], "max_rects": 1},
         {"id": "kitchen", "type": "kitchen", "min_size": [2.4, 2.4], "target_size": [2.6, 3],
-         "boundary": ["south"]},
+         "boundary": ["south"], "max_rects": 1},
         {"id": "bed1", "type": "bedroom", "min_size": [3, 3], "target_size": [3.2, 3.6],
-         "boundary": ["south"]},
+         "boundary": ["south"], "max_rects": 1},
         {"id": "bed2", "type": "bedroom", "min_size": [2.7, 3], "target_size": [3, 3.4],
-         "boundary": ["south"]},
+         "boundary": ["south"], "max_rects": 1},
         {"id": "bath", "type": "bathroom", "min_size": [1.8, 2], "max_size": [3, 3]},
     ],
     "adjacency": [{"a": "kitchen", "b": "living"}],

@@ -133,12 +133,12 @@ def test_cheap_impossibilities_are_reported_before_solving(
 
 
 def test_infeasibility_proved_by_scip_names_families_and_relaxations() -> None:
-    # Each room fits alone, the areas add up, but three 2.6 m squares cannot share a
-    # 5 x 5 square without overlapping.
+    # Each room fits alone, the areas add up, but three rectangles of at least 2.6 m
+    # square cannot share a 5 x 5 square without overlapping.
     p = problem(
         boundary=[[0, 0], [5, 0], [5, 5], [0, 5]],
-        rooms=[{"id": k, "min_size": [2.6, 2.6], "max_size": [4.5, 4.5], "target_size": [3, 3]}
-               for k in "abc"],
+        rooms=[{"id": k, "min_size": [2.6, 2.6], "max_size": [4.5, 4.5], "target_size": [3, 3],
+                "max_rects": 1} for k in "abc"],
         options={"time_limit": 5},
     )
     layout = solve(p)

@@ -31,8 +31,9 @@ from tests.servers import Server
 #: Seconds SCIP gets for each independent check of a set.
 CHECK_SECONDS = 5.0
 
-# Two rooms must touch the 3 m north edge of an L-shaped flat's north wing, each at
-# least 2 m wide: they cannot sit side by side. The living room and the bathroom,
+# Two rectangular rooms must touch the 3 m north edge of an L-shaped flat's north
+# wing, each at least 2 m wide: they cannot sit side by side (as L-shaped rooms they
+# could, each reaching the edge with a narrower arm). The living room and the bathroom,
 # with their own demands, are bystanders.
 NORTH_WING: dict[str, Any] = {
     "name": "north-wing",
@@ -41,9 +42,9 @@ NORTH_WING: dict[str, Any] = {
         {"id": "living", "type": "living", "min_size": [3, 3], "max_size": [6, 5],
          "target_size": [5, 4], "positions": [[6, 1]], "boundary": ["south"]},
         {"id": "study", "type": "office", "min_size": [2, 2], "max_size": [3, 4],
-         "boundary": [4]},
+         "boundary": [4], "max_rects": 1},
         {"id": "bed", "type": "bedroom", "min_size": [2, 2.5], "max_size": [3, 4],
-         "boundary": [4]},
+         "boundary": [4], "max_rects": 1},
         {"id": "bath", "type": "bathroom", "min_size": [1.5, 1.5], "max_size": [2.5, 2.5],
          "aspect_ratio": [1, 1.5]},
     ],
