@@ -112,9 +112,10 @@ def level_one_spec(
             contacts.append(ContactSpec(name=f"join[{name}]", a=(name,),
                                         partners=((room.id,),), min_contact=WING_JOIN))
         if extra:
-            envelopes.append(EnvelopeSpec(room.id, (room.id, *extra), None, hi,
-                                          room.aspect_ratio, soft=frozenset(relaxed),
-                                          min_size=lo))
+            envelopes.append(EnvelopeSpec(
+                room.id, (room.id, *extra), None, hi, room.aspect_ratio,
+                soft=frozenset(relaxed), min_size=lo,
+                positions=() if "positions" in relaxed else tuple(room.positions)))
 
     def parts(room_id: str) -> tuple[str, ...]:
         return (room_id, *wing_names(room_id, wings.get(room_id, 0)))
@@ -163,7 +164,9 @@ def _main_rect(problem: Problem, domain: Domain, room: Room,
         max_size=hi,
         target=room.target_size,
         aspect_ratio=None if winged else room.aspect_ratio,
-        positions=tuple(room.positions),
+        # A winged room's guide points may lie in any of its rectangles (the envelope's),
+        # unless they are soft.
+        positions=tuple(room.positions) if not winged or "positions" in relaxed else (),
         edges=tuple(edges_named(problem, domain.edges, room.boundary)),
         soft=frozenset(relaxed),
         floor=(min(SOFT_FLOOR, hi[0]), min(SOFT_FLOOR, hi[1])) if soft else (0.0, 0.0),

@@ -4,16 +4,17 @@ so a room stretched to cover the outline gives back what a neighbour needs, and 
 may become an L or a T on the way, as rooms of real plans do.
 
 The refinement levels only grow rooms (C_refine, Eq. 13), so a room the first layout
-made too large stays too large. Here a step moves one strip of floor between two
-neighbours: coverage never changes, and a step is taken only when it lowers the two
-rooms' size error (Eq. 6 on bounding boxes, the E_size of Eq. 12) without breaking any
-constraint of the brief more than before. Among steps of equal size error, the one
-bringing areas nearer the targets' wins (`AREA_WEIGHT`): a room's bounding box at its
-target says nothing of the floor inside it.
+made too large stays too large. Here a step moves one strip of floor between two rooms
+(or a room and a gap), or swaps two rooms' floors, and is kept when the annealing says
+so: it may not break a constraint of the brief more than before, and the layout
+returned is the best one seen that covers the floor and has no higher Eq. 12 than the
+one given. What the annealing lowers is E_size (Eq. 6, on bounding boxes) plus the
+relative area error (`AREA_WEIGHT`: a room's bounding box at its target says nothing of
+the floor inside it) and a small price per corner (`CORNER_WEIGHT`: of two shapes
+equally near the targets, the simpler).
 
-Plain geometry on shapely polygons: no SCIP. Every candidate is a strip across one
-straight stretch of a shared wall, as deep as a target or an existing corner asks.
-"""
+Plain geometry on shapely polygons: no SCIP. Every candidate strip lies across one
+straight stretch of a shared wall, as deep as a target or an existing corner asks."""
 
 from __future__ import annotations
 
@@ -36,9 +37,14 @@ from solver.heuristics.level_one import shape_allowance
 MIN_ARM = 0.9
 #: Weight of the area term, against E_size's 1 per square metre of dimension error:
 #: breaks ties between shapes of the same bounding box.
-AREA_WEIGHT = 8.0
+AREA_WEIGHT = 30.0
+#: Price of each corner of a room beyond four (in m² of Eq. 6).
+CORNER_WEIGHT = 0.05
 #: Size errors and shortfalls are compared to this tolerance (m² and m).
 TOL = 1e-6
+#: Steps of a wall shorter than this (metres) are left as they are; a strip as deep as
+#: a longer one may straighten it.
+JOG = 1e-4
 #: A strip thinner than this (metres) is not worth a corner.
 MIN_STRIP = 0.05
 #: The annealing's first temperature (m² of Eq. 6) and its last, as a share of it.
@@ -189,14 +195,18 @@ class _Cost:
 
 
 def _cost(needs: _Needs | None, shape: Polygon) -> _Cost:
+    """E_size of the room's bounding box, and the total the annealing lowers: that,
+    the relative area error squared (`AREA_WEIGHT`) and a small price per corner
+    beyond a rectangle's (`CORNER_WEIGHT`): of two shapes equally near the targets,
+    the simpler."""
+    corners = CORNER_WEIGHT * (_corners(shape) - 4)
     if needs is None or needs.room.target_size is None:
-        return _Cost(0.0, 0.0)
+        return _Cost(0.0, corners)
     tw, td = needs.room.target_size
     x0, y0, x1, y1 = shape.bounds
     size = (x1 - x0 - tw) ** 2 + (y1 - y0 - td) ** 2
-    # The area's shortfall in metres of the target's half perimeter.
-    area = (shape.area - tw * td) / max(tw + td, TOL)
-    return _Cost(size, size + AREA_WEIGHT * area * area)
+    area = (shape.area - tw * td) / max(tw * td, TOL)
+    return _Cost(size, size + AREA_WEIGHT * area * area + corners)
 
 
 def _needs(problem: Problem, domain: Domain, room: Room, shape: Polygon | None) -> _Needs:
@@ -268,7 +278,7 @@ def _strips(a: Polygon, b: Polygon, needs_a: _Needs | None,
             depths.add((a_hi - a_lo) - ta)  # a shrinks to its target across the wall
         if tb is not None:
             depths.add(tb - (b_hi - b_lo))  # b grows to its target across the wall
-        depths = {t for t in depths if MIN_STRIP <= t <= (a_hi - a_lo) - MIN_STRIP + TOL}
+        depths = {t for t in depths if JOG <= t <= (a_hi - a_lo) - MIN_STRIP + TOL}
         cuts = {lo, hi} | {v for v in (*_coords(a, 1 - axis), *_coords(b, 1 - axis))
                            if lo + MIN_STRIP < v < hi - MIN_STRIP}
         ends = sorted(cuts)
@@ -281,7 +291,7 @@ def _strips(a: Polygon, b: Polygon, needs_a: _Needs | None,
                 else:
                     cut = box(s, min(near, far), e, max(near, far))
                 strip = a.intersection(cut)
-                if strip.area > MIN_STRIP * MIN_STRIP:
+                if strip.area > JOG * JOG:
                     yield strip
 
 

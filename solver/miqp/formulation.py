@@ -339,7 +339,7 @@ def c_envelope(lm: LevelModel) -> None:
 
 
 def _exact_envelope(lm: LevelModel, e: EnvelopeSpec) -> None:
-    """C_size (Eq. 5) and C_ratio (Eq. 7) on the exact bounding box of a
+    """C_size (Eq. 5), C_ratio (Eq. 7) and C_pos (Eq. 8) on the exact bounding box of a
     room of several free rectangles: each side of the box is the extreme side of one
     rectangle, picked by a binary, and a binary picks the orientation as in c_ratio."""
     m, region = lm.model, lm.spec.region
@@ -363,6 +363,16 @@ def _exact_envelope(lm: LevelModel, e: EnvelopeSpec) -> None:
             m.addCons(outward * (edge - value) >= 0, name=f"env_out[{tag},{side},{k}]")
             m.addCons(outward * (edge - value) <= big * (1 - pick),
                       name=f"env_at[{tag},{side},{k}]")
+    for k, (px, py) in enumerate(e.positions):
+        # C_pos (Eq. 8) on the room: one rectangle, picked by a binary, covers the point.
+        picks = [m.addVar(f"env_pos[{tag},{k},{j}]", vtype="B") for j in range(len(vs))]
+        m.addCons(quicksum(picks) == 1, name=f"env_pos_one[{tag},{k}]")
+        for j, (v, pick) in enumerate(zip(vs, picks, strict=True)):
+            off = 1 - pick
+            m.addCons(v.x <= px + mx * off, name=f"env_pos_w[{tag},{k},{j}]")
+            m.addCons(v.x + v.w >= px - mx * off, name=f"env_pos_e[{tag},{k},{j}]")
+            m.addCons(v.y <= py + my * off, name=f"env_pos_s[{tag},{k},{j}]")
+            m.addCons(v.y + v.d >= py - my * off, name=f"env_pos_n[{tag},{k},{j}]")
     width, depth = box["x1"] - box["x0"], box["y1"] - box["y0"]
     if "min_size" in e.soft:
         m.addCons(width + _slack(lm, f"env_min_w[{tag}]") >= e.min_size[0],

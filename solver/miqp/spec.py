@@ -99,6 +99,9 @@ class EnvelopeSpec:
     #: The room's minimum size, on its bounding box (exact envelopes only: a grown box
     #: is never smaller than the previous one).
     min_size: tuple[float, float] = (0.0, 0.0)
+    #: Guide points some rectangle of the room covers, whichever (exact envelopes only:
+    #: at later levels a point stays covered, as rectangles only grow).
+    positions: tuple[tuple[float, float], ...] = ()
 
 
 @dataclass(frozen=True)
