@@ -278,9 +278,14 @@ def _strips(a: Polygon, b: Polygon, needs_a: _Needs | None,
             depths.add((a_hi - a_lo) - ta)  # a shrinks to its target across the wall
         if tb is not None:
             depths.add(tb - (b_hi - b_lo))  # b grows to its target across the wall
-        depths = {t for t in depths if JOG <= t <= (a_hi - a_lo) - MIN_STRIP + TOL}
-        cuts = {lo, hi} | {v for v in (*_coords(a, 1 - axis), *_coords(b, 1 - axis))
-                           if lo + MIN_STRIP < v < hi - MIN_STRIP}
+        depths = {t for t in depths if JOG <= t <= (a_hi - a_lo) + TOL}
+        # Along the wall: the corners of either room, and where what a keeps (or b
+        # takes) is as long as a target asks.
+        along = [*_coords(a, 1 - axis), *_coords(b, 1 - axis)]
+        for t in (_target(needs_a, 1 - axis), _target(needs_b, 1 - axis)):
+            if t is not None:
+                along += [lo + t, hi - t]
+        cuts = {lo, hi} | {v for v in along if lo + MIN_STRIP < v < hi - MIN_STRIP}
         ends = sorted(cuts)
         spans = [(s, e) for i, s in enumerate(ends) for e in ends[i + 1:]]
         for t in sorted(depths):

@@ -210,7 +210,7 @@ def _level_one(
         proven_for_all = proven_for_all or (first is None and proven_winged
                                             and every_shape_tried(problem, run.tried_wings))
     if first is None:
-        return None, _no_first_layout(run, domain, proven_infeasible, proven_for_all,
+        return None, no_first_layout(run, domain, proven_infeasible, proven_for_all,
                                       explain)
     assert first.rects is not None
     run.incumbent(domain, run.by_room(domain, first.rects))
@@ -223,7 +223,7 @@ def every_shape_tried(problem: Problem, wings: Mapping[str, int]) -> bool:
     return all(shape_allowance(room) <= 1 + wings.get(room.id, 0) for room in problem.rooms)
 
 
-def _no_first_layout(run: Run, domain: Domain, proven_infeasible: bool,
+def no_first_layout(run: Run, domain: Domain, proven_infeasible: bool,
                      proven_for_all: bool, explain: bool) -> Layout:
     """The answer when level 1 found nothing (issue 19, honest verdicts): infeasible
     only when SCIP proved it for every shape the rooms may take (with the constraints

@@ -4,18 +4,23 @@ room cannot give still come back, and the report says which rooms changed shape.
 from __future__ import annotations
 
 import json
+import time
 from typing import Any
 
 import pytest
 from pydantic import ValidationError
 
-from models import Problem
+from models import Problem, Termination
 from solver import solve
 from solver.geometry import Box, make_domain
 from solver.heuristics.level_one import demand_order, level_one_spec, reach_wing
 from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import LevelStatus, run_level
 from solver.miqp.spec import level_objective
+from solver.pipeline.assemble import final_layout
+from solver.pipeline.first_layout import no_first_layout
+from solver.pipeline.hierarchy import Piece
+from solver.pipeline.run import Run
 from tests.paths import EXAMPLES
 
 
@@ -144,3 +149,114 @@ def test_a_wrapped_obstacle_is_no_covered_floor_in_the_objective() -> None:
     # On target and covering the whole floor: Eq. 12 is zero, not less (the shaft's
     # square metre inside the rectangle is no floor to cover).
     assert level_objective(spec, {"a": Box(0, 0, 6, 4)}) == pytest.approx(0.0)
+
+
+# Issue 19: briefs extracted from plans whose rooms are L- or U-shaped.
+
+#: A 9 x 6 flat: the bedroom (4 x 3) in the north-east corner, the living room's target
+#: the whole outline. The only answers with no size error make the living room an L
+#: of 54 - 12 = 42 m².
+L_LIVING: dict[str, Any] = {
+    "name": "l-living",
+    "boundary": [[0, 0], [9, 0], [9, 6], [0, 6]],
+    "rooms": [
+        {"id": "living", "type": "living", "min_size": [7, 5], "max_size": [9, 6],
+         "target_size": [9, 6], "positions": [[1, 1]]},
+        {"id": "bed", "type": "bedroom", "min_size": [3.5, 2.6], "max_size": [4.5, 3.4],
+         "target_size": [4, 3], "positions": [[8.8, 5.8]], "boundary": ["north", "east"]},
+    ],
+    "adjacency": [{"a": "living", "b": "bed"}],
+    "options": {"time_limit": 5},
+}
+
+#: A 10 x 6 flat whose living room must hold both north corners while the bedroom holds
+#: the middle of the north wall: the living room wraps it, a U of three rectangles.
+U_LIVING: dict[str, Any] = {
+    "name": "u-living",
+    "boundary": [[0, 0], [10, 0], [10, 6], [0, 6]],
+    "rooms": [
+        {"id": "living", "type": "living", "min_size": [9, 5.5], "max_size": [10, 6],
+         "target_size": [10, 6], "positions": [[0.5, 5.5], [9.5, 5.5]]},
+        {"id": "bed", "type": "bedroom", "min_size": [3.5, 2.6], "max_size": [4.5, 3.4],
+         "target_size": [4, 3], "positions": [[5, 5.5]], "boundary": ["north"]},
+    ],
+    "adjacency": [{"a": "living", "b": "bed"}],
+    "options": {"time_limit": 5},
+}
+
+
+def test_a_living_room_that_must_be_an_l_gets_one_at_its_size() -> None:
+    layout = solve(Problem.model_validate(L_LIVING))
+    report = layout.report
+    assert report.valid and report.coverage > 0.999, report.constraints
+    living = next(r for r in layout.rooms if r.id == "living")
+    bed = next(r for r in layout.rooms if r.id == "bed")
+    assert len(living.polygon) == 6 and len(bed.polygon) == 4  # an L, and a rectangle
+    assert abs(living.area - 42) / 42 < 0.05 and abs(bed.area - 12) / 12 < 0.05
+    xs, ys = [x for x, _ in living.polygon], [y for _, y in living.polygon]
+    assert max(xs) - min(xs) == pytest.approx(9, rel=0.05)
+    assert max(ys) - min(ys) == pytest.approx(6, rel=0.05)
+
+
+def test_a_living_room_of_three_rectangles_is_not_called_infeasible() -> None:
+    layout = solve(Problem.model_validate(U_LIVING))
+    report = layout.report
+    assert report.termination is not Termination.INFEASIBLE
+    assert report.valid and report.coverage > 0.99, report.constraints
+    living = next(r for r in layout.rooms if r.id == "living")
+    assert len(living.polygon) >= 8  # it wraps the bedroom
+
+
+SQUARES: dict[str, Any] = {
+    # Three rooms of at least 2.6 x 2.6 m in a 5 x 5 m square.
+    "boundary": [[0, 0], [5, 0], [5, 5], [0, 5]],
+    "rooms": [{"id": k, "min_size": [2.6, 2.6], "max_size": [4.5, 4.5],
+               "target_size": [3, 3]} for k in "abc"],
+    "options": {"time_limit": 5},
+}
+
+
+def test_infeasible_is_said_only_of_every_shape_the_rooms_may_take() -> None:
+    # As rectangles they cannot share the square: proved, and said so.
+    rects = Problem.model_validate(SQUARES | {"rooms": [
+        r | {"max_rects": 1} for r in SQUARES["rooms"]]})
+    report = solve(rects).report
+    assert report.termination is Termination.INFEASIBLE
+    assert report.infeasibility is not None
+    assert "single-rectangle" in report.infeasibility.reason
+    # Left open, a room may be an L or a T: then the same brief has a layout.
+    report = solve(Problem.model_validate(SQUARES)).report
+    assert report.termination is not Termination.INFEASIBLE
+    assert report.valid
+
+
+def test_what_was_proved_for_rectangles_alone_is_no_verdict() -> None:
+    # One rectangle per room proved impossible, L-shaped rooms not tried for lack of
+    # time: "no solution", saying what was proved.
+    p = Problem.model_validate(SQUARES | {"options": {"time_limit": 5}})
+    run = Run(p, time.monotonic() + 5, time.monotonic(), None, None)
+    layout = no_first_layout(run, make_domain(p), proven_infeasible=True,
+                              proven_for_all=False, explain=False)
+    assert layout.report.termination is Termination.NO_SOLUTION
+    assert layout.report.infeasibility is not None
+    assert "one rectangle per room" in layout.report.infeasibility.reason
+
+
+def test_a_layout_breaking_a_hard_constraint_is_never_the_answer() -> None:
+    p = Problem.model_validate(L_LIVING)
+    domain = make_domain(p)
+    run = Run(p, time.monotonic() + 5, time.monotonic(), None, None)
+    # The bedroom 5 m wide: over its maximum.
+    broken = [Piece("living", "living", Box(0, 0, 4, 6)), Piece("bed", "bed", Box(4, 0, 9, 6))]
+    good = {"living": [Box(0, 0, 9, 3), Box(0, 3, 5, 6)], "bed": [Box(5, 3, 9, 6)]}
+    # Without a valid incumbent the broken layout is kept, as a diagnostic only.
+    layout = final_layout(run, domain, run.valid_of(domain, broken), 1)
+    assert not layout.report.valid and layout.rooms
+    assert layout.report.termination is Termination.NO_SOLUTION
+    assert layout.report.infeasibility is not None
+    assert "diagnostic" in layout.report.infeasibility.reason
+    # With one, the valid incumbent is the answer.
+    run.incumbent(domain, good)
+    layout = final_layout(run, domain, run.valid_of(domain, broken), 1)
+    assert layout.report.valid and layout.report.termination is not Termination.NO_SOLUTION
+    assert {r.id: r.area for r in layout.rooms} == {"living": 42, "bed": 12}

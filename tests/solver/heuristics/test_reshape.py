@@ -1,0 +1,104 @@
+"""The reshaping (issue 19): strips of floor move between neighbours, rooms become L or
+T where that brings them nearer their targets, and no constraint is broken for it."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import shapely
+
+from models import Problem
+from solver.geometry import Box, make_domain
+from solver.heuristics.reshape import reshape
+from solver.pipeline.run import layout_objective
+from solver.verify.checker import check_layout
+
+Rooms = dict[str, list[Box]]
+
+
+def brief(rooms: list[dict[str, Any]], **fields: Any) -> Problem:
+    return Problem.model_validate({"boundary": [[0, 0], [9, 0], [9, 6], [0, 6]],
+                                   "rooms": rooms, **fields})
+
+
+def reshaped(problem: Problem, rooms: Rooms, seconds: float = 2.0, seed: int = 0) -> Rooms:
+    result = reshape(problem, make_domain(problem), rooms,
+                     deadline=time.monotonic() + seconds, seed=seed)
+    return result.rooms
+
+
+def corners(boxes: list[Box]) -> int:
+    shape = shapely.union_all([b.to_polygon() for b in boxes]).simplify(0)
+    return len(shape.exterior.coords) - 1
+
+
+def area(boxes: list[Box]) -> float:
+    return float(shapely.union_all([b.to_polygon() for b in boxes]).area)
+
+
+def test_a_stretched_room_gives_its_neighbour_the_floor_it_lacks() -> None:
+    # Both rectangles, the wall between them 2 m off: sliding it is the answer.
+    p = brief([{"id": "a", "target_size": [3, 6]}, {"id": "b", "target_size": [6, 6]}])
+    start = {"a": [Box(0, 0, 5, 6)], "b": [Box(5, 0, 9, 6)]}
+    after = reshaped(p, start)
+    # Either side of the plan: the rooms may also trade places.
+    assert sorted((len(after[r]), after[r][0].width, after[r][0].depth) for r in "ab") == [
+        (1, 3, 6), (1, 6, 6)]
+    assert check_layout(p, after).coverage == 1.0
+
+
+def test_a_room_becomes_an_l_where_its_targets_ask_for_one() -> None:
+    # The bedroom (target 4 x 3) fills the east side; the living room's target is the
+    # whole outline: it takes the bedroom's south half and becomes an L.
+    p = brief([{"id": "living", "target_size": [9, 6]},
+               {"id": "bed", "target_size": [4, 3]}],
+              adjacency=[{"a": "living", "b": "bed"}])
+    domain = make_domain(p)
+    start = {"living": [Box(0, 0, 5, 6)], "bed": [Box(5, 0, 9, 6)]}
+    after = reshaped(p, start)
+    assert after["bed"] in ([Box(5, 3, 9, 6)], [Box(5, 0, 9, 3)])
+    assert corners(after["living"]) == 6 and area(after["living"]) == 42
+    assert layout_objective(p, domain, after) == 0.0
+    assert layout_objective(p, domain, start) > 0.0
+
+
+def test_no_step_breaks_a_constraint_the_layout_met() -> None:
+    # As above, but the bedroom must keep the point (7, 1) and touch the south wall,
+    # and a study must keep its wall with it: the bedroom cannot give its south half.
+    p = brief([{"id": "living", "target_size": [9, 6]},
+               {"id": "bed", "target_size": [4, 3], "positions": [[7, 1]],
+                "boundary": ["south"], "min_size": [3, 3], "max_size": [4, 6]}],
+              adjacency=[{"a": "living", "b": "bed", "min_contact": 2}])
+    start = {"living": [Box(0, 0, 5, 6)], "bed": [Box(5, 0, 9, 6)]}
+    assert check_layout(p, start).valid
+    after = reshaped(p, start)
+    check = check_layout(p, after)
+    assert check.valid, [c for c in check.constraints if not c.satisfied]
+    assert check.coverage == 1.0
+    assert after["bed"] == [Box(5, 0, 9, 3)]  # it gave the north half instead
+
+
+def test_a_rectangle_that_must_stay_one_stays_one() -> None:
+    p = brief([{"id": "living", "target_size": [9, 6]},
+               {"id": "bed", "target_size": [4, 3], "max_rects": 1},
+               {"id": "study", "target_size": [2, 2], "max_rects": 1}])
+    start = {"living": [Box(0, 0, 5, 6)], "bed": [Box(5, 0, 9, 4)], "study": [Box(5, 4, 9, 6)]}
+    after = reshaped(p, start)
+    assert corners(after["bed"]) == 4 and corners(after["study"]) == 4
+    assert check_layout(p, after).coverage == 1.0
+
+
+def test_the_same_seed_gives_the_same_shapes() -> None:
+    p = brief([{"id": "a", "target_size": [4, 4]}, {"id": "b", "target_size": [5, 2]},
+               {"id": "c", "target_size": [3, 3]}])
+    start = {"a": [Box(0, 0, 3, 6)], "b": [Box(3, 0, 9, 3)], "c": [Box(3, 3, 9, 6)]}
+    assert reshaped(p, start, seed=4) == reshaped(p, start, seed=4)
+
+
+def test_a_layout_with_a_hole_in_a_room_is_left_alone() -> None:
+    # Rectangles that do not form one polygon: nothing to reshape safely.
+    p = brief([{"id": "a", "target_size": [4, 4]}, {"id": "b", "target_size": [4, 4]}])
+    start = {"a": [Box(0, 0, 2, 6), Box(7, 0, 9, 6)], "b": [Box(2, 0, 7, 6)]}
+    result = reshape(p, make_domain(p), start, deadline=time.monotonic() + 1)
+    assert result.rooms == start and result.steps == 0
