@@ -99,8 +99,9 @@ class Room(_Strict):
         "sharing a wall), not only when a single rectangle cannot satisfy the constraints",
     )
     max_rects: Annotated[int, Field(ge=1, le=MAX_ROOM_RECTS)] | None = Field(
-        None, description="rectangles the room may start from: 1 keeps it a rectangle; "
-        "default 1, or 2 with shape 'free'",
+        None, description="the most rectangles the room's shape may have (default 3: an L "
+        "or a T; 1 keeps it a rectangle); 2 or more also make it start as an L or T at "
+        "level 1 (as shape 'free' does with 2)",
     )
     soft: bool | list[SoftFamily] = Field(
         False, description="constraints of this room that may be violated at a cost "
