@@ -133,7 +133,9 @@ def reshape(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
             a, b = rng.sample(movable, 2)
             new_a, new_b = state[b], state[a]
         else:
-            a, b = rng.choice(pairs)
+            into_rooms = [ab for ab in pairs if ab[0].startswith(GAP)]
+            # Uncovered floor is the costliest: rooms grow into it half the time.
+            a, b = rng.choice(into_rooms if into_rooms and rng.random() < 0.5 else pairs)
             if (a, b) not in strips:
                 strips[a, b] = list(_strips(state[a], state[b], needs.get(a), needs.get(b)))
             if not strips[a, b]:

@@ -27,7 +27,7 @@ from solver.verify.precheck import find_impossibilities
 LEVEL_ONE_SHARE = 0.9
 #: Share of the search time kept for reshaping the rooms at the end (issue 19), up to
 #: `RESHAPE_SECONDS` and `RESHAPE_SECONDS_PER_ROOM` more per room.
-RESHAPE_SHARE = 0.25
+RESHAPE_SHARE = 0.15
 RESHAPE_SECONDS = 1.0
 RESHAPE_SECONDS_PER_ROOM = 0.1
 #: Time kept per room for closing the last gaps and checking the layout.
