@@ -35,6 +35,8 @@ WRAP_MARK = "~around"
 #: tolerance is relative, so at 60 m two walls meant to meet may lie 6e-5 m apart.
 #: The same tolerance as the checker's.
 OUTPUT_SNAP = 1e-4
+#: Covering incumbents kept for falling back on one that passes the checker.
+KEPT_BESTS = 8
 #: Share of the floor a layout must cover beyond the checker's goal to count as
 #: covering while solving.
 COVER_MARGIN = 5e-4
@@ -70,6 +72,9 @@ class Run:
     end: float = 0.0
     #: The incumbent of lowest Eq. 12 meeting the coverage goal (gaps absorbed).
     best: tuple[float, dict[str, list[Box]]] | None = None
+    #: The covering incumbents that were the best when found, newest last (at most
+    #: `KEPT_BESTS`): the answer falls back on the newest that passes the checker.
+    bests: list[dict[str, list[Box]]] = field(default_factory=list)
 
     def room_of(self, rect: str) -> str:
         """The room a level-1 rectangle belongs to."""
@@ -126,6 +131,7 @@ class Run:
         objective = layout_objective(self.problem, domain, rooms, soft=self.soft)
         if covers(domain, rooms) and (self.best is None or objective < self.best[0]):
             self.best = (objective, rooms)
+            self.bests = [*self.bests[1 - KEPT_BESTS:], rooms]
         if self.on_event is not None:
             self.emit(Phase.INCUMBENT, subdomain=sub, subdomains=subs, rooms=rooms,
                       objective=objective, dual_bound=dual_bound)
@@ -144,15 +150,16 @@ class Run:
                 for room_id, boxes in self.best[1].items() for k, b in enumerate(boxes)]
 
     def valid_of(self, domain: Domain, pieces: list[Piece]) -> list[Piece]:
-        """The final `pieces`, unless they break a hard constraint where the best
-        covering incumbent does not (issue 19: a layout breaking a hard constraint is
-        never the answer when a valid one was found)."""
-        if self.best is None or _valid(self.problem, room_boxes(pieces)):
+        """The final `pieces`, unless they break a hard constraint where a covering
+        incumbent does not (issue 19: a layout breaking a hard constraint is never the
+        answer when a valid one was found): then the newest best one that passes."""
+        if not self.bests or _valid(self.problem, room_boxes(pieces)):
             return pieces
-        if not _valid(self.problem, self.best[1]):
-            return pieces
-        return [Piece(f"{room_id}#{k}", room_id, b)
-                for room_id, boxes in self.best[1].items() for k, b in enumerate(boxes)]
+        for rooms in reversed(self.bests):
+            if _valid(self.problem, rooms):
+                return [Piece(f"{room_id}#{k}", room_id, b)
+                        for room_id, boxes in rooms.items() for k, b in enumerate(boxes)]
+        return pieces
 
     def run(self, lm: LevelModel, limit: float, *,
             on_incumbent: Callable[[Incumbent], None] | None = None) -> LevelResult:
