@@ -6,7 +6,9 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from shapely.geometry import Polygon
+import shapely
+import shapely.prepared
+from shapely.geometry import Polygon, box
 
 from models import Problem, Room
 from solver.geometry import Box, Domain, edges_named, on_edge
@@ -188,6 +190,26 @@ def wing_names(room_id: str, count: int) -> tuple[str, ...]:
 def wings_wanted(problem: Problem) -> dict[str, int]:
     """The extra rectangles rooms ask for up front (`shape: free`, `max_rects`)."""
     return {room.id: room.rectangles - 1 for room in problem.rooms if room.rectangles > 1}
+
+
+def unfitting_targets(problem: Problem, domain: Domain) -> list[str]:
+    """Rooms whose target rectangle fits nowhere in the free floor (a living room as
+    tall as the outline's only in an arm narrower than it): in the plan they came from,
+    they are L- or T-shaped, so they start with a wing (issue 19). A rectangle that fits
+    can slide left and down until its corner meets the x and y of outline corners, so
+    those corners are the only places to try."""
+    free = domain.free
+    xs = sorted({x for g in getattr(free, "geoms", [free]) for x, _ in g.exterior.coords})
+    ys = sorted({y for g in getattr(free, "geoms", [free]) for _, y in g.exterior.coords})
+    prepared = shapely.prepared.prep(free.buffer(1e-6))
+    out = []
+    for room in problem.rooms:
+        if room.target_size is None or shape_allowance(room) < 2:
+            continue
+        tw, td = room.target_size
+        if not any(prepared.contains(box(x, y, x + tw, y + td)) for x in xs for y in ys):
+            out.append(room.id)
+    return out
 
 
 def demand_order(problem: Problem) -> list[str]:

@@ -19,6 +19,7 @@ from solver.heuristics.level_one import (
     level_one_spec,
     shape_allowance,
     target_bands,
+    unfitting_targets,
     windows_to_try,
     wings_wanted,
 )
@@ -162,6 +163,12 @@ def _level_one(
     run.wings = wings_wanted(problem)
     run.extra = [ExtraRectangles(room=room_id, rectangles=count + 1, reason="asked")
                  for room_id, count in run.wings.items()]
+    for room_id in unfitting_targets(problem, domain):
+        if room_id not in run.wings:
+            run.wings[room_id] = 1
+            run.extra.append(ExtraRectangles(
+                room=room_id, rectangles=2,
+                reason="its target size fits nowhere in the floor as one rectangle"))
     # Keep time for extra rectangles when one rectangle per room is not enough: a brief
     # extracted from a plan with L-shaped rooms often has no one-rectangle layout, and
     # SCIP may not prove it before the windows have used the time.

@@ -10,6 +10,7 @@ import shapely
 
 from models import Problem
 from solver.geometry import Box, make_domain
+from solver.heuristics.level_one import unfitting_targets
 from solver.heuristics.reshape import reshape
 from solver.pipeline.run import layout_objective
 from solver.verify.checker import check_layout
@@ -102,3 +103,15 @@ def test_a_layout_with_a_hole_in_a_room_is_left_alone() -> None:
     start = {"a": [Box(0, 0, 2, 6), Box(7, 0, 9, 6)], "b": [Box(2, 0, 7, 6)]}
     result = reshape(p, make_domain(p), start, deadline=time.monotonic() + 1)
     assert result.rooms == start and result.steps == 0
+
+
+def test_a_target_that_fits_nowhere_as_a_rectangle_starts_with_a_wing() -> None:
+    # A T-shaped flat: 4.2 x 7.85 m fits only where the outline is 7.85 m tall, in an
+    # arm 2.65 m wide; the bedroom's 3 x 3 fits anywhere.
+    p = Problem.model_validate({
+        "boundary": [[0, 0], [10.45, 0], [10.45, 5.35], [6.55, 5.35], [6.55, 7.85],
+                     [3.9, 7.85], [3.9, 5.35], [0, 5.35]],
+        "rooms": [{"id": "living", "target_size": [4.2, 7.85]},
+                  {"id": "bed", "target_size": [3, 3]},
+                  {"id": "store", "target_size": [4.2, 7.85], "max_rects": 1}]})
+    assert unfitting_targets(p, make_domain(p)) == ["living"]  # store must stay one
