@@ -69,6 +69,12 @@ def _touching(a: BaseGeometry, b: BaseGeometry) -> bool:
     return a.distance(b) <= EPS and a.buffer(EPS).intersection(b).length > 10 * EPS
 
 
+def as_pieces(rooms: dict[str, list[Box]]) -> list[Piece]:
+    """A layout given as room id -> rectangles, as pieces answering for nothing alone."""
+    return [Piece(f"{room_id}#{k}", room_id, b)
+            for room_id, boxes in rooms.items() for k, b in enumerate(boxes)]
+
+
 def room_boxes(pieces: Iterable[Piece]) -> dict[str, list[Box]]:
     rooms: dict[str, list[Box]] = {}
     for p in pieces:
@@ -388,9 +394,7 @@ def absorb_gaps(problem: Problem, domain: Domain, pieces: Sequence[Piece]) -> li
 def absorbed(problem: Problem, domain: Domain, rooms: dict[str, list[Box]]
              ) -> dict[str, list[Box]]:
     """`absorb_gaps` on a layout given as room id -> rectangles."""
-    pieces = [Piece(f"{room_id}#{k}", room_id, b)
-              for room_id, boxes in rooms.items() for k, b in enumerate(boxes)]
-    return room_boxes(absorb_gaps(problem, domain, pieces))
+    return room_boxes(absorb_gaps(problem, domain, as_pieces(rooms)))
 
 
 def _absorb_cell(problem: Problem, pieces: list[Piece], cell: Box) -> list[Piece]:

@@ -17,6 +17,7 @@ from solver.pipeline.hierarchy import (
     RefinementPlan,
     SubDomain,
     apply_refinement,
+    as_pieces,
     plan_refinement,
     room_boxes,
     select_subdomains,
@@ -169,5 +170,4 @@ def reshaped(run: Run, domain: Domain, pieces: list[Piece], deadline: float) -> 
             or not check_layout(run.problem, result.rooms).valid):
         return pieces
     run.incumbent(domain, result.rooms)
-    return [Piece(f"{room_id}#{k}", room_id, b)
-            for room_id, boxes in result.rooms.items() for k, b in enumerate(boxes)]
+    return as_pieces(result.rooms)

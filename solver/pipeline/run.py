@@ -25,7 +25,7 @@ from solver.heuristics.level_one import wing_names
 from solver.heuristics.neighbourhood import covered_area
 from solver.miqp.model import LevelModel
 from solver.miqp.scip_run import Incumbent, LevelResult, LevelStatus, run_level
-from solver.pipeline.hierarchy import Piece, absorbed, room_boxes
+from solver.pipeline.hierarchy import Piece, absorbed, as_pieces, room_boxes
 from solver.soft import room_soft
 from solver.verify.checker import COVERAGE_GOAL, check_layout
 
@@ -146,8 +146,7 @@ class Run:
         objective = layout_objective(self.problem, domain, rooms, soft=self.soft)
         if covers(domain, rooms) and objective <= self.best[0]:
             return pieces
-        return [Piece(f"{room_id}#{k}", room_id, b)
-                for room_id, boxes in self.best[1].items() for k, b in enumerate(boxes)]
+        return as_pieces(self.best[1])
 
     def valid_of(self, domain: Domain, pieces: list[Piece]) -> list[Piece]:
         """The final `pieces`, unless they break a hard constraint where a covering
@@ -157,8 +156,7 @@ class Run:
             return pieces
         for rooms in reversed(self.bests):
             if _valid(self.problem, rooms):
-                return [Piece(f"{room_id}#{k}", room_id, b)
-                        for room_id, boxes in rooms.items() for k, b in enumerate(boxes)]
+                return as_pieces(rooms)
         return pieces
 
     def run(self, lm: LevelModel, limit: float, *,
