@@ -163,7 +163,10 @@ def _level_one(
     run.wings = wings_wanted(problem)
     run.extra = [ExtraRectangles(room=room_id, rectangles=count + 1, reason="asked")
                  for room_id, count in run.wings.items()]
-    for room_id in unfitting_targets(problem, domain):
+    # (Not for sizes alone: slicing's rows cover the floor at once, with rectangles;
+    # the reshaping makes the L later.)
+    unfitting = unfitting_targets(problem, domain) if slicing_has_demands(problem) else []
+    for room_id in unfitting:
         if room_id not in run.wings:
             run.wings[room_id] = 1
             run.extra.append(ExtraRectangles(
