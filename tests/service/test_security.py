@@ -6,23 +6,26 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import httpx2 as httpx
 import pytest
 
 from tests.servers import Server
-from tests.service.test_service import SMALL
+from tests.service.test_service import SMALL, wait
 
 #: End to end (real server processes on loopback): left out by `pytest -m "not slow"`.
 pytestmark = pytest.mark.slow
 
 KEY = {"Authorization": "Bearer alpha"}
+#: One solve at a time and no sub-domain pool: these tests solve little.
+QUIET = {"WORKERS": "1", "FLOORPLAN_SUBDOMAIN_PROCESSES": "1"}
 
 
 @pytest.fixture(scope="module")
 def keyed(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     server = Server(tmp_path_factory.mktemp("keyed"), FLOORPLAN_API_KEYS="alpha",
-                    WORKERS="1").start()
+                    **QUIET).start()
     yield server
     server.stop()
 
@@ -58,11 +61,50 @@ def test_readyz_stays_public_but_shows_its_figures_only_with_a_key(keyed: Server
 
 
 def test_without_keys_readyz_and_validate_are_open_as_before(tmp_path: Path) -> None:
-    server = Server(tmp_path, WORKERS="1").start()
+    server = Server(tmp_path, **QUIET).start()
     try:
         with httpx.Client(base_url=server.url, timeout=30) as client:
             ready = client.get("/readyz").json()
             assert ready["status"] == "ready" and ready["queued"] == 0
             assert client.post("/v1/validate", json=SMALL).json()["valid"]
+    finally:
+        server.stop()
+
+
+def building(floors: int, time_limit: float | None = None) -> dict[str, Any]:
+    """`floors` storeys of four 2 x 2 m rooms each on an 8 x 8 m footprint."""
+    return {
+        "name": f"tower-{floors}",
+        "boundary": [[0, 0], [8, 0], [8, 8], [0, 8]],
+        "floors": [{"id": f"f{k}", "rooms": [
+            {"id": f"r{j}", "type": "office", "min_size": [2, 2], "max_size": [6, 6]}
+            for j in range(4)]} for k in range(floors)],
+        "options": {} if time_limit is None else {"time_limit": time_limit},
+    }
+
+
+def test_the_time_limit_ceiling_holds_for_a_whole_building(tmp_path: Path) -> None:
+    # 100 floors of 4 rooms: each floor's default is 5 s, 500 s summed, past a 30 s
+    # ceiling. The job runs under the ceiling instead, and says so in its time_limit.
+    server = Server(tmp_path, FLOORPLAN_MAX_TIME_LIMIT="30", **QUIET).start()
+    try:
+        with httpx.Client(base_url=server.url, timeout=60) as client:
+            answer = client.post("/v1/layouts", json=building(100))
+            assert answer.status_code == 202, answer.text
+            job = answer.json()
+            assert job["time_limit"] == 30
+            client.post(f"/v1/layouts/{job['id']}/cancel")
+            assert client.get(f"/v1/layouts/{job['id']}").json()["time_limit"] == 30
+            wait(client, job["id"])
+            # A limit the user states above the ceiling is still refused, by name.
+            refused = client.post("/v1/layouts", json=building(100, time_limit=31))
+            assert refused.status_code == 422
+            assert refused.headers["content-type"] == "application/problem+json"
+            assert [e["field"] for e in refused.json()["errors"]] == ["options.time_limit"]
+            # Within the ceiling, the default stands (two floors: 10 s).
+            small = client.post("/v1/layouts", json=building(2))
+            assert small.status_code == 202 and small.json()["time_limit"] == 10
+            client.post(f"/v1/layouts/{small.json()['id']}/cancel")
+            wait(client, small.json()["id"])
     finally:
         server.stop()
