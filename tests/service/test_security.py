@@ -4,6 +4,8 @@ must now fail."""
 
 from __future__ import annotations
 
+import threading
+import uuid
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -11,7 +13,8 @@ from typing import Any
 import httpx2 as httpx
 import pytest
 
-from tests.servers import Server
+from service.store import JobStore
+from tests.servers import Server, schema_url
 from tests.service.test_service import SMALL, wait
 
 #: End to end (real server processes on loopback): left out by `pytest -m "not slow"`.
@@ -108,3 +111,89 @@ def test_the_time_limit_ceiling_holds_for_a_whole_building(tmp_path: Path) -> No
             wait(client, small.json()["id"])
     finally:
         server.stop()
+
+
+# Idempotency-Key under concurrency, on the machine's PostgreSQL.
+
+PARALLEL = 16
+
+
+def at_once(count: int, call: Any) -> list[Any]:
+    """`call(k)` for k < count in as many threads, released together; their answers."""
+    start = threading.Barrier(count)
+    answers: list[Any] = [None] * count
+
+    def run(k: int) -> None:
+        start.wait()
+        answers[k] = call(k)
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(count)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    return answers
+
+
+def test_one_idempotency_key_makes_one_job_in_the_store_under_a_race() -> None:
+    store = JobStore(schema_url(f"fptest_{uuid.uuid4().hex[:12]}"))
+    made = at_once(PARALLEL, lambda _k: store.create(
+        problem="{}", time_limit=1, owner="o", idempotency_key="order-1", body_hash="h"))
+    assert len({job.id for job, _new in made}) == 1
+    assert sum(new for _job, new in made) == 1
+    assert len(store.list(owner="o", status=None, limit=100, after=None)) == 1
+
+
+def test_sixteen_parallel_posts_with_one_key_make_one_job(tmp_path: Path) -> None:
+    url = schema_url(f"fptest_{uuid.uuid4().hex[:12]}")
+    server = Server(tmp_path, FLOORPLAN_DATABASE_URL=url, **QUIET).start()
+    try:
+        def post(_k: int) -> httpx.Response:
+            with httpx.Client(base_url=server.url, timeout=60) as own:
+                return own.post("/v1/layouts", json=SMALL,
+                                headers={"Idempotency-Key": "order-16"})
+
+        answers = at_once(PARALLEL, post)
+        assert [a.status_code for a in answers] == [202] * PARALLEL, \
+            [a.text for a in answers if a.status_code != 202]
+        ids = {a.json()["id"] for a in answers}
+        assert len(ids) == 1
+        assert {a.headers["location"] for a in answers} == {f"/v1/layouts/{ids.pop()}"}
+        with httpx.Client(base_url=server.url, timeout=60) as client:
+            jobs = client.get("/v1/layouts").json()["data"]
+            assert len(jobs) == 1
+            wait(client, jobs[0]["id"])
+    finally:
+        server.stop()
+
+
+@pytest.mark.parametrize("database", ["sqlite", "postgresql"])
+def test_the_migration_keeps_a_duplicated_key_on_the_oldest_job_only(
+    database: str, tmp_path: Path,
+) -> None:
+    from alembic import command
+    from sqlalchemy import create_engine, text
+
+    from service.migrations import alembic_config
+
+    url = (f"sqlite:///{tmp_path / 'jobs.sqlite3'}" if database == "sqlite"
+           else schema_url(f"fptest_{uuid.uuid4().hex[:12]}"))
+    engine = create_engine(url)
+    config = alembic_config()
+    with engine.begin() as conn:  # the schema before the unique index, raced twice
+        config.attributes["connection"] = conn
+        command.upgrade(config, "0002")
+        for job_id, created in (("b", 2.0), ("a", 1.0), ("c", 2.0)):
+            conn.execute(text(
+                "INSERT INTO jobs (id, owner, status, problem, time_limit, idempotency_key,"
+                " body_hash, attempts, cancel_requested, created_at, updated_at) VALUES"
+                " (:id, 'o', 'queued', '{}', 1, 'k', 'h', 0, false, :at, :at)"),
+                {"id": job_id, "at": created})
+    engine.dispose()
+    store = JobStore(url)  # migrates to the newest revision
+    kept = {job_id: job.idempotency_key for job_id in "abc"
+            if (job := store.get(job_id)) is not None}
+    assert kept == {"a": "k", "b": None, "c": None}
+    again, new = store.create(problem="{}", time_limit=1, owner="o", idempotency_key="k",
+                              body_hash="h")
+    assert again.id == "a" and not new
