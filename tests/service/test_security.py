@@ -21,6 +21,8 @@ from typing import Any
 import httpx2 as httpx
 import pytest
 import redis
+from alembic.autogenerate import compare_metadata
+from alembic.migration import MigrationContext
 
 from service.jobs.broker.codec import (
     CodecError,
@@ -30,6 +32,7 @@ from service.jobs.broker.codec import (
     encode_task,
 )
 from service.store import JobStore
+from service.tables import metadata
 from solver.geometry import Box, Edge, Notch
 from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine
 from solver.pipeline.subdomains import SubdomainExecutor, SubdomainOutcome, SubdomainTask
@@ -80,6 +83,22 @@ def test_readyz_stays_public_but_shows_its_figures_only_with_a_key(keyed: Server
         trusted = client.get("/readyz", headers=KEY).json()
         assert trusted["status"] == "ready"
         assert trusted["running"] == 0 and trusted["queued"] == 0
+
+
+def test_a_keyed_cluster_shows_its_workers_only_with_a_key(tmp_path: Path) -> None:
+    # The distributed mode's /readyz adds the broker and the live workers; the start
+    # (tests/servers.py, as scripts/run-distributed.sh) waits for them with the key.
+    cluster = Cluster(tmp_path, workers=1, WORKERS="1", FLOORPLAN_API_KEYS="alpha").start()
+    try:
+        with httpx.Client(base_url=cluster.url, timeout=30) as client:
+            anyone = client.get("/readyz")
+            assert anyone.status_code == 200
+            assert anyone.json() == {"status": "ready", "backend": "celery", "broker": "ok"}
+            trusted = client.get("/readyz", headers=KEY).json()
+            assert trusted["workers"] == 1 and trusted["queued"] == 0
+            assert client.post("/v1/validate", json=SMALL).status_code == 401
+    finally:
+        cluster.stop()
 
 
 def test_without_keys_readyz_and_validate_are_open_as_before(tmp_path: Path) -> None:
@@ -216,6 +235,8 @@ def test_the_migration_keeps_a_duplicated_key_on_the_oldest_job_only(
     again, new = store.create(problem="{}", time_limit=1, owner="o", idempotency_key="k",
                               body_hash="h")
     assert again.id == "a" and not new
+    with store.engine.connect() as conn:  # the schema the store's tables describe
+        assert compare_metadata(MigrationContext.configure(conn), metadata) == []
 
 
 # Sub-domain tasks through Redis: data, never code.
