@@ -345,8 +345,10 @@ def test_a_sub_domain_worker_refuses_a_pickle_and_runs_no_code(tmp_path: Path) -
 
     from service.jobs.broker.config import SUBDOMAIN_TASK, Keys, make_celery
     from service.settings import Settings
+    from tests.solver.pipeline.test_parallel import TWO_WINGS
 
-    cluster = Cluster(tmp_path / "cluster", workers=0, WORKERS="1").start()
+    cluster = Cluster(tmp_path / "cluster", workers=1, WORKERS="1",
+                      FLOORPLAN_SUBDOMAINS="celery").start()
     celery: Celery | None = None
     try:
         cluster.add_worker("sub", "--subdomains", log_level="info")
@@ -367,7 +369,7 @@ def test_a_sub_domain_worker_refuses_a_pickle_and_runs_no_code(tmp_path: Path) -
         result = celery.send_task(SUBDOMAIN_TASK, args=[payload], queue=keys.subdomains)
         with pytest.raises(Exception, match=r"CodecError|JSON|task"):
             result.get(timeout=60)
-        assert result.state == "FAILURE"
+        assert result.state == "FAILURE" and not marker.exists()
 
         # A message pickled whole: the worker accepts JSON only and drops it unread.
         whole = tmp_path / "planted-by-message"
@@ -383,6 +385,18 @@ def test_a_sub_domain_worker_refuses_a_pickle_and_runs_no_code(tmp_path: Path) -
         log = (tmp_path / "cluster" / "sub.log").read_text()
         assert "CodecError" in log
         assert re.search(r"untrusted content|refusing|ContentDisallowed", log, re.I), log[-3000:]
+
+        # And a real solve still sends its sub-domains there, as JSON, and gets them back.
+        with httpx.Client(base_url=cluster.url, timeout=30) as http:
+            answer = http.post("/v1/layouts", json=TWO_WINGS)
+            assert answer.status_code == 202
+            done = wait(http, answer.json()["id"])
+            assert done["status"] == "succeeded", done
+            layout = http.get(f"/v1/layouts/{done['id']}/result").json()
+            assert layout["report"]["valid"] and len(layout["rooms"]) == 4
+        log = (tmp_path / "cluster" / "sub.log").read_text()
+        solved = re.findall(r"Task floorplan\.subdomain\[[^]]+\] succeeded", log)
+        assert len(solved) >= 3, log[-2000:]  # the valid one above, and the solve's
     finally:
         if celery is not None:
             celery.close()
