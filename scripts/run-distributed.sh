@@ -123,11 +123,16 @@ api_pid="$!"
 for _ in $(seq 1 600); do
   if "$python" - "$host" "$port" "$workers" <<'PY' 2>/dev/null; then
 import json
+import os
 import sys
 import urllib.request
 
 host, port, workers = sys.argv[1], sys.argv[2], int(sys.argv[3])
-with urllib.request.urlopen(f"http://{host}:{port}/readyz", timeout=2) as answer:
+# With API keys set, /readyz shows its figures (live workers) only to a valid key.
+keys = [k.strip() for k in os.environ.get("FLOORPLAN_API_KEYS", "").split(",") if k.strip()]
+request = urllib.request.Request(f"http://{host}:{port}/readyz", headers=(
+    {"Authorization": f"Bearer {keys[0]}"} if keys else {}))
+with urllib.request.urlopen(request, timeout=2) as answer:
     sys.exit(0 if json.load(answer).get("workers", 0) >= workers else 1)
 PY
     echo "run-distributed: ready at http://$host:$port with $workers workers x $concurrency solves and $subdomain_workers sub-domain workers (logs in $logs)"

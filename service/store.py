@@ -79,23 +79,46 @@ class JobStore:
         """A new queued job, or with a known Idempotency-Key the job it made before
         (the flag says whether it is new). Another body under that key is refused."""
         now = time.time()
-        with self._tx() as conn:
-            if idempotency_key is not None:
-                row = conn.execute(select(jobs).where(
-                    jobs.c.owner == owner, jobs.c.idempotency_key == idempotency_key
-                )).first()
-                if row is not None:
-                    if row.body_hash != body_hash:
-                        raise IdempotencyConflict(idempotency_key)
-                    return _job(row), False
-            job_id = str(uuid.uuid4())
-            conn.execute(insert(jobs).values(
-                id=job_id, owner=owner, status=JobStatus.QUEUED, problem=problem,
-                time_limit=time_limit, idempotency_key=idempotency_key, body_hash=body_hash,
-                attempts=0, cancel_requested=False, created_at=now, updated_at=now,
-            ))
-            row = conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
+        try:
+            with self._tx() as conn:
+                if idempotency_key is not None:
+                    known = self._known(conn, owner, idempotency_key, body_hash)
+                    if known is not None:
+                        return known, False
+                job_id = str(uuid.uuid4())
+                conn.execute(insert(jobs).values(
+                    id=job_id, owner=owner, status=JobStatus.QUEUED, problem=problem,
+                    time_limit=time_limit, idempotency_key=idempotency_key,
+                    body_hash=body_hash, attempts=0, cancel_requested=False, created_at=now,
+                    updated_at=now,
+                ))
+                row = conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
+        except IntegrityError:
+            # A concurrent request with the same key inserted first (the unique index on
+            # owner and key): its job is the answer, as for a replay.
+            if idempotency_key is None:
+                raise
+            with self._tx() as conn:
+                known = self._known(conn, owner, idempotency_key, body_hash)
+            if known is None:
+                raise
+            return known, False
         return _job(row), True
+
+    @staticmethod
+    def _known(
+        conn: Connection, owner: str, idempotency_key: str, body_hash: str | None
+    ) -> Job | None:
+        """The job `owner` made with `idempotency_key`, if any; another body under that
+        key is refused."""
+        row = conn.execute(select(jobs).where(
+            jobs.c.owner == owner, jobs.c.idempotency_key == idempotency_key
+        )).first()
+        if row is None:
+            return None
+        if row.body_hash != body_hash:
+            raise IdempotencyConflict(idempotency_key)
+        return _job(row)
 
     def get(self, job_id: str, owner: str | None = None) -> Job | None:
         query = select(jobs).where(jobs.c.id == job_id)

@@ -6,6 +6,7 @@ from sqlalchemy import (
     Boolean,
     Column,
     Float,
+    Index,
     Integer,
     MetaData,
     String,
@@ -40,6 +41,9 @@ jobs = Table(
     Column("worker", String(200)),
     Column("heartbeat_at", Float),
     Column("dispatched_at", Float),
+    # A retried POST finds the job its Idempotency-Key made; concurrent ones that all
+    # found none cannot each make one (migration 0003).
+    Index("ux_jobs_owner_idempotency_key", "owner", "idempotency_key", unique=True),
 )
 
 events = Table(

@@ -70,6 +70,13 @@ class Server:
                 self.process.wait()
 
 
+def key_headers(env: dict[str, str]) -> dict[str, str]:
+    """The first of FLOORPLAN_API_KEYS as a bearer token (no header without keys): what
+    /readyz wants before it shows its figures."""
+    keys = [k.strip() for k in env.get("FLOORPLAN_API_KEYS", "").split(",") if k.strip()]
+    return {"Authorization": f"Bearer {keys[0]}"} if keys else {}
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -191,7 +198,8 @@ class Cluster:
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             try:
-                ready = httpx.get(f"{self.url}/readyz", timeout=2).json()
+                ready = httpx.get(f"{self.url}/readyz", timeout=2,
+                                  headers=key_headers(self.env)).json()
                 if ready.get("workers", 0) >= count:
                     return
             except (httpx.TransportError, ValueError):

@@ -4,6 +4,7 @@ its API key) and the caller's job; each with its `Annotated` alias for route sig
 from __future__ import annotations
 
 import hashlib
+import hmac
 from typing import Annotated
 from uuid import UUID
 
@@ -33,6 +34,18 @@ StoreDep = Annotated[JobStore, Depends(store_dep)]
 BackendDep = Annotated[JobBackend, Depends(backend_dep)]
 
 
+def _given_key(authorization: str | None, x_api_key: str | None) -> str | None:
+    """The key a request carries: `Authorization: Bearer KEY`, else `X-API-Key`."""
+    if authorization and authorization.lower().startswith("bearer "):
+        return authorization[7:].strip()
+    return x_api_key
+
+
+def _valid(settings: Settings, key: str | None) -> bool:
+    return bool(key) and any(hmac.compare_digest(key.encode(), known.encode())
+                             for known in settings.api_keys)
+
+
 def owner_dep(
     settings: SettingsDep,
     authorization: Annotated[str | None, Header()] = None,
@@ -41,16 +54,27 @@ def owner_dep(
     """The caller's identity: a digest of its API key ("" when keys are off)."""
     if not settings.api_keys:
         return ""
-    key = x_api_key
-    if authorization and authorization.lower().startswith("bearer "):
-        key = authorization[7:].strip()
-    if not key or key not in settings.api_keys:
+    key = _given_key(authorization, x_api_key)
+    if key is None or not _valid(settings, key):
         raise ApiError(401, "a valid API key is required (Authorization: Bearer KEY)",
                        kind="unauthorized", headers={"WWW-Authenticate": "Bearer"})
     return hashlib.sha256(key.encode()).hexdigest()[:32]
 
 
 OwnerDep = Annotated[str, Depends(owner_dep)]
+
+
+def trusted_dep(
+    settings: SettingsDep,
+    authorization: Annotated[str | None, Header()] = None,
+    x_api_key: Annotated[str | None, Header()] = None,
+) -> bool:
+    """Whether the caller may see the service's figures (/readyz): always when keys are
+    off, else only with a valid key. Never refuses: readiness itself stays public."""
+    return not settings.api_keys or _valid(settings, _given_key(authorization, x_api_key))
+
+
+TrustedDep = Annotated[bool, Depends(trusted_dep)]
 
 
 def job_dep(job_id: UUID, store: StoreDep, owner: OwnerDep) -> Job:

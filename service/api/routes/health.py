@@ -5,9 +5,13 @@ from __future__ import annotations
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
-from service.api.deps import BackendDep
+from service.api.deps import BackendDep, TrustedDep
 
 router = APIRouter(tags=["service"])
+
+#: What /readyz shows only to a caller with a valid key when keys are set: the
+#: service's load, which is nobody else's business.
+FIGURES = ("running", "queued", "workers")
 
 
 @router.get("/healthz")
@@ -17,13 +21,17 @@ def healthz() -> dict[str, str]:
 
 
 @router.get("/readyz")
-def readyz(backend: BackendDep) -> JSONResponse:
+def readyz(backend: BackendDep, trusted: TrustedDep) -> JSONResponse:
     """The store answers and jobs are dispatched (with the Celery backend, `broker`
-    says whether Redis answers; jobs accepted meanwhile wait in the store)."""
+    says whether Redis answers; jobs accepted meanwhile wait in the store). The
+    `running`, `queued` and live `workers` figures need a valid key when keys are set."""
     try:
         health = backend.health()
     except Exception as err:  # the store is away
         health = {"ready": False, "error": type(err).__name__}
     ok = bool(health.pop("ready"))
+    if not trusted:
+        for figure in FIGURES:
+            health.pop(figure, None)
     return JSONResponse({"status": "ready" if ok else "not ready", **health},
                         status_code=200 if ok else 503)

@@ -54,7 +54,7 @@ def submit_layout(
     if store.count(JobStatus.QUEUED) >= settings.queue_limit:
         raise ApiError(429, "the queue is full; try again later", kind="queue-full",
                        headers={"Retry-After": str(RETRY_AFTER)})
-    time_limit = job_time_limit(problem)  # a building's floors each have their share
+    problem, time_limit = effective_time_limit(problem, settings.max_time_limit)
     digest = hashlib.sha256(
         json.dumps(json.loads(raw), sort_keys=True, separators=(",", ":")).encode()
     ).hexdigest()
@@ -68,6 +68,18 @@ def submit_layout(
         backend.submitted(job)
     response.headers["Location"] = f"/v1/layouts/{job.id}"
     return job_public(job)
+
+
+def effective_time_limit(problem: LayoutProblem, ceiling: float) -> tuple[LayoutProblem, float]:
+    """The problem as it will be solved, and the whole job's time limit, at most
+    `ceiling` (FLOORPLAN_MAX_TIME_LIMIT). A limit the user gave above it was refused
+    already (422); the default, which grows with the rooms and adds up over a
+    building's floors, is capped at it, and the capped limit written into the problem
+    so that the solve divides that time among its floors."""
+    time_limit = job_time_limit(problem)
+    if time_limit <= ceiling:
+        return problem, time_limit
+    return problem.with_options(time_limit=ceiling), ceiling
 
 
 @router.get("", response_model=JobPage)

@@ -10,7 +10,7 @@ from fastapi import APIRouter, Query, Request
 
 from models import Problem as LayoutProblem
 from service.api.body import PROBLEM_BODY_DOC, problem_body
-from service.api.deps import SettingsDep
+from service.api.deps import OwnerDep, SettingsDep
 from service.api.errors import ApiError
 from service.api.schemas import Validation
 from solver.geometry import make_domain
@@ -30,9 +30,10 @@ router = APIRouter(tags=["service"])
 
 
 @router.post("/v1/validate", response_model=Validation, openapi_extra=PROBLEM_BODY_DOC,
-             response_model_exclude_unset=True)
+             response_model_exclude_unset=True,
+             responses={401: {"description": "API keys are set and none valid was given"}})
 async def validate_problem(
-    request: Request, settings: SettingsDep,
+    request: Request, settings: SettingsDep, _owner: OwnerDep,
     explain: Annotated[bool, Query(
         description="also ask SCIP, briefly, whether a layout exists, and when none "
         "does, which constraints cannot hold together")] = False,

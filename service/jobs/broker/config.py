@@ -42,6 +42,12 @@ def celery_config(settings: Settings) -> dict[str, Any]:
     longest_job = 10 + settings.max_time_limit + 2 * settings.grace_seconds
     return {
         "broker_url": settings.redis_url,
+        # JSON only, both ways: a message or a result in another format (pickle runs
+        # code as it loads) is refused, whoever put it in Redis.
+        "task_serializer": "json",
+        "result_serializer": "json",
+        "accept_content": ["json"],
+        "result_accept_content": ["json"],
         "task_default_queue": settings.namespace,
         "task_acks_late": True,
         "task_reject_on_worker_lost": True,

@@ -1,13 +1,13 @@
 """A solve's independent sub-domains as Celery tasks for the sub-domain workers: the
 `concurrent.futures.Executor` the solver takes (`CelerySubdomains`), and how a task's
-argument and result travel. The solve's own process imports this (service/jobs/child.py),
-so it imports nothing of the backends, the runner or the child."""
+argument and result travel: as JSON text written and read field by field (codec.py),
+never pickled, so that whoever can write to Redis can send a worker data, not code. The
+solve's own process imports this (service/jobs/child.py), so it imports nothing of the
+backends, the runner or the child."""
 
 from __future__ import annotations
 
-import base64
 import logging
-import pickle
 import threading
 import time
 from collections.abc import Callable
@@ -25,16 +25,6 @@ log = logging.getLogger("floorplan.distributed")
 SUBDOMAIN_GRACE = 5.0
 #: How often the executor looks for finished sub-domain tasks (seconds).
 SUBDOMAIN_POLL = 0.05
-
-
-def pack(value: Any) -> str:
-    """Pickled for a task argument or result: sub-domain specs are plain dataclasses, and
-    the broker is as trusted as the database."""
-    return base64.b64encode(pickle.dumps(value)).decode()
-
-
-def unpack(text: str) -> Any:
-    return pickle.loads(base64.b64decode(text))
 
 
 class CelerySubdomains(Executor):
@@ -57,6 +47,7 @@ class CelerySubdomains(Executor):
         self._poller: threading.Thread | None = None
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        from service.jobs.broker.codec import encode_task
         from solver.pipeline.subdomains import SubdomainTask, solve_subdomain
 
         (task,) = args
@@ -64,7 +55,7 @@ class CelerySubdomains(Executor):
             raise ValueError("only solver.pipeline.subdomains.solve_subdomain(task) runs remotely")
         future: Future[Any] = Future()
         result = self.celery.send_task(
-            SUBDOMAIN_TASK, args=[pack(task)], queue=self.keys.subdomains,
+            SUBDOMAIN_TASK, args=[encode_task(task)], queue=self.keys.subdomains,
             time_limit=task.budget + SUBDOMAIN_GRACE,
             expires=max(1.0, task.deadline - time.time()),  # useless once the level is over
         )
@@ -77,6 +68,8 @@ class CelerySubdomains(Executor):
         return future
 
     def _poll(self) -> None:
+        from service.jobs.broker.codec import decode_outcome
+
         while not self._closed.is_set():
             with self._lock:
                 pending = list(self._pending.items())
@@ -85,7 +78,7 @@ class CelerySubdomains(Executor):
                     if future.cancelled():
                         done = True
                     elif done := result.ready():
-                        future.set_result(unpack(result.get(timeout=5)))
+                        future.set_result(decode_outcome(result.get(timeout=5)))
                 except Exception as err:  # the task failed or its process was killed
                     done = True
                     future.set_exception(err)

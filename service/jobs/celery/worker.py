@@ -19,7 +19,6 @@ from service.jobs.broker.config import (
     make_celery,
     redis_client,
 )
-from service.jobs.broker.subdomains import pack, unpack
 from service.jobs.celery.runtime import SubdomainWorkerRuntime, WorkerRuntime
 from service.settings import Settings, get_settings
 
@@ -51,10 +50,12 @@ def solve_job(job_id: str) -> str:
 @app.task(name=SUBDOMAIN_TASK, ignore_result=False, acks_late=False)
 def solve_subdomain_task(payload: str) -> str:
     """One sub-domain, in a process of a sub-domain worker's prefork pool. Not acked
-    late: a sub-domain whose worker died is not worth solving after its level ended."""
+    late: a sub-domain whose worker died is not worth solving after its level ended.
+    The payload is JSON read field by field: anything else fails here (CodecError)."""
+    from service.jobs.broker.codec import decode_task, encode_outcome
     from solver.pipeline.subdomains import solve_subdomain
 
-    return pack(solve_subdomain(unpack(payload)))
+    return encode_outcome(solve_subdomain(decode_task(payload)))
 
 
 @signals.worker_ready.connect

@@ -1,0 +1,403 @@
+"""The security review (issue 20), each finding replayed against a real server process
+on loopback (tests/servers.py), the machine's PostgreSQL or Redis: what an attacker did
+must now fail."""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+import pickle
+import re
+import threading
+import time
+import uuid
+from collections.abc import Iterator
+from concurrent.futures import Executor, Future
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import httpx2 as httpx
+import pytest
+import redis
+from alembic.autogenerate import compare_metadata
+from alembic.migration import MigrationContext
+
+from service.jobs.broker.codec import (
+    CodecError,
+    decode_outcome,
+    decode_task,
+    encode_outcome,
+    encode_task,
+)
+from service.store import JobStore
+from service.tables import metadata
+from solver.geometry import Box, Edge, Notch
+from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine
+from solver.pipeline.subdomains import SubdomainExecutor, SubdomainOutcome, SubdomainTask
+from tests.servers import Cluster, Server, schema_url
+from tests.service.test_service import SMALL, wait
+
+#: End to end (real server processes on loopback): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
+KEY = {"Authorization": "Bearer alpha"}
+#: One solve at a time and no sub-domain pool: these tests solve little.
+QUIET = {"WORKERS": "1", "FLOORPLAN_SUBDOMAIN_PROCESSES": "1"}
+
+
+@pytest.fixture(scope="module")
+def keyed(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    server = Server(tmp_path_factory.mktemp("keyed"), FLOORPLAN_API_KEYS="alpha",
+                    **QUIET).start()
+    yield server
+    server.stop()
+
+
+def test_validate_needs_the_api_key_explain_included(keyed: Server) -> None:
+    with httpx.Client(base_url=keyed.url, timeout=30) as client:
+        for params in ({}, {"explain": "true", "time_limit": "30"}):
+            refused = client.post("/v1/validate", json=SMALL, params=params)
+            assert refused.status_code == 401, refused.text
+            assert refused.headers["content-type"] == "application/problem+json"
+            assert refused.json()["status"] == 401
+            assert refused.headers["www-authenticate"] == "Bearer"
+            wrong = client.post("/v1/validate", json=SMALL, params=params,
+                                headers={"X-API-Key": "gamma"})
+            assert wrong.status_code == 401
+        allowed = client.post("/v1/validate", json=SMALL, headers=KEY)
+        assert allowed.status_code == 200 and allowed.json()["valid"]
+        explained = client.post("/v1/validate", json=SMALL, headers={"X-API-Key": "alpha"},
+                                params={"explain": "true", "time_limit": "2"})
+        assert explained.status_code == 200 and explained.json()["feasible"] is True
+
+
+def test_readyz_stays_public_but_shows_its_figures_only_with_a_key(keyed: Server) -> None:
+    with httpx.Client(base_url=keyed.url, timeout=30) as client:
+        anyone = client.get("/readyz")
+        assert anyone.status_code == 200
+        assert anyone.json() == {"status": "ready"}
+        wrong = client.get("/readyz", headers={"Authorization": "Bearer gamma"})
+        assert wrong.status_code == 200 and "queued" not in wrong.json()
+        trusted = client.get("/readyz", headers=KEY).json()
+        assert trusted["status"] == "ready"
+        assert trusted["running"] == 0 and trusted["queued"] == 0
+
+
+def test_a_keyed_cluster_shows_its_workers_only_with_a_key(tmp_path: Path) -> None:
+    # The distributed mode's /readyz adds the broker and the live workers; the start
+    # (tests/servers.py, as scripts/run-distributed.sh) waits for them with the key.
+    cluster = Cluster(tmp_path, workers=1, WORKERS="1", FLOORPLAN_API_KEYS="alpha").start()
+    try:
+        with httpx.Client(base_url=cluster.url, timeout=30) as client:
+            anyone = client.get("/readyz")
+            assert anyone.status_code == 200
+            assert anyone.json() == {"status": "ready", "backend": "celery", "broker": "ok"}
+            trusted = client.get("/readyz", headers=KEY).json()
+            assert trusted["workers"] == 1 and trusted["queued"] == 0
+            assert client.post("/v1/validate", json=SMALL).status_code == 401
+    finally:
+        cluster.stop()
+
+
+def test_without_keys_readyz_and_validate_are_open_as_before(tmp_path: Path) -> None:
+    server = Server(tmp_path, **QUIET).start()
+    try:
+        with httpx.Client(base_url=server.url, timeout=30) as client:
+            ready = client.get("/readyz").json()
+            assert ready["status"] == "ready" and ready["queued"] == 0
+            assert client.post("/v1/validate", json=SMALL).json()["valid"]
+    finally:
+        server.stop()
+
+
+def building(floors: int, time_limit: float | None = None) -> dict[str, Any]:
+    """`floors` storeys of four 2 x 2 m rooms each on an 8 x 8 m footprint."""
+    return {
+        "name": f"tower-{floors}",
+        "boundary": [[0, 0], [8, 0], [8, 8], [0, 8]],
+        "floors": [{"id": f"f{k}", "rooms": [
+            {"id": f"r{j}", "type": "office", "min_size": [2, 2], "max_size": [6, 6]}
+            for j in range(4)]} for k in range(floors)],
+        "options": {} if time_limit is None else {"time_limit": time_limit},
+    }
+
+
+def test_the_time_limit_ceiling_holds_for_a_whole_building(tmp_path: Path) -> None:
+    # 100 floors of 4 rooms: each floor's default is 5 s, 500 s summed, past a 30 s
+    # ceiling. The job runs under the ceiling instead, and says so in its time_limit.
+    server = Server(tmp_path, FLOORPLAN_MAX_TIME_LIMIT="30", **QUIET).start()
+    try:
+        with httpx.Client(base_url=server.url, timeout=60) as client:
+            answer = client.post("/v1/layouts", json=building(100))
+            assert answer.status_code == 202, answer.text
+            job = answer.json()
+            assert job["time_limit"] == 30
+            client.post(f"/v1/layouts/{job['id']}/cancel")
+            assert client.get(f"/v1/layouts/{job['id']}").json()["time_limit"] == 30
+            wait(client, job["id"])
+            # A limit the user states above the ceiling is still refused, by name.
+            refused = client.post("/v1/layouts", json=building(100, time_limit=31))
+            assert refused.status_code == 422
+            assert refused.headers["content-type"] == "application/problem+json"
+            assert [e["field"] for e in refused.json()["errors"]] == ["options.time_limit"]
+            # Within the ceiling, the default stands (two floors: 10 s).
+            small = client.post("/v1/layouts", json=building(2))
+            assert small.status_code == 202 and small.json()["time_limit"] == 10
+            client.post(f"/v1/layouts/{small.json()['id']}/cancel")
+            wait(client, small.json()["id"])
+    finally:
+        server.stop()
+
+
+# Idempotency-Key under concurrency, on the machine's PostgreSQL.
+
+PARALLEL = 16
+
+
+def at_once(count: int, call: Any) -> list[Any]:
+    """`call(k)` for k < count in as many threads, released together; their answers."""
+    start = threading.Barrier(count)
+    answers: list[Any] = [None] * count
+
+    def run(k: int) -> None:
+        start.wait()
+        answers[k] = call(k)
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(count)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    return answers
+
+
+def test_one_idempotency_key_makes_one_job_in_the_store_under_a_race() -> None:
+    store = JobStore(schema_url(f"fptest_{uuid.uuid4().hex[:12]}"))
+    made = at_once(PARALLEL, lambda _k: store.create(
+        problem="{}", time_limit=1, owner="o", idempotency_key="order-1", body_hash="h"))
+    assert len({job.id for job, _new in made}) == 1
+    assert sum(new for _job, new in made) == 1
+    assert len(store.list(owner="o", status=None, limit=100, after=None)) == 1
+
+
+def test_sixteen_parallel_posts_with_one_key_make_one_job(tmp_path: Path) -> None:
+    url = schema_url(f"fptest_{uuid.uuid4().hex[:12]}")
+    server = Server(tmp_path, FLOORPLAN_DATABASE_URL=url, **QUIET).start()
+    try:
+        def post(_k: int) -> httpx.Response:
+            with httpx.Client(base_url=server.url, timeout=60) as own:
+                return own.post("/v1/layouts", json=SMALL,
+                                headers={"Idempotency-Key": "order-16"})
+
+        answers = at_once(PARALLEL, post)
+        assert [a.status_code for a in answers] == [202] * PARALLEL, \
+            [a.text for a in answers if a.status_code != 202]
+        ids = {a.json()["id"] for a in answers}
+        assert len(ids) == 1
+        assert {a.headers["location"] for a in answers} == {f"/v1/layouts/{ids.pop()}"}
+        with httpx.Client(base_url=server.url, timeout=60) as client:
+            jobs = client.get("/v1/layouts").json()["data"]
+            assert len(jobs) == 1
+            wait(client, jobs[0]["id"])
+    finally:
+        server.stop()
+
+
+@pytest.mark.parametrize("database", ["sqlite", "postgresql"])
+def test_the_migration_keeps_a_duplicated_key_on_the_oldest_job_only(
+    database: str, tmp_path: Path,
+) -> None:
+    from alembic import command
+    from sqlalchemy import create_engine, text
+
+    from service.migrations import alembic_config
+
+    url = (f"sqlite:///{tmp_path / 'jobs.sqlite3'}" if database == "sqlite"
+           else schema_url(f"fptest_{uuid.uuid4().hex[:12]}"))
+    engine = create_engine(url)
+    config = alembic_config()
+    with engine.begin() as conn:  # the schema before the unique index, raced twice
+        config.attributes["connection"] = conn
+        command.upgrade(config, "0002")
+        for job_id, created in (("b", 2.0), ("a", 1.0), ("c", 2.0)):
+            conn.execute(text(
+                "INSERT INTO jobs (id, owner, status, problem, time_limit, idempotency_key,"
+                " body_hash, attempts, cancel_requested, created_at, updated_at) VALUES"
+                " (:id, 'o', 'queued', '{}', 1, 'k', 'h', 0, false, :at, :at)"),
+                {"id": job_id, "at": created})
+    engine.dispose()
+    store = JobStore(url)  # migrates to the newest revision
+    kept = {job_id: job.idempotency_key for job_id in "abc"
+            if (job := store.get(job_id)) is not None}
+    assert kept == {"a": "k", "b": None, "c": None}
+    again, new = store.create(problem="{}", time_limit=1, owner="o", idempotency_key="k",
+                              body_hash="h")
+    assert again.id == "a" and not new
+    with store.engine.connect() as conn:  # the schema the store's tables describe
+        assert compare_metadata(MigrationContext.configure(conn), metadata) == []
+
+
+# Sub-domain tasks through Redis: data, never code.
+
+
+def full_task() -> SubdomainTask:
+    """A task with every field of every dataclass away from its default."""
+    b = Box(0.0, 0.5, 4.0, 3.25)
+    edge = Edge(index=2, start=(0.0, 0.0), end=(4.0, 0.0), facing="south")
+    rect = RectSpec(
+        name="r0", room="living", min_size=(2.0, 2.5), max_size=(math.inf, 5.0),
+        target=(3.5, 4.0), aspect_ratio=(0.5, 2.0), positions=((1.0, 1.0), (2.0, 2.5)),
+        edges=(edge,), refine=Refine(parent=b, direction="horizontal", child=-1, delta=0.3),
+        fixed=Box(1, 1, 2, 2), soft=frozenset({"min_size", "positions"}), floor=(1.5, 1.5),
+        may_wrap=False,
+    )
+    spec = LevelSpec(
+        name="level 2 / rooms a, b", region=b, blocked=(Box(3, 0, 4, 1),), free_area=12.5,
+        rects=(rect, RectSpec(name="r1", room="bed")),
+        contacts=(ContactSpec(name="adj", a=("r0",), partners=(("r1",), ("r0", "r1")),
+                              min_contact=1.0, soft=True),),
+        envelopes=(EnvelopeSpec(room="living", rects=("r0", "r1"), previous=None,
+                                max_size=(6.0, math.inf), aspect_ratio=(0.25, 4.0),
+                                soft=frozenset({"max_size"}), min_size=(2.0, 2.0),
+                                positions=((1.0, 2.0),)),
+                   EnvelopeSpec(room="bed", rects=("r1",), previous=Box(0, 0, 1, 1),
+                                max_size=(3.0, 3.0), aspect_ratio=None)),
+        cover_weight=2.0, size_weight=0.5, growth_weight=0.1, violation_weight=100.0,
+        notches=(Notch(obstacle=Box(3, 0, 4, 1), hull=Box(2.8, 0, 4, 1.2)),),
+    )
+    return SubdomainTask(spec=spec, start={"r0": Box(0, 0.5, 2, 2), "r1": b}, budget=1.5,
+                         deadline=1.8e9, seed=7)
+
+
+def test_a_sub_domain_task_and_its_outcome_round_trip_through_json() -> None:
+    task = full_task()
+    text = encode_task(task)
+    assert decode_task(text) == task
+    json.loads(text)  # plain JSON (Infinity aside, which Python's reader takes)
+    for outcome in (SubdomainOutcome("optimal", {"r0": Box(0, 0, 1.25, 2)}, -3.5, 0.25),
+                    SubdomainOutcome("start not feasible: infeasible", None, None, 0.0)):
+        assert decode_outcome(encode_outcome(outcome)) == outcome
+
+
+def test_real_sub_domains_round_trip_and_solve_through_the_codec() -> None:
+    from models import Problem
+    from solver import solve
+    from tests.solver.pipeline.test_parallel import TWO_WINGS
+
+    sent: list[SubdomainTask] = []
+
+    class ThroughJson(Executor):
+        """Runs each task here, after a trip through the codec both ways."""
+
+        def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Future[Any]:
+            future: Future[Any] = Future()
+            (task,) = args
+            if not isinstance(task, SubdomainTask):  # a second level-1 search: refused
+                future.set_exception(ValueError("sub-domains only"))
+                return future
+            copy = decode_task(encode_task(task))
+            assert copy == task
+            sent.append(copy)
+            future.set_result(decode_outcome(encode_outcome(fn(copy))))
+            return future
+
+    layout = solve(Problem.model_validate(TWO_WINGS),
+                   subdomains=SubdomainExecutor(ThroughJson(), 2))
+    assert sent, "the solve sent no sub-domain"
+    assert layout.report.valid and {r.id for r in layout.rooms} == {"a", "b", "c", "d"}
+
+
+class Plant:
+    """A pickle that, once loaded, creates the file `path`: what an attacker with
+    write access to Redis would send."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (open, (str(self.path), "w"))
+
+
+@pytest.mark.parametrize("payload", [
+    "not json", "[]", '{"v": 2, "task": {}}', '{"v": 1, "task": {"spec": 1}}',
+    json.dumps({"v": 1, "task": {**json.loads(encode_task(full_task()))["task"],
+                                 "seed": True}}),
+    json.dumps({"v": 1, "task": {**json.loads(encode_task(full_task()))["task"],
+                                 "extra": 1}}),
+])
+def test_anything_but_an_encoded_task_fails_to_decode(payload: str) -> None:
+    with pytest.raises(CodecError):
+        decode_task(payload)
+
+
+def test_a_pickled_payload_fails_to_decode_and_runs_nothing(tmp_path: Path) -> None:
+    marker = tmp_path / "planted"
+    payload = base64.b64encode(pickle.dumps(Plant(marker))).decode()
+    with pytest.raises(CodecError):
+        decode_task(payload)
+    assert not marker.exists()
+
+
+def test_a_sub_domain_worker_refuses_a_pickle_and_runs_no_code(tmp_path: Path) -> None:
+    from celery import Celery
+
+    from service.jobs.broker.config import SUBDOMAIN_TASK, Keys, make_celery
+    from service.settings import Settings
+    from tests.solver.pipeline.test_parallel import TWO_WINGS
+
+    cluster = Cluster(tmp_path / "cluster", workers=1, WORKERS="1",
+                      FLOORPLAN_SUBDOMAINS="celery").start()
+    celery: Celery | None = None
+    try:
+        cluster.add_worker("sub", "--subdomains", log_level="info")
+        settings = Settings(redis_url=cluster.redis_url, namespace=cluster.name)
+        keys = Keys(cluster.name)
+        client = redis.Redis.from_url(cluster.redis_url)
+        deadline = time.monotonic() + 60
+        while not list(client.scan_iter(f"{keys.subdomain_workers}*")):
+            assert time.monotonic() < deadline, "the sub-domain worker did not start"
+            time.sleep(0.2)
+        client.close()
+        celery = make_celery(settings)
+
+        # The old attack: a JSON message whose argument is a pickle (the worker used to
+        # unpickle it). It now fails to decode, and the file is never made.
+        marker = tmp_path / "planted-by-argument"
+        payload = base64.b64encode(pickle.dumps(Plant(marker))).decode()
+        result = celery.send_task(SUBDOMAIN_TASK, args=[payload], queue=keys.subdomains)
+        with pytest.raises(Exception, match=r"CodecError|JSON|task"):
+            result.get(timeout=60)
+        assert result.state == "FAILURE" and not marker.exists()
+
+        # A message pickled whole: the worker accepts JSON only and drops it unread.
+        whole = tmp_path / "planted-by-message"
+        celery.send_task(SUBDOMAIN_TASK, args=[Plant(whole)], queue=keys.subdomains,
+                         serializer="pickle")
+        # It is refused before anything runs; a valid task sent after it still is.
+        after = celery.send_task(SUBDOMAIN_TASK, args=[encode_task(
+            replace(full_task(), budget=0.0))], queue=keys.subdomains, serializer="json")
+        outcome = decode_outcome(after.get(timeout=60))
+        assert outcome.status.startswith("not started")
+        time.sleep(1)
+        assert not marker.exists() and not whole.exists()
+        log = (tmp_path / "cluster" / "sub.log").read_text()
+        assert "CodecError" in log
+        assert re.search(r"untrusted content|refusing|ContentDisallowed", log, re.I), log[-3000:]
+
+        # And a real solve still sends its sub-domains there, as JSON, and gets them back.
+        with httpx.Client(base_url=cluster.url, timeout=30) as http:
+            answer = http.post("/v1/layouts", json=TWO_WINGS)
+            assert answer.status_code == 202
+            done = wait(http, answer.json()["id"])
+            assert done["status"] == "succeeded", done
+            layout = http.get(f"/v1/layouts/{done['id']}/result").json()
+            assert layout["report"]["valid"] and len(layout["rooms"]) == 4
+        log = (tmp_path / "cluster" / "sub.log").read_text()
+        solved = re.findall(r"Task floorplan\.subdomain\[[^]]+\] succeeded", log)
+        assert len(solved) >= 3, log[-2000:]  # the valid one above, and the solve's
+    finally:
+        if celery is not None:
+            celery.close()
+        cluster.stop()
