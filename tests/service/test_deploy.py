@@ -40,6 +40,18 @@ def test_compose_has_the_four_services_with_health_checks_and_volumes() -> None:
                          "redis": {"condition": "service_healthy"}}
 
 
+def test_redis_asks_for_the_password_the_nodes_send() -> None:
+    # Issue 20: whoever can write to Redis queues work for the workers.
+    services = compose()["services"]
+    redis = services["redis"]
+    password = "${REDIS_PASSWORD:-floorplan}"
+    assert redis["command"][-2:] == ["--requirepass", password]
+    assert password in redis["healthcheck"]["test"]
+    for node in ("api", "worker", "subdomain-worker"):
+        url = services[node]["environment"]["FLOORPLAN_REDIS_URL"]
+        assert url.startswith(f"redis://:{password}@redis:6379/"), node
+
+
 def test_workers_scale_and_stop_gracefully() -> None:
     services = compose()["services"]
     for name, command in (("worker", ["floorplan", "worker"]),
