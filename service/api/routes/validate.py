@@ -9,7 +9,7 @@ from typing import Annotated
 from fastapi import APIRouter, Query, Request
 
 from models import Problem as LayoutProblem
-from service.api.body import PROBLEM_BODY_DOC, problem_body
+from service.api.body import PROBLEM_BODY_DOC, problem_body, run_off_loop
 from service.api.deps import OwnerDep, SettingsDep
 from service.api.errors import ApiError
 from service.api.schemas import Validation
@@ -53,7 +53,9 @@ async def validate_problem(
             raise
         return Validation(valid=False, errors=err.errors or [], findings=[])
     if not explain:
-        findings = await asyncio.to_thread(find_impossibilities, problem, make_domain(problem))
+        # Off the event loop (the domain too): the cheap checks still grow with the problem.
+        findings = await run_off_loop(
+            request, lambda: find_impossibilities(problem, make_domain(problem)))
         # exclude_unset on the answer: the problem shows what was given or filled in.
         return Validation(valid=not findings, errors=[], findings=findings, problem=problem)
     seconds = min(time_limit, settings.max_time_limit)
