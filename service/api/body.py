@@ -20,6 +20,9 @@ from service.api.errors import ApiError, FieldError, field_errors
 from service.settings import Settings
 
 T = TypeVar("T")
+#: Invalid fields listed at most in one answer: the count says how many there are. Not
+#: 20,000 of them, a 2.4 MB answer built and sent on the event loop.
+MAX_FIELD_ERRORS = 100
 
 EXAMPLE_PROBLEM: dict[str, Any] = {
     "name": "studio",
@@ -88,8 +91,10 @@ def parse_problem(raw: bytes, settings: Settings) -> LayoutProblem:
     try:
         problem = LayoutProblem.model_validate(data, context={"max_rooms": settings.max_rooms})
     except ValidationError as err:
-        errors = field_errors(err.errors())
-        raise ApiError(422, f"{len(errors)} invalid field(s)", kind="invalid-problem",
+        count = err.error_count()
+        errors = field_errors(err.errors()[:MAX_FIELD_ERRORS])
+        listed = f", the first {len(errors)} listed" if count > len(errors) else ""
+        raise ApiError(422, f"{count} invalid field(s){listed}", kind="invalid-problem",
                        errors=errors) from err
     limit = problem.options.time_limit
     if limit is not None and limit > settings.max_time_limit:
