@@ -31,7 +31,9 @@ router = APIRouter(tags=["service"])
 
 @router.post("/v1/validate", response_model=Validation, openapi_extra=PROBLEM_BODY_DOC,
              response_model_exclude_unset=True,
-             responses={401: {"description": "API keys are set and none valid was given"}})
+             responses={401: {"description": "API keys are set and none valid was given"},
+                        413: {"description": "the body, or an outline, the obstacles or the "
+                              "regions, larger than the service takes"}})
 async def validate_problem(
     request: Request, settings: SettingsDep, _owner: OwnerDep,
     explain: Annotated[bool, Query(
