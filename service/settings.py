@@ -49,6 +49,22 @@ class Settings(BaseSettings):
     data_dir: Path = Field(Path("data"), description="where the SQLite job store lives")
     max_body_bytes: int = Field(1 << 20, ge=1024, description="largest accepted request body")
     max_rooms: int = Field(400, ge=1, description="most rooms in one problem")
+    max_vertices: int = Field(
+        500, ge=4, le=1000, description="most vertices of an outline (the boundary, each "
+        "floor's); beyond, 413 before the problem is validated",
+    )
+    max_obstacles: int = Field(
+        200, ge=0, le=1000, description="most obstacles (top-level, each floor's); beyond, "
+        "413 before the problem is validated",
+    )
+    max_regions: int = Field(
+        200, ge=0, description="most regions in one problem; beyond, 413 before the problem "
+        "is validated",
+    )
+    parse_threads: int = Field(
+        2, ge=1, description="request bodies parsed and validated at once, each in a worker "
+        "thread off the event loop; more wait their turn",
+    )
     max_time_limit: float = Field(600.0, gt=0, description="largest options.time_limit allowed")
     queue_limit: int = Field(1000, ge=1, description="jobs waiting at most; beyond, 429")
     grace_seconds: float = Field(

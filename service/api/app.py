@@ -8,6 +8,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
+import anyio
 from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 
@@ -27,6 +28,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         backend = await asyncio.to_thread(make_backend, settings)
         app.state.settings, app.state.backend = settings, backend
+        # Bodies are parsed and validated in worker threads, this many at once.
+        app.state.parse_limiter = anyio.CapacityLimiter(settings.parse_threads)
         backend.start()
         try:
             yield

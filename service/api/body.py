@@ -5,14 +5,24 @@ document; and its description in the OpenAPI schema, with examples."""
 from __future__ import annotations
 
 import json
-from typing import Annotated, Any
+from collections.abc import Callable
+from functools import partial
+from typing import Annotated, Any, TypeVar
 
+import anyio.to_thread
+from anyio import CapacityLimiter
 from fastapi import Depends, Request
 from pydantic import ValidationError
 
 from models import Problem as LayoutProblem
 from service.api.deps import SettingsDep
 from service.api.errors import ApiError, FieldError, field_errors
+from service.settings import Settings
+
+T = TypeVar("T")
+#: Invalid fields listed at most in one answer: the count says how many there are. Not
+#: 20,000 of them, a 2.4 MB answer built and sent on the event loop.
+MAX_FIELD_ERRORS = 100
 
 EXAMPLE_PROBLEM: dict[str, Any] = {
     "name": "studio",
@@ -41,7 +51,10 @@ EXAMPLE_TEMPLATED: dict[str, Any] = {
 
 
 async def problem_body(request: Request, settings: SettingsDep) -> tuple[LayoutProblem, bytes]:
-    """The request body as a validated problem, within the size limit."""
+    """The request body as a validated problem, within the size limits. The body is read
+    on the event loop; parsing and validating it, which takes time in proportion to its
+    size, runs in a worker thread, at most `FLOORPLAN_PARSE_THREADS` at once, so that a
+    large body does not hold up /healthz or anyone else's request."""
     declared = request.headers.get("content-length")
     if declared and declared.isdigit() and int(declared) > settings.max_body_bytes:
         raise ApiError(413, f"the body exceeds {settings.max_body_bytes} bytes",
@@ -52,15 +65,36 @@ async def problem_body(request: Request, settings: SettingsDep) -> tuple[LayoutP
         if len(body) > settings.max_body_bytes:
             raise ApiError(413, f"the body exceeds {settings.max_body_bytes} bytes",
                            kind="body-too-large")
+    raw = bytes(body)
+    problem = await run_off_loop(request, partial(parse_problem, raw, settings))
+    return problem, raw
+
+
+async def run_off_loop(request: Request, work: Callable[[], T]) -> T:
+    """`work` in a worker thread, within the app's limit of threads for such work."""
+    limiter: CapacityLimiter = request.app.state.parse_limiter
+    return await anyio.to_thread.run_sync(work, limiter=limiter)
+
+
+def parse_problem(raw: bytes, settings: Settings) -> LayoutProblem:
+    """`raw` as a validated problem: JSON, then its sizes (cheap, before the validation
+    that grows with them), then the model, then the service's own limits."""
     try:
-        data = json.loads(body)
+        data = json.loads(raw)
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ApiError(400, f"the body is not JSON: {err}", kind="malformed-json") from err
+    oversized = size_errors(data, settings)
+    if oversized:
+        raise ApiError(413, "the problem is larger than this service takes: "
+                       + "; ".join(f"{e.field}: {e.message}" for e in oversized),
+                       kind="problem-too-large", errors=oversized)
     try:
         problem = LayoutProblem.model_validate(data, context={"max_rooms": settings.max_rooms})
     except ValidationError as err:
-        errors = field_errors(err.errors())
-        raise ApiError(422, f"{len(errors)} invalid field(s)", kind="invalid-problem",
+        count = err.error_count()
+        errors = field_errors(err.errors()[:MAX_FIELD_ERRORS])
+        listed = f", the first {len(errors)} listed" if count > len(errors) else ""
+        raise ApiError(422, f"{count} invalid field(s){listed}", kind="invalid-problem",
                        errors=errors) from err
     limit = problem.options.time_limit
     if limit is not None and limit > settings.max_time_limit:
@@ -69,7 +103,36 @@ async def problem_body(request: Request, settings: SettingsDep) -> tuple[LayoutP
                            field="options.time_limit", loc=["options", "time_limit"],
                            message=f"at most {settings.max_time_limit}", type="less_than_equal",
                        )])
-    return problem, bytes(body)
+    return problem
+
+
+def size_errors(data: Any, settings: Settings) -> list[FieldError]:
+    """The lists of `data` (parsed JSON, not yet validated) longer than the settings
+    allow: outline vertices, obstacles (top-level and each floor's) and regions. Their
+    lengths alone: what is in them is the model's to check."""
+    if not isinstance(data, dict):
+        return []
+    limits = {"boundary": (settings.max_vertices, "FLOORPLAN_MAX_VERTICES"),
+              "obstacles": (settings.max_obstacles, "FLOORPLAN_MAX_OBSTACLES"),
+              "regions": (settings.max_regions, "FLOORPLAN_MAX_REGIONS")}
+    places: list[tuple[list[str | int], dict[str, Any]]] = [([], data)]
+    floors = data.get("floors")
+    if isinstance(floors, list):
+        places += [(["floors", i], floor) for i, floor in enumerate(floors)
+                   if isinstance(floor, dict)]
+    errors = []
+    for prefix, place in places:
+        for name, (limit, variable) in limits.items():
+            if name == "regions" and prefix:
+                continue  # regions are the problem's, not a floor's
+            items = place.get(name)
+            if isinstance(items, list) and len(items) > limit:
+                loc = [*prefix, name]
+                errors.append(FieldError(
+                    field=".".join(str(part) for part in loc), loc=loc, type="too_many_items",
+                    message=f"{len(items)} items exceed this service's limit of {limit} "
+                    f"({variable})"))
+    return errors
 
 
 ProblemBody = Annotated[tuple[LayoutProblem, bytes], Depends(problem_body)]

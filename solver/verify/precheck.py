@@ -96,10 +96,13 @@ def _boundary_reachable(problem: Problem, room: Room, domain: Domain) -> list[st
 
 def _adjacency_sane(problem: Problem) -> list[str]:
     findings = []
+    regions = {region.id for region in problem.regions or []}
     for k, adj in enumerate(problem.adjacency):
         if adj.a in adj.partners:
             findings.append(f"adjacency {k} asks room '{adj.a}' to touch itself")
             continue
+        if any(name in regions for name in (adj.a, *adj.partners)):
+            continue  # two regions face each other across an aisle: no room sizes to compare
         reach_a = _longest_side(problem.room(adj.a))
         reach = max(min(reach_a, _longest_side(problem.room(p))) for p in adj.partners)
         if adj.min_contact > reach + EPS:

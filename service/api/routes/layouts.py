@@ -40,7 +40,8 @@ router = APIRouter(prefix="/v1/layouts", tags=["layouts"])
 
 @router.post("", status_code=202, response_model=JobPublic, openapi_extra=PROBLEM_BODY_DOC,
              responses={409: {"description": "Idempotency-Key reused with another body"},
-                        413: {"description": "body too large"},
+                        413: {"description": "the body, or an outline, the obstacles "
+                                   "or the regions, larger than the service takes"},
                         422: {"description": "invalid problem"},
                         429: {"description": "queue full"}})
 def submit_layout(

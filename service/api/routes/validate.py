@@ -9,7 +9,7 @@ from typing import Annotated
 from fastapi import APIRouter, Query, Request
 
 from models import Problem as LayoutProblem
-from service.api.body import PROBLEM_BODY_DOC, problem_body
+from service.api.body import PROBLEM_BODY_DOC, problem_body, run_off_loop
 from service.api.deps import OwnerDep, SettingsDep
 from service.api.errors import ApiError
 from service.api.schemas import Validation
@@ -31,7 +31,9 @@ router = APIRouter(tags=["service"])
 
 @router.post("/v1/validate", response_model=Validation, openapi_extra=PROBLEM_BODY_DOC,
              response_model_exclude_unset=True,
-             responses={401: {"description": "API keys are set and none valid was given"}})
+             responses={401: {"description": "API keys are set and none valid was given"},
+                        413: {"description": "the body, or an outline, the obstacles or the "
+                              "regions, larger than the service takes"}})
 async def validate_problem(
     request: Request, settings: SettingsDep, _owner: OwnerDep,
     explain: Annotated[bool, Query(
@@ -53,7 +55,9 @@ async def validate_problem(
             raise
         return Validation(valid=False, errors=err.errors or [], findings=[])
     if not explain:
-        findings = await asyncio.to_thread(find_impossibilities, problem, make_domain(problem))
+        # Off the event loop (the domain too): the cheap checks still grow with the problem.
+        findings = await run_off_loop(
+            request, lambda: find_impossibilities(problem, make_domain(problem)))
         # exclude_unset on the answer: the problem shows what was given or filled in.
         return Validation(valid=not findings, errors=[], findings=findings, problem=problem)
     seconds = min(time_limit, settings.max_time_limit)
