@@ -1,9 +1,10 @@
-"""One floor's solve: demands, prechecks, level 1, the hierarchy, the last gaps and
-the independent check.
+"""One floor's solve: demands, prechecks, level 1, the hierarchy, the last gaps, the
+reshaping and the independent check.
 
 Time policy (paper Sec. 5.4): 5 s up to 20 rooms, growing in proportion beyond
-(`solver.budget`). Level 1 gets `LEVEL_ONE_SHARE` of it; the refinement levels share the
-rest.
+(`solver.budget`). The reshaping keeps `RESHAPE_SHARE` of it (capped) for the end; of
+the search time before, level 1 gets `LEVEL_ONE_SHARE` and the refinement levels share
+the rest. A search that finds no first layout may go on to the end.
 """
 
 from __future__ import annotations
