@@ -51,6 +51,10 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
     # Walls SCIP placed 1e-7 apart become exactly shared, as a CAD user expects.
     rooms = snap_rooms(room_boxes(pieces), *domain_lines(problem), OUTPUT_SNAP)
     check = check_layout(problem, rooms)
+    if not check.valid and (passing := run.passing_best()) is not None:
+        # Issue 19: a layout breaking a hard constraint is never the answer when a
+        # covering incumbent that passes was found.
+        rooms, check = passing
     polygons = {room.id: outline_of(rooms[room.id]) for room in problem.rooms}
     out = [
         RoomLayout(id=room.id, type=room.type, polygon=polygon_coords(polygons[room.id]),

@@ -80,4 +80,4 @@ def solve_floor(
     pieces = run.better_of(domain, absorb_gaps(problem, domain, pieces))
     run.deadline = end
     pieces = reshaped(run, domain, pieces, min(end, time.monotonic() + reshaping))
-    return final_layout(run, domain, run.valid_of(domain, pieces), levels)
+    return final_layout(run, domain, pieces, levels)

@@ -27,7 +27,7 @@ from solver.miqp.model import LevelModel
 from solver.miqp.scip_run import Incumbent, LevelResult, LevelStatus, run_level
 from solver.pipeline.hierarchy import Piece, absorbed, as_pieces, room_boxes
 from solver.soft import room_soft
-from solver.verify.checker import COVERAGE_GOAL, check_layout
+from solver.verify.checker import COVERAGE_GOAL, CheckResult, check_layout
 
 #: Separates a room's id from the number of a rectangle around an obstacle it wraps.
 WRAP_MARK = "~around"
@@ -70,10 +70,11 @@ class Run:
     #: The solve's own end; `deadline` ends the search before it, keeping time for
     #: the reshaping (0: the same as `deadline`).
     end: float = 0.0
-    #: The incumbent of lowest Eq. 12 meeting the coverage goal (gaps absorbed).
-    best: tuple[float, dict[str, list[Box]]] | None = None
-    #: The covering incumbents that were the best when found, newest last (at most
-    #: `KEPT_BESTS`): the answer falls back on the newest that passes the checker.
+    #: Eq. 12 of the best incumbent meeting the coverage goal (gaps absorbed) ...
+    best_objective: float | None = None
+    #: ... and the covering incumbents that were the best when found, newest (that
+    #: one) last, at most `KEPT_BESTS`: the answer falls back on the newest that passes
+    #: the checker.
     bests: list[dict[str, list[Box]]] = field(default_factory=list)
 
     def room_of(self, rect: str) -> str:
@@ -129,8 +130,9 @@ class Run:
         return it if stopped now."""
         rooms = absorbed(self.problem, domain, rooms)
         objective = layout_objective(self.problem, domain, rooms, soft=self.soft)
-        if covers(domain, rooms) and (self.best is None or objective < self.best[0]):
-            self.best = (objective, rooms)
+        if covers(domain, rooms) and (self.best_objective is None
+                                      or objective < self.best_objective):
+            self.best_objective = objective
             self.bests = [*self.bests[1 - KEPT_BESTS:], rooms]
         if self.on_event is not None:
             self.emit(Phase.INCUMBENT, subdomain=sub, subdomains=subs, rooms=rooms,
@@ -140,24 +142,23 @@ class Run:
         """The final `pieces`, unless they miss the coverage goal where an earlier
         incumbent met it, or an earlier covering one scores better: later steps trade
         coverage against size error, and may lose the bet."""
-        if self.best is None:
+        if self.best_objective is None:
             return pieces
         rooms = room_boxes(pieces)
         objective = layout_objective(self.problem, domain, rooms, soft=self.soft)
-        if covers(domain, rooms) and objective <= self.best[0]:
+        if covers(domain, rooms) and objective <= self.best_objective:
             return pieces
-        return as_pieces(self.best[1])
+        return as_pieces(self.bests[-1])
 
-    def valid_of(self, domain: Domain, pieces: list[Piece]) -> list[Piece]:
-        """The final `pieces`, unless they break a hard constraint where a covering
-        incumbent does not (issue 19: a layout breaking a hard constraint is never the
-        answer when a valid one was found): then the newest best one that passes."""
-        if not self.bests or _valid(self.problem, room_boxes(pieces)):
-            return pieces
+    def passing_best(self) -> tuple[dict[str, list[Box]], CheckResult] | None:
+        """The newest of `bests` that the checker passes, as the output gives it
+        (snapped), with its check; None when none does."""
         for rooms in reversed(self.bests):
-            if _valid(self.problem, rooms):
-                return as_pieces(rooms)
-        return pieces
+            snapped = snap_rooms(rooms, *domain_lines(self.problem), OUTPUT_SNAP)
+            check = check_layout(self.problem, snapped)
+            if check.valid:
+                return snapped, check
+        return None
 
     def run(self, lm: LevelModel, limit: float, *,
             on_incumbent: Callable[[Incumbent], None] | None = None) -> LevelResult:
@@ -187,11 +188,6 @@ def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box
         penalty = problem.weights.violation * sum(
             c.shortfall for c in checks if c.soft and not c.satisfied)
     return problem.weights.cover * uncovered + problem.weights.size * size + penalty
-
-
-def _valid(problem: Problem, rooms: dict[str, list[Box]]) -> bool:
-    """Whether the checker passes `rooms` as the output will give them (snapped)."""
-    return check_layout(problem, snap_rooms(rooms, *domain_lines(problem), OUTPUT_SNAP)).valid
 
 
 def covered(domain: Domain, rooms: dict[str, list[Box]]) -> float:

@@ -250,13 +250,13 @@ def test_a_layout_breaking_a_hard_constraint_is_never_the_answer() -> None:
     broken = [Piece("living", "living", Box(0, 0, 4, 6)), Piece("bed", "bed", Box(4, 0, 9, 6))]
     good = {"living": [Box(0, 0, 9, 3), Box(0, 3, 5, 6)], "bed": [Box(5, 3, 9, 6)]}
     # Without a valid incumbent the broken layout is kept, as a diagnostic only.
-    layout = final_layout(run, domain, run.valid_of(domain, broken), 1)
+    layout = final_layout(run, domain, broken, 1)
     assert not layout.report.valid and layout.rooms
     assert layout.report.termination is Termination.NO_SOLUTION
     assert layout.report.infeasibility is not None
     assert "diagnostic" in layout.report.infeasibility.reason
     # With one, the valid incumbent is the answer.
     run.incumbent(domain, good)
-    layout = final_layout(run, domain, run.valid_of(domain, broken), 1)
+    layout = final_layout(run, domain, broken, 1)
     assert layout.report.valid and layout.report.termination is not Termination.NO_SOLUTION
     assert {r.id: r.area for r in layout.rooms} == {"living": 42, "bed": 12}
