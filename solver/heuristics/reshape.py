@@ -29,8 +29,18 @@ from shapely.geometry import LineString, MultiLineString, Point, Polygon, box
 from shapely.geometry.base import BaseGeometry
 
 from models import Problem, Room
-from solver.geometry import GRID, Box, Domain, edges_named, rectangles_of, shared_wall_length
+from solver.geometry import (
+    GRID,
+    Box,
+    Domain,
+    GeometryError,
+    edges_named,
+    rectangles_of,
+    room_polygon,
+    shared_wall_length,
+)
 from solver.heuristics.level_one import shape_allowance
+from solver.soft import ratio_shortfall, size_shortfall
 
 #: A room's arms stay at least this thick (metres), or as thick as its minimum size
 #: allows when that is less: a thinner arm is no floor anyone can use.
@@ -119,7 +129,7 @@ def reshape(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
     best = (sum(c.total for c in cost.values()), dict(state))
     rng = random.Random(seed)
     steps = candidates = 0
-    pairs = _neighbour_pairs(state)
+    pairs, into_rooms = _neighbour_pairs(state)
     strips: dict[tuple[str, str], list[BaseGeometry]] = {}
     movable = sorted(needs)
     # The schedule counts steps tried, not seconds: the same layout and seed give the
@@ -137,7 +147,6 @@ def reshape(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
             a, b = rng.sample(movable, 2)
             new_a, new_b = state[b], state[a]
         else:
-            into_rooms = [ab for ab in pairs if ab[0].startswith(GAP)]
             # Uncovered floor is the costliest: rooms grow into it half the time.
             a, b = rng.choice(into_rooms if into_rooms and rng.random() < 0.5 else pairs)
             if (a, b) not in strips:
@@ -167,7 +176,7 @@ def reshape(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
             state.update(_gaps(domain, state))
             cost = {r: cost[r] if not r.startswith(GAP) else costs(r, p)
                     for r, p in state.items()}
-        pairs = _neighbour_pairs(state)
+        pairs, into_rooms = _neighbour_pairs(state)
         strips = {}
         total = sum(c.total for c in cost.values())
         if (total < best[0] - TOL and sum(c.size for c in cost.values()) <= start + TOL
@@ -196,8 +205,8 @@ def _covered(domain: Domain, state: Mapping[str, Polygon]) -> float:
 
 @dataclass(frozen=True)
 class _Cost:
-    size: float  # E_size (Eq. 6) of the bounding box
-    total: float  # plus the area term
+    size: float  # the Eq. 12 term: E_size (Eq. 6) of the bounding box, or a gap's cover
+    total: float  # plus the area and corner terms
 
 
 def _cost(needs: _Needs | None, shape: Polygon) -> _Cost:
@@ -229,8 +238,12 @@ def _needs(problem: Problem, domain: Domain, room: Room, shape: Polygon | None) 
 
 
 def _polygon(boxes: Sequence[Box]) -> Polygon | None:
-    shape = shapely.set_precision(shapely.union_all([b.to_polygon() for b in boxes]), GRID)
-    return shape if isinstance(shape, Polygon) and not shape.interiors else None
+    """A room's rectangles as one polygon without holes, or None."""
+    try:
+        shape = room_polygon(boxes)
+    except GeometryError:
+        return None
+    return None if shape.interiors else shape
 
 
 def _clean(shape: BaseGeometry, gap: bool = False) -> BaseGeometry | None:
@@ -249,15 +262,17 @@ def _corners(shape: Polygon) -> int:
     return len(shape.exterior.coords) - 1
 
 
-def _neighbour_pairs(state: Mapping[str, Polygon]) -> list[tuple[str, str]]:
-    """Ordered pairs of rooms sharing a wall (a gives, b takes)."""
+def _neighbour_pairs(state: Mapping[str, Polygon]
+                     ) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
+    """Ordered pairs of rooms sharing a wall (a gives, b takes), and those of them in
+    which a gap gives."""
     ids = sorted(state)
     tree = shapely.STRtree([state[r] for r in ids])
     pairs = []
     for i, j in zip(*tree.query([state[r] for r in ids], "touches"), strict=True):
         if i != j and shared_wall_length(state[ids[i]], state[ids[j]]) > MIN_STRIP:
             pairs.append((ids[i], ids[j]))
-    return pairs
+    return pairs, [ab for ab in pairs if ab[0].startswith(GAP)]
 
 
 def _strips(a: Polygon, b: Polygon, needs_a: _Needs | None,
@@ -369,16 +384,10 @@ def _shortfall(needs: _Needs, shape: Polygon) -> float:
     exterior walls (a missed wall counts 1)."""
     room = needs.room
     x0, y0, x1, y1 = shape.bounds
-    w, d = x1 - x0, y1 - y0
-    miss = 0.0
-    if room.min_size:
-        miss += max(0.0, room.min_size[0] - w) + max(0.0, room.min_size[1] - d)
-    if room.max_size:
-        miss += max(0.0, w - room.max_size[0]) + max(0.0, d - room.max_size[1])
+    size = (x1 - x0, y1 - y0)
+    miss = size_shortfall(size, room.min_size, room.max_size)
     if room.aspect_ratio:
-        lo, hi = room.aspect_ratio
-        long, short = max(w, d), min(w, d)
-        miss += max(0.0, long - hi * short) + max(0.0, lo * short - long)
+        miss += ratio_shortfall(size, room.aspect_ratio)
     miss += sum(shape.distance(Point(p)) for p in room.positions)
     if needs.edges and not any(shape.boundary.intersection(e).length > 1e-3
                                for e in needs.edges):
