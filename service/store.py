@@ -402,6 +402,13 @@ class JobStore:
                                 .order_by(events.c.seq)).all()
         return [Event(r.job_id, r.seq, r.kind, r.data) for r in rows]
 
+    def last_event(self, job_id: str) -> int:
+        """The sequence number of `job_id`'s newest event (0: none yet)."""
+        with self._tx() as conn:
+            last = conn.execute(select(func.max(events.c.seq))
+                                .where(events.c.job_id == job_id)).scalar()
+        return int(last or 0)
+
     def ping(self) -> bool:
         with self._tx() as conn:
             return conn.execute(select(1)).scalar() == 1

@@ -81,8 +81,11 @@ def parse_problem(raw: bytes, settings: Settings) -> LayoutProblem:
     that grows with them), then the model, then the service's own limits."""
     try:
         data = json.loads(raw)
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise ApiError(400, f"the body is not JSON: {err}", kind="malformed-json") from err
+    # ValueError: not JSON, not UTF-8, or an integer beyond Python's 4,300 digits;
+    # RecursionError: arrays or objects nested deeper than the parser goes.
+    except (ValueError, RecursionError) as err:
+        reason = "nested too deeply" if isinstance(err, RecursionError) else str(err)[:200]
+        raise ApiError(400, f"the body is not JSON: {reason}", kind="malformed-json") from err
     oversized = size_errors(data, settings)
     if oversized:
         raise ApiError(413, "the problem is larger than this service takes: "

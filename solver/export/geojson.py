@@ -36,13 +36,15 @@ def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
                    (o.x, o.y + o.depth)]
         features.append(_feature("Polygon", [_ring(corners)], kind="obstacle", label=o.label))
     for room in layout.rooms:
+        # A room the solve left empty (no area) is an empty Polygon (RFC 7946, 3.1).
         features.append(_feature(
-            "Polygon", [_ring(room.polygon)], kind="room", id=room.id, type=room.type,
-            area=room.area, size_error=layout.report.size_error.get(room.id),
+            "Polygon", [_ring(room.polygon)] if room.polygon else [], kind="room", id=room.id,
+            type=room.type, area=room.area, size_error=layout.report.size_error.get(room.id),
             region=room.region,
         ))
     for aisle in layout.aisles:
-        features.append(_feature("Polygon", [_ring(aisle.polygon)], kind="aisle", id=aisle.id,
+        features.append(_feature("Polygon", [_ring(aisle.polygon)] if aisle.polygon else [],
+                                 kind="aisle", id=aisle.id,
                                  area=aisle.area, width=aisle.width, regions=aisle.regions))
     for door in layout.doors:
         features.append(_feature("LineString", [list(p) for p in door.segment], kind="door",
@@ -67,5 +69,6 @@ def _feature(geometry: str, coordinates: list[Any], **properties: Any) -> dict[s
 
 
 def _ring(points: Any) -> list[list[float]]:
+    """A closed ring; none for no points (a room the solve left empty)."""
     ring = [[float(x), float(y)] for x, y in points]
-    return [*ring, ring[0]]
+    return [*ring, ring[0]] if ring else []

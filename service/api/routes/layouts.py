@@ -34,6 +34,11 @@ STREAM_POLL = 1.0
 HEARTBEAT = 15.0
 #: Retry-After (seconds) suggested when the queue is full.
 RETRY_AFTER = 5
+#: A Last-Event-ID: the decimal digits of an event's sequence number, which fits a
+#: signed 64-bit integer (or nothing).
+EVENT_ID = r"^[0-9]{0,18}$"
+#: Longest cursor taken: the ones given out are about 80 characters.
+CURSOR_MAX = 256
 
 router = APIRouter(prefix="/v1/layouts", tags=["layouts"])
 
@@ -88,7 +93,8 @@ def list_layouts(
     store: StoreDep, owner: OwnerDep,
     status: JobStatus | None = None,
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
-    cursor: str | None = None,
+    cursor: Annotated[str | None, Query(
+        max_length=CURSOR_MAX, description="next_cursor of the previous page")] = None,
 ) -> JobPage:
     """The caller's jobs, newest first, a page at a time."""
     after = _decode_cursor(cursor) if cursor else None
@@ -130,12 +136,22 @@ def get_result(
 @router.get("/{job_id}/events", responses={200: {"content": {"text/event-stream": {}}}})
 async def stream_events(
     job: JobDep, backend: BackendDep,
-    last_event_id: Annotated[str | None, Header()] = None,
+    store: StoreDep,
+    last_event_id: Annotated[str | None, Header(
+        pattern=EVENT_ID, description="resume after this event: the id of one this job's "
+        "stream sent")] = None,
 ) -> StreamingResponse:
     """Server-Sent Events: `status`, `progress`, `incumbent` (with the incumbent layout).
     Each event's id works as Last-Event-ID to resume; progress and incumbents come at
-    most twice a second, always the newest. The stream ends with the job."""
-    after = int(last_event_id) if last_event_id and last_event_id.isdigit() else 0
+    most twice a second, always the newest. The stream ends with the job. A
+    Last-Event-ID that is not a number is a 422; one past the job's last event a 400."""
+    after = 0
+    if last_event_id:  # an empty one, as EventSource may send, is no id
+        after = int(last_event_id)
+        newest = await asyncio.to_thread(store.last_event, job.id)
+        if after > newest:
+            raise ApiError(400, f"Last-Event-ID {after} is past this job's last event "
+                           f"({newest})", kind="bad-last-event-id")
     return StreamingResponse(_events(backend, job.id, after), media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
 
@@ -187,7 +203,11 @@ def _encode_cursor(job: Job) -> str:
 def _decode_cursor(cursor: str) -> tuple[float, str]:
     try:
         created, job_id = json.loads(base64.urlsafe_b64decode(cursor.encode()))
-        return float(created), str(job_id)
-    except (ValueError, TypeError) as err:
+        if not isinstance(created, int | float) or not isinstance(job_id, str):
+            raise TypeError(cursor)
+        return float(created), job_id
+    # ValueError: not base64, not UTF-8, not JSON, a number of thousands of digits;
+    # RecursionError: JSON nested deeper than the parser goes.
+    except (ValueError, TypeError, RecursionError) as err:
         raise ApiError(400, "the cursor is not one this service gave out",
                        kind="bad-cursor") from err
