@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ipaddress
 import os
 from functools import lru_cache
 from pathlib import Path
@@ -9,6 +10,18 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+#: The names a service bound to loopback answers to by default.
+LOOPBACK_NAMES = ("localhost", "127.0.0.1", "[::1]")
+
+
+def _is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
 
 
 class Settings(BaseSettings):
@@ -93,12 +106,27 @@ class Settings(BaseSettings):
         "its own jobs",
     )
 
-    @field_validator("api_keys", mode="before")
+    allowed_hosts: Annotated[list[str] | None, NoDecode] = Field(
+        None, description="comma-separated host names the service answers to (the Host "
+        "header, without port, IPv6 in brackets; `*.example.com` for subdomains, `*` for "
+        "any); other hosts "
+        "get 400. Default: the loopback names when `host` is a loopback address (no DNS "
+        "rebinding onto a local service), else any",
+    )
+
+    @field_validator("api_keys", "allowed_hosts", mode="before")
     @classmethod
     def _comma_separated(cls, value: Any) -> Any:
         if isinstance(value, str):
             return [key.strip() for key in value.split(",") if key.strip()]
         return value
+
+    @property
+    def trusted_hosts(self) -> list[str]:
+        """`allowed_hosts`, or its default for the address the service listens on."""
+        if self.allowed_hosts is not None:
+            return self.allowed_hosts
+        return list(LOOPBACK_NAMES) if _is_loopback(self.host) else ["*"]
 
     @property
     def database_path(self) -> Path:

@@ -15,7 +15,7 @@ from fastapi.openapi.utils import get_openapi
 from models import Problem as LayoutProblem
 from models.templates import TemplatedProblem
 from service.api import web
-from service.api.errors import ProblemDetails, install
+from service.api.errors import ProblemDetails, TrustedHosts, install
 from service.api.routes import health, layouts, validate
 from service.jobs.factory import make_backend
 from service.settings import Settings, get_settings
@@ -43,6 +43,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         "fetch the layout. Errors are RFC 9457 problem documents.",
     )
     install(app)
+    app.add_middleware(TrustedHosts, allowed_hosts=settings.trusted_hosts)
     app.include_router(layouts.router)
     app.include_router(validate.router)
     app.include_router(health.router)

@@ -54,7 +54,14 @@ async def problem_body(request: Request, settings: SettingsDep) -> tuple[LayoutP
     """The request body as a validated problem, within the size limits. The body is read
     on the event loop; parsing and validating it, which takes time in proportion to its
     size, runs in a worker thread, at most `FLOORPLAN_PARSE_THREADS` at once, so that a
-    large body does not hold up /healthz or anyone else's request."""
+    large body does not hold up /healthz or anyone else's request. Only a body sent as
+    `application/json`: the types a web page may post to another site without asking
+    (text/plain, forms) are refused with 415, before the body is read."""
+    media_type = request.headers.get("content-type", "").partition(";")[0].strip().lower()
+    if media_type != "application/json":
+        raise ApiError(415, f"the body must be sent as application/json, not "
+                       f"{media_type[:100] or 'without a Content-Type'}",
+                       kind="unsupported-media-type", headers={"Accept-Post": "application/json"})
     declared = request.headers.get("content-length")
     if declared and declared.isdigit() and int(declared) > settings.max_body_bytes:
         raise ApiError(413, f"the body exceeds {settings.max_body_bytes} bytes",

@@ -11,7 +11,10 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ValidationError
+from starlette.datastructures import Headers
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.middleware.trustedhost import TrustedHostMiddleware
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from models.jobs import FieldError
 
@@ -72,6 +75,37 @@ def problem_response(
     )
     return JSONResponse(body.model_dump(exclude_none=True), status_code=status,
                         headers=headers, media_type=PROBLEM_JSON)
+
+
+class TrustedHosts:
+    """Starlette's TrustedHostMiddleware (FLOORPLAN_ALLOWED_HOSTS), its refusal of a
+    Host header not allowed answered with a problem document (400 untrusted-host)."""
+
+    def __init__(self, app: ASGIApp, allowed_hosts: Sequence[str]) -> None:
+        self.app = app
+        self.check = TrustedHostMiddleware(self._trusted, allowed_hosts=allowed_hosts,
+                                           www_redirect=False)
+
+    async def _trusted(self, scope: Scope, receive: Receive, send: Send) -> None:
+        scope[_TRUSTED] = True
+        await self.app(scope, receive, send)
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        async def passed_or_refused(message: Message) -> None:
+            if scope.get(_TRUSTED):
+                await send(message)
+            elif message["type"] == "http.response.start":  # the middleware's refusal
+                host = Headers(scope=scope).get("host", "")[:100]
+                await problem_response(
+                    Request(scope), 400, f"this service does not answer to host {host!r} "
+                    "(FLOORPLAN_ALLOWED_HOSTS)", kind="untrusted-host",
+                )(scope, receive, send)
+
+        await self.check(scope, receive, passed_or_refused)
+
+
+#: The key in a request's scope that says its Host header was allowed.
+_TRUSTED = "floorplan.trusted_host"
 
 
 def install(app: FastAPI) -> None:

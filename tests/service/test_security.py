@@ -414,3 +414,95 @@ def test_a_page_of_jobs_leaves_the_stored_layouts_in_the_database(tmp_path: Path
     assert listed.result is None and listed.problem == "" and listed.incumbent is None
     full = store.get(job.id, owner="o")
     assert full is not None and full.result is not None and len(full.result) == 1_000_000
+
+
+# Issue 20, 11: cross-site requests and DNS rebinding onto a service on loopback.
+
+
+@pytest.fixture(scope="module")
+def open_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    """No keys (the default), on loopback with the default allowed hosts."""
+    server = Server(tmp_path_factory.mktemp("open"), **QUIET).start()
+    yield server
+    server.stop()
+
+
+@pytest.mark.parametrize("path", ["/v1/layouts", "/v1/validate"])
+@pytest.mark.parametrize("content_type", [
+    "text/plain", "application/x-www-form-urlencoded", "multipart/form-data; boundary=x",
+    None, "application/jsonp", "text/json",
+])
+def test_a_body_not_sent_as_json_is_a_415(open_server: Server, path: str,
+                                          content_type: str | None) -> None:
+    # What a web page of another site may post to a local service without a preflight.
+    headers = {"Content-Type": content_type} if content_type else {}
+    with httpx.Client(base_url=open_server.url, timeout=30) as client:
+        response = client.post(path, content=json.dumps(SMALL).encode(), headers=headers)
+        assert response.status_code == 415, response.text
+        assert response.headers["content-type"] == "application/problem+json"
+        assert response.json()["type"].endswith("/unsupported-media-type")
+        assert response.headers["accept-post"] == "application/json"
+        assert client.get("/v1/layouts").json()["data"] == []  # nothing queued
+
+
+def test_json_with_a_charset_and_the_python_client_and_cli_still_get_through(
+        open_server: Server, tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    from floorplan_client import Client
+
+    with httpx.Client(base_url=open_server.url, timeout=30) as client:
+        response = client.post("/v1/validate", content=json.dumps(SMALL).encode(),
+                               headers={"Content-Type": "Application/JSON; charset=utf-8"})
+        assert response.status_code == 200 and response.json()["valid"]
+    with Client(open_server.url) as sdk:
+        assert sdk.validate(SMALL).valid
+        job = sdk.submit(SMALL)
+        job.cancel()
+    problem = tmp_path / "small.json"
+    problem.write_text(json.dumps(SMALL))
+    done = subprocess.run([sys.executable, "-m", "service", "submit", str(problem),
+                           "--server", open_server.url, "-q"],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    with httpx.Client(base_url=open_server.url, timeout=60) as client:
+        for listed in client.get("/v1/layouts").json()["data"]:
+            client.post(f"/v1/layouts/{listed['id']}/cancel")
+            wait(client, listed["id"])
+
+
+@pytest.mark.parametrize("host", ["evil.example", "evil.example:8000", "localhost.evil.example",
+                                  "127.0.0.1.nip.io", "0.0.0.0"])
+def test_a_service_on_loopback_answers_only_to_loopback_names(open_server: Server,
+                                                              host: str) -> None:
+    # DNS rebinding: a name the attacker controls, pointed at 127.0.0.1.
+    for path in ("/healthz", "/v1/layouts", "/"):
+        response = httpx.get(open_server.url + path, headers={"Host": host}, timeout=30)
+        assert response.status_code == 400, response.text
+        assert response.headers["content-type"] == "application/problem+json"
+        assert response.json()["type"].endswith("/untrusted-host")
+    posted = httpx.post(open_server.url + "/v1/layouts", json=SMALL, headers={"Host": host},
+                        timeout=30)
+    assert posted.status_code == 400
+
+
+@pytest.mark.parametrize("host", ["localhost", "LOCALHOST:1234", "127.0.0.1", "[::1]:8000"])
+def test_loopback_names_are_answered(open_server: Server, host: str) -> None:
+    response = httpx.get(open_server.url + "/healthz", headers={"Host": host}, timeout=30)
+    assert response.status_code == 200, response.text
+
+
+def test_the_allowed_hosts_are_a_setting(tmp_path: Path) -> None:
+    server = Server(tmp_path, FLOORPLAN_ALLOWED_HOSTS="plans.example, *.plans.example",
+                    **QUIET)
+    # The start waits for /readyz on 127.0.0.1, no longer an allowed name: ask by hand.
+    server.env["FLOORPLAN_ALLOWED_HOSTS"] += ",127.0.0.1"
+    server.start()
+    try:
+        for host, status in (("plans.example", 200), ("eu.plans.example:443", 200),
+                             ("localhost", 400), ("evil.example", 400)):
+            response = httpx.get(server.url + "/healthz", headers={"Host": host}, timeout=30)
+            assert response.status_code == status, (host, response.text)
+    finally:
+        server.stop()

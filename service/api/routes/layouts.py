@@ -47,6 +47,7 @@ router = APIRouter(prefix="/v1/layouts", tags=["layouts"])
              responses={409: {"description": "Idempotency-Key reused with another body"},
                         413: {"description": "the body, or an outline, the obstacles "
                                    "or the regions, larger than the service takes"},
+                        415: {"description": "the body not sent as application/json"},
                         422: {"description": "invalid problem"},
                         429: {"description": "queue full"}})
 def submit_layout(

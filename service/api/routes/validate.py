@@ -33,7 +33,8 @@ router = APIRouter(tags=["service"])
              response_model_exclude_unset=True,
              responses={401: {"description": "API keys are set and none valid was given"},
                         413: {"description": "the body, or an outline, the obstacles or the "
-                              "regions, larger than the service takes"}})
+                              "regions, larger than the service takes"},
+                        415: {"description": "the body not sent as application/json"}})
 async def validate_problem(
     request: Request, settings: SettingsDep, _owner: OwnerDep,
     explain: Annotated[bool, Query(
