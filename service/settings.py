@@ -60,6 +60,10 @@ class Settings(BaseSettings):
         description="solves running at once, each in its own process",
     )
     data_dir: Path = Field(Path("data"), description="where the SQLite job store lives")
+    min_free_bytes: int = Field(
+        64 << 20, ge=0, description="free space the SQLite job store's disk must keep: "
+        "under it /readyz is 503 and new jobs are refused with 503 (0: no check)",
+    )
     max_body_bytes: int = Field(1 << 20, ge=1024, description="largest accepted request body")
     max_rooms: int = Field(400, ge=1, description="most rooms in one problem")
     max_vertices: int = Field(

@@ -15,6 +15,7 @@ the job. The reconciler (`requeue_stale`, `undispatched`) finds what was left be
 from __future__ import annotations
 
 import json
+import shutil
 import time
 import uuid
 from collections.abc import Iterator
@@ -35,7 +36,7 @@ from sqlalchemy import (
     update,
 )
 from sqlalchemy.engine import Connection
-from sqlalchemy.exc import IntegrityError
+from sqlalchemy.exc import DBAPIError, IntegrityError
 
 from models.jobs import JobStatus
 from service.migrations import upgrade
@@ -50,13 +51,23 @@ class IdempotencyConflict(Exception):
     """The same Idempotency-Key came with another body."""
 
 
+#: What the database driver raises when the store cannot do what it is asked: a full
+#: disk, a read-only file or server, a lost connection. The API answers it with 503.
+StoreUnavailable = DBAPIError
+
+
 class JobStore:
     """Job records and their events."""
 
-    def __init__(self, url: str, *, migrate: bool = True) -> None:
+    def __init__(self, url: str, *, migrate: bool = True, min_free_bytes: int = 0) -> None:
         self.engine: Engine = create_engine(url, pool_pre_ping=True)
+        #: The SQLite file's directory, whose free space `unwritable` watches.
+        self.directory: Path | None = None
+        self.min_free_bytes = min_free_bytes
         if url.startswith("sqlite"):
             event.listen(self.engine, "connect", _sqlite_pragmas)
+            if self.engine.url.database not in (None, "", ":memory:"):
+                self.directory = Path(str(self.engine.url.database)).resolve().parent
         if migrate:
             upgrade(self.engine)
 
@@ -409,6 +420,27 @@ class JobStore:
                                 .where(events.c.job_id == job_id)).scalar()
         return int(last or 0)
 
+    def unwritable(self) -> str | None:
+        """Why the store cannot take a job now, or None when it can: a write is refused
+        (a read-only file or mount, a read-only PostgreSQL), or the SQLite file's
+        directory has less than `min_free_bytes` left (a job accepted there would be
+        lost when its solve's writes fail)."""
+        if self.directory is not None and self.min_free_bytes:
+            try:
+                free = shutil.disk_usage(self.directory).free
+            except OSError as err:
+                return f"its directory is not readable ({err.strerror})"
+            if free < self.min_free_bytes:
+                return (f"its disk has {free} bytes free, under the {self.min_free_bytes} "
+                        "of FLOORPLAN_MIN_FREE_BYTES")
+        try:  # a write that changes nothing: refused all the same by a read-only store
+            with self._tx() as conn:
+                conn.execute(update(jobs).where(jobs.c.id == _PROBE)
+                             .values(updated_at=jobs.c.updated_at))
+        except DBAPIError as err:
+            return f"it refuses writes ({str(err.orig)[:200]})"
+        return None
+
     def ping(self) -> bool:
         with self._tx() as conn:
             return conn.execute(select(1)).scalar() == 1
@@ -430,6 +462,8 @@ def _sqlite_pragmas(dbapi_connection: Any, _record: Any) -> None:
     cursor.close()
 
 
+#: No job has this id: `unwritable` writes to it, which changes nothing.
+_PROBE = "-"
 #: The columns a listing leaves out: the documents, megabytes each for a large floor.
 _HEAVY = frozenset({"problem", "result", "incumbent"})
 

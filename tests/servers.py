@@ -29,12 +29,16 @@ class Server:
         self.process: subprocess.Popen[bytes] | None = None
 
     def start(self) -> Server:
+        return self.start_logging(None)
+
+    def start_logging(self, log: Any) -> Server:
+        """Start with its stdout and stderr into `log` (an open file; None: inherited)."""
         env = {**os.environ, **self.env}
         self.process = subprocess.Popen(
             [sys.executable, "-m", "service", "serve", "--port", str(self.port),
              "--data-dir", str(self.data_dir), "--workers", self.env.get("WORKERS", "2"),
              "--log-level", "warning"],
-            env=env, start_new_session=True,
+            env=env, start_new_session=True, stdout=log, stderr=log,
         )
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline:

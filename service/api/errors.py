@@ -11,12 +11,14 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ValidationError
+from sqlalchemy.exc import IntegrityError
 from starlette.datastructures import Headers
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from models.jobs import FieldError
+from service.store import StoreUnavailable
 
 log = logging.getLogger("floorplan.api")
 
@@ -24,6 +26,8 @@ PROBLEM_JSON = "application/problem+json"
 #: Problem type URIs are relative references into the docs; "about:blank" means the
 #: HTTP status says it all (RFC 9457 §4.2.1).
 TYPE_BASE = "/docs/problems/"
+#: Retry-After (seconds) when the store cannot write.
+STORE_RETRY_AFTER = 30
 
 
 class ProblemDetails(BaseModel):
@@ -133,6 +137,17 @@ def install(app: FastAPI) -> None:
         detail = err.detail if isinstance(err.detail, str) else HTTPStatus(err.status_code).phrase
         return problem_response(request, err.status_code, detail,
                                 headers=getattr(err, "headers", None))
+
+    @app.exception_handler(StoreUnavailable)
+    async def store_unavailable(request: Request, err: StoreUnavailable) -> JSONResponse:
+        if isinstance(err, IntegrityError):  # a bug, not the store's state
+            return await unexpected(request, err)
+        log.warning("the store refused %s %s: %s", request.method, request.url.path,
+                    str(err.orig)[:300])
+        return problem_response(request, 503, "the job store cannot take this request now "
+                                "(it is full, read-only or away); try again later",
+                                kind="store-unavailable",
+                                headers={"Retry-After": str(STORE_RETRY_AFTER)})
 
     @app.exception_handler(Exception)
     async def unexpected(request: Request, err: Exception) -> JSONResponse:

@@ -24,7 +24,7 @@ class EmbeddedBackend(JobBackend):
 
     def __init__(self, settings: Settings) -> None:
         self.settings = settings
-        self.store = JobStore(settings.store_url)
+        self.store = JobStore(settings.store_url, min_free_bytes=settings.min_free_bytes)
         self.runner = Runner(self.store, settings)
 
     def start(self) -> None:
@@ -40,8 +40,9 @@ class EmbeddedBackend(JobBackend):
         self.runner.cancel(job_id)
 
     def health(self) -> dict[str, Any]:
-        ready = self.store.ping() and self.runner.alive
-        return {"ready": ready, "running": self.runner.running,
+        unwritable = self.store.unwritable()
+        ready = self.store.ping() and self.runner.alive and unwritable is None
+        return {"ready": ready, "store": unwritable or "ok", "running": self.runner.running,
                 "queued": self.store.count(JobStatus.QUEUED)}
 
     async def wait_for_events(self, job_id: str, timeout: float) -> None:

@@ -40,8 +40,11 @@ STARTUP_SECONDS = 10.0
 EVENT_INTERVAL = 0.5
 #: How often the runner looks for new work when nobody wakes it (seconds).
 POLL_SECONDS = 0.5
-#: Tries at recording a job's end when the store does not answer, a second apart.
-FINISH_ATTEMPTS = 5
+#: Longest wait (seconds) of the dispatcher after errors in a row, each doubling it.
+BACKOFF_MAX = 30.0
+#: Seconds a job's end is tried again while the store refuses it (it is then lost, and
+#: run again after a restart).
+FINISH_PATIENCE = 600.0
 #: Seconds the waiting solve processes get to exit by themselves at shutdown.
 CLOSE_SECONDS = 5.0
 
@@ -247,17 +250,23 @@ class _Watch:
             process.kill()
 
     def record_end(self) -> None:
-        """Record how the job ended; the result is worth a few tries."""
-        for attempt in range(FINISH_ATTEMPTS):
+        """Record how the job ended. The result is worth waiting for: while the store
+        refuses the write (a full disk, the database away), try again, each wait twice
+        the last (at most BACKOFF_MAX), for up to FINISH_PATIENCE seconds."""
+        give_up = time.monotonic() + FINISH_PATIENCE
+        delay = 1.0
+        while True:
             try:
                 _finish(self.job, self.store, self.outcome, self.child.process.exitcode,
                         self.killed, self.worker)
                 break
-            except Exception:
-                if attempt == FINISH_ATTEMPTS - 1:
+            except Exception as err:
+                if time.monotonic() + delay > give_up:
                     raise
-                log.warning("job %s: the end not recorded yet; trying again", self.job.id)
-                time.sleep(1.0)
+                log.warning("job %s: the end not recorded yet (%s); trying again in %.0f s",
+                            self.job.id, str(err)[:200], delay)
+                time.sleep(delay)
+                delay = min(delay * 2, BACKOFF_MAX)
         self.announce()
 
 
@@ -371,6 +380,7 @@ class Runner:
 
     def _dispatch(self) -> None:
         last_purge = 0.0
+        failures = 0
         while not self._stopping.is_set():
             try:
                 while self.running < self.settings.workers and not self._stopping.is_set():
@@ -382,8 +392,20 @@ class Runner:
                 if time.monotonic() - last_purge > 60:
                     last_purge = time.monotonic()
                     self.store.purge(time.time() - self.settings.retention_hours * 3600)
-            except Exception:  # keep dispatching whatever one job did
-                log.exception("dispatcher error")
+            except Exception as err:  # keep dispatching whatever one job did, backing off
+                failures += 1
+                delay = min(POLL_SECONDS * 2 ** failures, BACKOFF_MAX)
+                if failures == 1:
+                    log.exception("dispatcher error; trying again in %.0f s", delay)
+                else:
+                    log.warning("dispatcher error, %d in a row; trying again in %.0f s: %s",
+                                failures, delay, str(err)[:300])
+                # Submissions do not wake it meanwhile: the store is what failed.
+                self._stopping.wait(delay)
+                continue
+            if failures:
+                log.info("dispatcher working again after %d errors", failures)
+                failures = 0
             self._wake.wait(POLL_SECONDS)
             self._wake.clear()
 
@@ -400,8 +422,11 @@ class Runner:
             watch(job, child, self.store, self.settings, stopping=self._stopping)
         except Exception:
             log.exception("monitor of job %s failed", job.id)
-            self.store.finish(job.id, JobStatus.FAILED,
-                              error={"code": "internal", "message": "the service lost this job"})
+            try:
+                self.store.finish(job.id, JobStatus.FAILED, error={
+                    "code": "internal", "message": "the service lost this job"})
+            except Exception as err:  # the store still refuses: a restart runs it again
+                log.error("job %s: not recorded as failed either (%s)", job.id, str(err)[:200])
         finally:
             with self._lock:
                 self._active.pop(job.id, None)

@@ -11,7 +11,7 @@ router = APIRouter(tags=["service"])
 
 #: What /readyz shows only to a caller with a valid key when keys are set: the
 #: service's load, which is nobody else's business.
-FIGURES = ("running", "queued", "workers")
+FIGURES = ("running", "queued", "workers", "store")
 
 
 @router.get("/healthz")
@@ -22,13 +22,14 @@ def healthz() -> dict[str, str]:
 
 @router.get("/readyz")
 def readyz(backend: BackendDep, trusted: TrustedDep) -> JSONResponse:
-    """The store answers and jobs are dispatched (with the Celery backend, `broker`
-    says whether Redis answers; jobs accepted meanwhile wait in the store). The
-    `running`, `queued` and live `workers` figures need a valid key when keys are set."""
+    """The store answers and takes writes, and jobs are dispatched (with the Celery
+    backend, `broker` says whether Redis answers; jobs accepted meanwhile wait in the
+    store). `store` says why the store cannot take jobs, if it cannot. The `running`,
+    `queued`, `workers` and `store` figures need a valid key when keys are set."""
     try:
         health = backend.health()
     except Exception as err:  # the store is away
-        health = {"ready": False, "error": type(err).__name__}
+        health = {"ready": False, "store": type(err).__name__}
     ok = bool(health.pop("ready"))
     if not trusted:
         for figure in FIGURES:

@@ -19,7 +19,7 @@ from models.formats import BY_NAME, DEFAULT_FORMAT, MEDIA_TYPES, RENDERED_FORMAT
 from models.jobs import JobStatus
 from service.api.body import PROBLEM_BODY_DOC, ProblemBody
 from service.api.deps import BackendDep, JobDep, OwnerDep, SettingsDep, StoreDep
-from service.api.errors import ApiError
+from service.api.errors import STORE_RETRY_AFTER, ApiError
 from service.api.schemas import JobPage, JobPublic, job_public
 from service.jobs.backend import JobBackend
 from service.records import Job
@@ -49,7 +49,9 @@ router = APIRouter(prefix="/v1/layouts", tags=["layouts"])
                                    "or the regions, larger than the service takes"},
                         415: {"description": "the body not sent as application/json"},
                         422: {"description": "invalid problem"},
-                        429: {"description": "queue full"}})
+                        429: {"description": "queue full"},
+                        503: {"description": "the job store cannot take jobs (full disk, "
+                              "read-only)"}})
 def submit_layout(
     body: ProblemBody, response: Response, store: StoreDep, backend: BackendDep,
     settings: SettingsDep, owner: OwnerDep,
@@ -58,6 +60,10 @@ def submit_layout(
     """Queue a layout job. The answer names it in `Location`; follow it with
     GET /v1/layouts/{id}, its event stream, or its result."""
     problem, raw = body
+    unwritable = store.unwritable()
+    if unwritable is not None:  # accepted, the job would be lost: nothing is taken
+        raise ApiError(503, f"the job store cannot take jobs now: {unwritable}",
+                       kind="store-unavailable", headers={"Retry-After": str(STORE_RETRY_AFTER)})
     if store.count(JobStatus.QUEUED) >= settings.queue_limit:
         raise ApiError(429, "the queue is full; try again later", kind="queue-full",
                        headers={"Retry-After": str(RETRY_AFTER)})

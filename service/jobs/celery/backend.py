@@ -86,7 +86,7 @@ class CeleryBackend(JobBackend):
 
     def __init__(self, settings: Settings) -> None:
         self.settings = settings
-        self.store = JobStore(settings.store_url)
+        self.store = JobStore(settings.store_url, min_free_bytes=settings.min_free_bytes)
         self.celery = make_celery(settings)
         self.dispatcher = Dispatcher(settings, self.celery, self.store)
         identity = f"api@{socket.gethostname()}:{os.getpid()}"
@@ -121,12 +121,14 @@ class CeleryBackend(JobBackend):
         except redis.RedisError:
             broker = "down"
         # Accepting jobs needs only the store: with the broker down they wait in it.
-        ready = self.store.ping() and self.reconciler.alive
+        unwritable = self.store.unwritable()
+        ready = self.store.ping() and self.reconciler.alive and unwritable is None
         workers = 0
         if broker == "ok":
             pattern = f"{self.dispatcher.keys.workers}*"
             workers = sum(1 for _ in self.dispatcher.redis.scan_iter(pattern, count=500))
-        return {"ready": ready, "backend": self.name, "broker": broker, "workers": workers,
+        return {"ready": ready, "backend": self.name, "broker": broker,
+                "store": unwritable or "ok", "workers": workers,
                 "running": self.store.count(JobStatus.RUNNING),
                 "queued": self.store.count(JobStatus.QUEUED)}
 

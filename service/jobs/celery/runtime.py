@@ -35,7 +35,7 @@ class WorkerRuntime:
 
     def __init__(self, settings: Settings, celery: Celery) -> None:
         self.settings = settings
-        self.store = JobStore(settings.store_url)
+        self.store = JobStore(settings.store_url, min_free_bytes=settings.min_free_bytes)
         self.dispatcher = Dispatcher(settings, celery, self.store)
         self.identity = f"{socket.gethostname()}:{os.getpid()}"
         self.reconciler = Reconciler(settings, self.store, self.dispatcher, self.identity,
