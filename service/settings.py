@@ -84,6 +84,27 @@ class Settings(BaseSettings):
     )
     max_time_limit: float = Field(600.0, gt=0, description="largest options.time_limit allowed")
     queue_limit: int = Field(1000, ge=1, description="jobs waiting at most; beyond, 429")
+    max_jobs_per_key: int = Field(
+        100, ge=1, description="queued and running jobs of one API key (of everyone when "
+        "keys are off) at most; beyond, 429 too-many-jobs. Keep it under queue_limit so "
+        "that one key cannot fill the queue for the others",
+    )
+    max_streams_per_key: int = Field(
+        20, ge=1, description="open event streams of one API key per API process; beyond, "
+        "429 too-many-streams",
+    )
+    max_streams: int = Field(
+        500, ge=1, description="open event streams per API process, every key's; beyond, "
+        "429 too-many-streams",
+    )
+    max_explains_per_key: int = Field(
+        2, ge=1, description="POST /v1/validate?explain=true calls of one API key at once "
+        "per API process; beyond, 429 too-many-explains",
+    )
+    explain_processes: int = Field(
+        2, ge=1, description="explaining validations (SCIP) running at once, each in a "
+        "process of the API node's own pool; more wait their turn",
+    )
     grace_seconds: float = Field(
         5.0, ge=0, description="after time_limit + grace a solve is interrupted, after another "
         "grace it is killed",

@@ -165,6 +165,13 @@ class JobStore:
                 select(func.count()).select_from(jobs).where(jobs.c.status == status)
             ).scalar_one())
 
+    def active(self, owner: str) -> int:
+        """`owner`'s jobs queued or running."""
+        with self._tx() as conn:
+            return int(conn.execute(select(func.count()).select_from(jobs).where(
+                jobs.c.owner == owner,
+                jobs.c.status.in_([JobStatus.QUEUED, JobStatus.RUNNING]))).scalar_one())
+
     # The runner's side.
 
     def claim_next(self) -> Job | None:

@@ -16,6 +16,7 @@ from models import Problem as LayoutProblem
 from models.templates import TemplatedProblem
 from service.api import web
 from service.api.errors import ProblemDetails, TrustedHosts, install
+from service.api.limits import Limits
 from service.api.routes import health, layouts, validate
 from service.jobs.factory import make_backend
 from service.settings import Settings, get_settings
@@ -30,10 +31,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.settings, app.state.backend = settings, backend
         # Bodies are parsed and validated in worker threads, this many at once.
         app.state.parse_limiter = anyio.CapacityLimiter(settings.parse_threads)
+        app.state.limits = Limits(settings)
         backend.start()
         try:
             yield
         finally:
+            app.state.limits.close()
             await backend.aclose()
             await asyncio.to_thread(backend.stop)
 

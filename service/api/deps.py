@@ -11,6 +11,7 @@ from uuid import UUID
 from fastapi import Depends, Header, Request
 
 from service.api.errors import ApiError
+from service.api.limits import Limits
 from service.jobs.backend import JobBackend
 from service.records import Job
 from service.settings import Settings
@@ -29,7 +30,12 @@ def store_dep(request: Request) -> JobStore:
     return request.app.state.backend.store
 
 
+def limits_dep(request: Request) -> Limits:
+    return request.app.state.limits
+
+
 SettingsDep = Annotated[Settings, Depends(settings_dep)]
+LimitsDep = Annotated[Limits, Depends(limits_dep)]
 StoreDep = Annotated[JobStore, Depends(store_dep)]
 BackendDep = Annotated[JobBackend, Depends(backend_dep)]
 

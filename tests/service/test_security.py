@@ -625,3 +625,141 @@ def test_the_dispatcher_backs_off_while_the_store_refuses_writes(
             assert any("working again" in r.getMessage() for r in caplog.records)
         finally:
             runner.stop()
+
+
+# Issue 20, 5 and 6: per-key fairness, and explain calls that starve nothing.
+
+FAIR_KEYS = ["alpha", "beta", "gamma", "delta"]
+
+
+def bearer(key: str) -> dict[str, str]:
+    return {"Authorization": f"Bearer {key}"}
+
+
+@pytest.fixture(scope="module")
+def fair(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    server = Server(tmp_path_factory.mktemp("fair"), FLOORPLAN_API_KEYS=",".join(FAIR_KEYS),
+                    FLOORPLAN_MAX_JOBS_PER_KEY="2", FLOORPLAN_QUEUE_LIMIT="4",
+                    FLOORPLAN_MAX_STREAMS_PER_KEY="2", FLOORPLAN_MAX_STREAMS="3",
+                    FLOORPLAN_MAX_EXPLAINS_PER_KEY="1", FLOORPLAN_EXPLAIN_PROCESSES="2",
+                    **QUIET).start()
+    yield server
+    server.stop()
+
+
+def assert_too_many(response: httpx.Response, variable: str) -> None:
+    assert response.status_code == 429, response.text
+    assert response.headers["content-type"] == "application/problem+json"
+    assert int(response.headers["retry-after"]) > 0
+    problem = response.json()
+    assert problem["type"].startswith("/docs/problems/too-many-")
+    assert variable in problem["detail"]
+
+
+def test_one_key_filling_its_quota_leaves_room_for_the_next(fair: Server) -> None:
+    from tests.service.test_service import LONG
+
+    with httpx.Client(base_url=fair.url, timeout=30) as client:
+        jobs = [client.post("/v1/layouts", json=LONG, headers=bearer("alpha"))
+                for _ in range(2)]
+        assert [j.status_code for j in jobs] == [202, 202]
+        assert_too_many(client.post("/v1/layouts", json=LONG, headers=bearer("alpha")),
+                        "FLOORPLAN_MAX_JOBS_PER_KEY")
+        other = client.post("/v1/layouts", json=SMALL, headers=bearer("beta"))
+        assert other.status_code == 202, other.text
+        # A finished job no longer counts.
+        client.post(f"/v1/layouts/{jobs[0].json()['id']}/cancel", headers=bearer("alpha"))
+        for job, key in ((jobs[0], "alpha"), (jobs[1], "alpha"), (other, "beta")):
+            wait_keyed(client, job.json()["id"], key, cancel=True)
+        again = client.post("/v1/layouts", json=SMALL, headers=bearer("alpha"))
+        assert again.status_code == 202
+        wait_keyed(client, again.json()["id"], "alpha", cancel=True)
+
+
+def wait_keyed(client: httpx.Client, job_id: str, key: str, cancel: bool = False) -> None:
+    if cancel:
+        client.post(f"/v1/layouts/{job_id}/cancel", headers=bearer(key))
+    deadline = time.monotonic() + 60
+    while client.get(f"/v1/layouts/{job_id}", headers=bearer(key)).json()["status"] in (
+            "queued", "running"):
+        assert time.monotonic() < deadline
+        time.sleep(0.2)
+
+
+def test_open_event_streams_are_limited_per_key_and_in_all(fair: Server) -> None:
+    from tests.service.test_service import LONG
+
+    with httpx.Client(base_url=fair.url, timeout=30) as client:
+        mine = client.post("/v1/layouts", json=LONG, headers=bearer("alpha")).json()["id"]
+        theirs = client.post("/v1/layouts", json=LONG, headers=bearer("beta")).json()["id"]
+        try:
+            def open_stream(job_id: str, key: str) -> Any:
+                return client.stream("GET", f"/v1/layouts/{job_id}/events",
+                                     headers=bearer(key))
+
+            with open_stream(mine, "alpha") as first, open_stream(mine, "alpha") as second:
+                assert first.status_code == second.status_code == 200
+                refused = client.get(f"/v1/layouts/{mine}/events", headers=bearer("alpha"))
+                assert_too_many(refused, "FLOORPLAN_MAX_STREAMS_PER_KEY")
+                with open_stream(theirs, "beta") as third:
+                    assert third.status_code == 200  # another key's first stream
+                    assert_too_many(client.get(f"/v1/layouts/{theirs}/events",
+                                               headers=bearer("beta")), "FLOORPLAN_MAX_STREAMS")
+            # Closed streams are given back.
+            deadline = time.monotonic() + 10
+            while True:
+                with open_stream(mine, "alpha") as s1, open_stream(mine, "alpha") as s2, \
+                        open_stream(theirs, "beta") as s3:
+                    if [s.status_code for s in (s1, s2, s3)] == [200] * 3:
+                        break
+                assert time.monotonic() < deadline, "closed streams still counted"
+                time.sleep(0.5)
+        finally:
+            wait_keyed(client, mine, "alpha", cancel=True)
+            wait_keyed(client, theirs, "beta", cancel=True)
+
+
+#: Infeasible by packing (12 rooms of at least 3.3 x 3.3 m in 16 x 9 m): explain's
+#: conflict search runs for seconds.
+TIGHT: dict[str, Any] = {
+    "boundary": [[0, 0], [16, 0], [16, 9], [0, 9]],
+    "rooms": [{"id": f"o{k}", "min_size": [3.3, 3.3], "max_size": [6, 6]} for k in range(12)],
+}
+
+
+def test_explain_calls_are_limited_per_key_and_starve_nothing(fair: Server) -> None:
+    answers: dict[str, httpx.Response] = {}
+
+    def explain(key: str) -> None:
+        answers[key] = httpx.post(f"{fair.url}/v1/validate", json=TIGHT, headers=bearer(key),
+                                  params={"explain": "true", "time_limit": "6"}, timeout=60)
+
+    with httpx.Client(base_url=fair.url, timeout=30) as client:
+        job = client.post("/v1/layouts", json=SMALL, headers=bearer("alpha")).json()["id"]
+        wait_keyed(client, job, "alpha")
+        calls = [threading.Thread(target=explain, args=(key,)) for key in FAIR_KEYS]
+        for call in calls:
+            call.start()
+        time.sleep(2)  # all four in flight: two explaining, two waiting for a process
+        fifth = client.post("/v1/validate", json=TIGHT, headers=bearer("alpha"),
+                            params={"explain": "true"})
+        assert_too_many(fifth, "FLOORPLAN_MAX_EXPLAINS_PER_KEY")
+        slowest = {"healthz": 0.0, "validate": 0.0, "events": 0.0}
+        while any(call.is_alive() for call in calls):
+            for name, call in (
+                    ("healthz", lambda: client.get("/healthz")),
+                    ("validate", lambda: client.post("/v1/validate", json=SMALL,
+                                                     headers=bearer("beta"))),
+                    ("events", lambda: client.get(f"/v1/layouts/{job}/events",
+                                                  headers=bearer("alpha")))):
+                started = time.monotonic()
+                assert call().status_code == 200
+                slowest[name] = max(slowest[name], time.monotonic() - started)
+            time.sleep(0.1)
+        for call in calls:
+            call.join()
+    assert [answers[key].status_code for key in FAIR_KEYS] == [200] * 4
+    # Infeasible: proved so, or left open when the time ran out; never feasible.
+    assert all(answers[key].json()["feasible"] is not True for key in FAIR_KEYS)
+    assert slowest["healthz"] < 0.2, slowest
+    assert slowest["validate"] < 1.0 and slowest["events"] < 1.0, slowest

@@ -18,8 +18,9 @@ from models import Problem as LayoutProblem
 from models.formats import BY_NAME, DEFAULT_FORMAT, MEDIA_TYPES, RENDERED_FORMAT_NAMES, FormatName
 from models.jobs import JobStatus
 from service.api.body import PROBLEM_BODY_DOC, ProblemBody
-from service.api.deps import BackendDep, JobDep, OwnerDep, SettingsDep, StoreDep
+from service.api.deps import BackendDep, JobDep, LimitsDep, OwnerDep, SettingsDep, StoreDep
 from service.api.errors import STORE_RETRY_AFTER, ApiError
+from service.api.limits import too_many
 from service.api.schemas import JobPage, JobPublic, job_public
 from service.jobs.backend import JobBackend
 from service.records import Job
@@ -49,7 +50,8 @@ router = APIRouter(prefix="/v1/layouts", tags=["layouts"])
                                    "or the regions, larger than the service takes"},
                         415: {"description": "the body not sent as application/json"},
                         422: {"description": "invalid problem"},
-                        429: {"description": "queue full"},
+                        429: {"description": "the queue full, or this key's jobs at their "
+                              "limit"},
                         503: {"description": "the job store cannot take jobs (full disk, "
                               "read-only)"}})
 def submit_layout(
@@ -64,6 +66,10 @@ def submit_layout(
     if unwritable is not None:  # accepted, the job would be lost: nothing is taken
         raise ApiError(503, f"the job store cannot take jobs now: {unwritable}",
                        kind="store-unavailable", headers={"Retry-After": str(STORE_RETRY_AFTER)})
+    mine = store.active(owner)
+    if mine >= settings.max_jobs_per_key:
+        raise too_many("this key's queued and running jobs", mine, settings.max_jobs_per_key,
+                       "FLOORPLAN_MAX_JOBS_PER_KEY", "too-many-jobs")
     if store.count(JobStatus.QUEUED) >= settings.queue_limit:
         raise ApiError(429, "the queue is full; try again later", kind="queue-full",
                        headers={"Retry-After": str(RETRY_AFTER)})
@@ -140,10 +146,11 @@ def get_result(
     return Response(body, media_type=MEDIA_TYPES[format], headers=headers)
 
 
-@router.get("/{job_id}/events", responses={200: {"content": {"text/event-stream": {}}}})
+@router.get("/{job_id}/events", responses={200: {"content": {"text/event-stream": {}}},
+                                           429: {"description": "open streams at their "
+                                                 "limit"}})
 async def stream_events(
-    job: JobDep, backend: BackendDep,
-    store: StoreDep,
+    job: JobDep, backend: BackendDep, store: StoreDep, owner: OwnerDep, limits: LimitsDep,
     last_event_id: Annotated[str | None, Header(
         pattern=EVENT_ID, description="resume after this event: the id of one this job's "
         "stream sent")] = None,
@@ -159,7 +166,8 @@ async def stream_events(
         if after > newest:
             raise ApiError(400, f"Last-Event-ID {after} is past this job's last event "
                            f"({newest})", kind="bad-last-event-id")
-    return StreamingResponse(_events(backend, job.id, after), media_type="text/event-stream",
+    return StreamingResponse(limits.stream(owner, _events(backend, job.id, after)),
+                             media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
 
 

@@ -3,28 +3,23 @@
 from __future__ import annotations
 
 import asyncio
-import threading
+from functools import partial
 from typing import Annotated
 
 from fastapi import APIRouter, Query, Request
 
-from models import Problem as LayoutProblem
 from service.api.body import PROBLEM_BODY_DOC, problem_body, run_off_loop
-from service.api.deps import OwnerDep, SettingsDep
+from service.api.deps import LimitsDep, OwnerDep, SettingsDep
 from service.api.errors import ApiError
 from service.api.schemas import Validation
 from solver.geometry import make_domain
-from solver.verify.conflicts import Diagnosis, diagnose
+from solver.verify.conflicts import diagnose
 from solver.verify.precheck import find_impossibilities
 
 #: Seconds POST /v1/validate?explain=true spends by default, and at most (never more
 #: than FLOORPLAN_MAX_TIME_LIMIT either).
 EXPLAIN_SECONDS = 3.0
 EXPLAIN_MAX_SECONDS = 30.0
-#: Explaining validations at once: their SCIP checks run in this process, so a burst
-#: of them must not take every core from the solves.
-EXPLAINS_AT_ONCE = 2
-_explaining = threading.BoundedSemaphore(EXPLAINS_AT_ONCE)
 
 router = APIRouter(tags=["service"])
 
@@ -34,9 +29,11 @@ router = APIRouter(tags=["service"])
              responses={401: {"description": "API keys are set and none valid was given"},
                         413: {"description": "the body, or an outline, the obstacles or the "
                               "regions, larger than the service takes"},
-                        415: {"description": "the body not sent as application/json"}})
+                        415: {"description": "the body not sent as application/json"},
+                        429: {"description": "this key's explaining validations at their "
+                              "limit"}})
 async def validate_problem(
-    request: Request, settings: SettingsDep, _owner: OwnerDep,
+    request: Request, settings: SettingsDep, owner: OwnerDep, limits: LimitsDep,
     explain: Annotated[bool, Query(
         description="also ask SCIP, briefly, whether a layout exists, and when none "
         "does, which constraints cannot hold together")] = False,
@@ -62,12 +59,14 @@ async def validate_problem(
         # exclude_unset on the answer: the problem shows what was given or filled in.
         return Validation(valid=not findings, errors=[], findings=findings, problem=problem)
     seconds = min(time_limit, settings.max_time_limit)
-    found = await asyncio.to_thread(_diagnose, problem, seconds)
+    release = limits.explain(owner)
+    try:
+        found = await asyncio.get_running_loop().run_in_executor(
+            limits.explain_pool, partial(diagnose, problem, time_limit=seconds))
+    finally:
+        release()
     return Validation(valid=not found.findings and found.feasible is not False, errors=[],
                       findings=found.findings, problem=problem, feasible=found.feasible,
                       conflict=found.conflict)
 
 
-def _diagnose(problem: LayoutProblem, seconds: float) -> Diagnosis:
-    with _explaining:
-        return diagnose(problem, time_limit=seconds)
