@@ -74,6 +74,10 @@ class Settings(BaseSettings):
         200, ge=0, le=1000, description="most obstacles (top-level, each floor's); beyond, "
         "413 before the problem is validated",
     )
+    max_extent: float = Field(
+        10_000.0, gt=0, description="widest or deepest outline (the boundary, each "
+        "floor's) in metres; beyond, 422 naming the outline",
+    )
     max_regions: int = Field(
         200, ge=0, description="most regions in one problem; beyond, 413 before the problem "
         "is validated",

@@ -164,3 +164,32 @@ def test_an_example_still_validates(server: Server, name: str) -> None:
     answer = response.json()
     assert answer["errors"] == []
     assert answer["valid"] is True
+
+
+#: Issue 20, 4: 276 bytes, a 200 km square, made 266,663 windows and an 82 MB SVG plan.
+COUNTRY = {"boundary": [[-1e5, -1e5], [1e5, -1e5], [1e5, 1e5], [-1e5, 1e5]],
+           "rooms": [{"id": "a", "positions": [[-1e5, -1e5]]},
+                     {"id": "b", "positions": [[1e5, 1e5]]}],
+           "entrance": [1e5, 0], "options": {"time_limit": 5}}
+
+
+def test_an_outline_beyond_ten_kilometres_is_refused_naming_it(server: Server) -> None:
+    with httpx.Client(base_url=server.url, timeout=60) as client:
+        refused = client.post("/v1/layouts", json=COUNTRY)
+        assert refused.status_code == 422, refused.text
+        assert refused.headers["content-type"] == "application/problem+json"
+        [error] = refused.json()["errors"]
+        assert error["field"] == "boundary" and error["type"] == "too_large"
+        assert "FLOORPLAN_MAX_EXTENT" in error["message"]
+        assert client.get("/v1/layouts").json()["data"] == []
+        checked = client.post("/v1/validate", json=COUNTRY).json()
+        assert not checked["valid"] and [e["field"] for e in checked["errors"]] == ["boundary"]
+        # A floor's own outline too; within 10 km an outline is only validated.
+        tower = square(rooms=[], floors=[
+            {"id": "ground", "rooms": [{"id": "a"}]},
+            {"id": "top", "rooms": [{"id": "b"}], "boundary": COUNTRY["boundary"]}])
+        assert [e["field"] for e in client.post("/v1/validate", json=tower).json()["errors"]
+                ] == ["floors.1.boundary"]
+        wide = {**COUNTRY, "boundary": [[0, 0], [9000, 0], [9000, 10], [0, 10]],
+                "rooms": [{"id": "a"}], "entrance": [10, 0]}
+        assert client.post("/v1/validate", json=wide).json()["errors"] == []
