@@ -102,7 +102,9 @@ def wall_segments(
     ring = orient(outline, sign=1.0).exterior
     lines = [ring, *(p.exterior for p in spaces.values())]
     noded = shapely.union_all(lines, grid_size=GRID)
-    boundaries = {key: poly.exterior for key, poly in spaces.items()}
+    keys = list(spaces)
+    boundaries = [spaces[k].exterior for k in keys]
+    tree = shapely.STRtree(boundaries)
     blocked = shapely.union_all([o.exterior for o in obstacles]) if obstacles else None
     runs: dict[tuple[tuple[str, ...], bool], list[LineString]] = defaultdict(list)
     for part in shapely.get_parts(noded):
@@ -112,8 +114,8 @@ def wall_segments(
                 continue
             mid = Point((a[0] + b[0]) / 2, (a[1] + b[1]) / 2)
             exterior = ring.distance(mid) < TOLERANCE
-            touching = tuple(sorted(k for k, line in boundaries.items()
-                                    if line.distance(mid) < TOLERANCE))
+            near = tree.query(mid, predicate="dwithin", distance=TOLERANCE)
+            touching = tuple(sorted(keys[k] for k in near))
             if not exterior:
                 if not touching or all(k in circulation for k in touching):
                     continue
@@ -193,17 +195,22 @@ def _moved(point: Coord, towards: Coord, by: float) -> Coord:
             point[1] + (towards[1] - point[1]) * by / length)
 
 
-def wall_of(walls: Sequence[WallSegment], segment: tuple[Coord, Coord]) -> WallSegment | None:
-    """The wall whose axis holds `segment` (a door's or a window's), else None.
+def walls_of(walls: Sequence[WallSegment], segments: Sequence[tuple[Coord, Coord]],
+             ) -> list[WallSegment | None]:
+    """For each of `segments` (doors', windows'), the wall whose edge holds it, else
+    None.
 
     >>> from shapely.geometry import box
     >>> walls = wall_segments({"a": box(0, 0, 3, 4), "b": box(3, 0, 5, 4)}, box(0, 0, 5, 4))
-    >>> wall_of(walls, ((3, 1), (3, 2))).spaces
-    ('a', 'b')
+    >>> [w and w.spaces for w in walls_of(walls, [((3, 1), (3, 2)), ((1, 1), (2, 1))])]
+    [('a', 'b'), None]
     """
-    a, b = Point(segment[0]), Point(segment[1])
-    for wall in walls:
-        axis = LineString(wall.edge)
-        if axis.distance(a) < TOLERANCE and axis.distance(b) < TOLERANCE:
-            return wall
-    return None
+    edges = [LineString(w.edge) for w in walls]
+    tree = shapely.STRtree(edges)
+    found: list[WallSegment | None] = []
+    for a, b in segments:
+        ends = [Point(a), Point(b)]
+        near = tree.query(LineString([a, b]), predicate="dwithin", distance=TOLERANCE)
+        found.append(next((walls[k] for k in sorted(near)
+                           if all(edges[k].distance(e) < TOLERANCE for e in ends)), None))
+    return found
