@@ -66,8 +66,11 @@ FORMATS: tuple[OutputFormat, ...] = (
     OutputFormat("ifc", "application/x-step", ("ifc",), binary=False,
                  description="an IFC4 building model"),
 )
-#: How high each storey of the IFC model is unless asked otherwise, metres.
+#: How high each storey of the IFC model is unless asked otherwise, metres, and the
+#: heights it may be: the lowest above the doors (2.1 m), the highest a tall hall's.
 DEFAULT_STOREY_HEIGHT = 3.0
+MIN_STOREY_HEIGHT = 2.4
+MAX_STOREY_HEIGHT = 20.0
 #: The layers of the DXF drawing: the AIA / US National CAD Standard names (``A-WALL``,
 #: ``A-AREA``, ...), or the older layer per room type (``ROOM_BEDROOM``).
 DxfLayers = Literal["ncs", "room-type"]
@@ -82,6 +85,13 @@ class ExportOptions:
     """IFC: metres from one storey's floor to the next; walls and spaces are as high."""
     dxf_layers: DxfLayers = "ncs"
     """DXF: the layer names (see `DxfLayers`)."""
+
+    def __post_init__(self) -> None:
+        if not MIN_STOREY_HEIGHT <= self.storey_height <= MAX_STOREY_HEIGHT:
+            raise ValueError(f"storey_height must be {MIN_STOREY_HEIGHT} to "
+                             f"{MAX_STOREY_HEIGHT} m, not {self.storey_height}")
+        if self.dxf_layers not in DXF_LAYERS:
+            raise ValueError(f"dxf_layers must be one of {DXF_LAYERS}, not {self.dxf_layers!r}")
 
 
 #: The formats by name.
@@ -99,6 +109,24 @@ DEFAULT_FORMAT: FormatName = "json"
 # The type checkers' names and the registry must agree.
 assert get_args(FormatName) == FORMAT_NAMES, "FormatName and FORMATS disagree"
 assert get_args(RenderedFormatName) == RENDERED_FORMAT_NAMES, "RenderedFormatName disagrees"
+
+
+def storey_height_of(text: str) -> float:
+    """A storey height written out (a command-line option), checked; ValueError says
+    what is wrong with it.
+
+    >>> storey_height_of("3.2")
+    3.2
+    >>> storey_height_of("1")
+    Traceback (most recent call last):
+    ...
+    ValueError: storey_height must be 2.4 to 20.0 m, not 1.0
+    """
+    try:
+        height = float(text)
+    except ValueError:
+        raise ValueError(f"not a number of metres: {text!r}") from None
+    return ExportOptions(storey_height=height).storey_height
 
 
 def format_of(filename: str, default: FormatName = DEFAULT_FORMAT) -> FormatName:

@@ -44,7 +44,7 @@ from ifcopenshell.util.shape_builder import ShapeBuilder
 from shapely.geometry import Polygon
 
 from models import Layout, Problem
-from models.formats import DEFAULT_STOREY_HEIGHT
+from models.formats import DEFAULT_STOREY_HEIGHT, ExportOptions
 from models.storeys import floor_view, spanned_floors
 from solver.export.floors import floor_layout
 from solver.export.walls import WallSegment, wall_segments, walls_of
@@ -70,9 +70,7 @@ def to_ifc(problem: Problem, layout: Layout, *,
            storey_height: float = DEFAULT_STOREY_HEIGHT) -> bytes:
     """The layout as an IFC4 file (STEP text): storeys `storey_height` metres apart,
     spaces, walls, doors, windows and obstacles, as the module docstring says."""
-    if not (math.isfinite(storey_height) and storey_height > DOOR_HEIGHT):
-        raise ValueError(f"storey height must exceed the doors' {DOOR_HEIGHT} m, "
-                         f"not {storey_height}")
+    ExportOptions(storey_height=storey_height)  # refuses a height out of range
     model = _Model.start(problem.name, storey_height)
     if layout.floors is not None and problem.floors is not None:
         verticals = {v.id: spanned_floors(problem, v) for v in problem.vertical}

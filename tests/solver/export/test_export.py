@@ -13,6 +13,7 @@ import pytest
 from shapely.geometry import shape
 
 from models import Layout, Problem
+from models.formats import ExportOptions
 from solver.export import render
 from solver.export.geojson import to_geojson
 from tests.paths import EXAMPLES
@@ -59,9 +60,10 @@ def test_geojson_carries_doors_and_windows_as_lines(example: tuple[Problem, Layo
     assert any(f["properties"]["kind"] == "window" for f in features)
 
 
-def test_dxf_opens_in_ezdxf_with_a_layer_per_room_type(example: tuple[Problem, Layout]) -> None:
+def test_dxf_by_room_type_opens_in_ezdxf_with_a_layer_per_room_type(example: tuple[Problem, Layout]) -> None:
     problem, layout = example
-    doc = ezdxf.read(io.StringIO(render(problem, layout, "dxf").decode()))
+    doc = ezdxf.read(io.StringIO(render(problem, layout, "dxf",
+                                        ExportOptions(dxf_layers="room-type")).decode()))
     assert doc.units == ezdxf.units.M
     msp = doc.modelspace()
     polylines = [e for e in msp if e.dxftype() == "LWPOLYLINE"]
