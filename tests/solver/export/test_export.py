@@ -60,7 +60,9 @@ def test_geojson_carries_doors_and_windows_as_lines(example: tuple[Problem, Layo
     assert any(f["properties"]["kind"] == "window" for f in features)
 
 
-def test_dxf_by_room_type_opens_in_ezdxf_with_a_layer_per_room_type(example: tuple[Problem, Layout]) -> None:
+def test_dxf_by_room_type_opens_in_ezdxf_with_a_layer_per_room_type(
+    example: tuple[Problem, Layout],
+) -> None:
     problem, layout = example
     doc = ezdxf.read(io.StringIO(render(problem, layout, "dxf",
                                         ExportOptions(dxf_layers="room-type")).decode()))
