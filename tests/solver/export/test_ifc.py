@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections import Counter
 from dataclasses import dataclass
 
@@ -16,11 +17,11 @@ import pytest
 from shapely.geometry import LineString, Point
 
 from models import Layout, Problem
-from solver import solve
 from solver.export import render
 from solver.export.ifc import DOOR_HEIGHT, to_ifc
 from solver.export.walls import FACADE_THICKNESS
-from tests.paths import CASES, EXAMPLES
+from tests.paths import EXAMPLES
+from tests.solver.export.conftest import READ_BACK, solved
 
 #: The NetFloorArea of a space, and the area of its shape, may differ from the
 #: layout's area of the room by this share at most.
@@ -34,15 +35,16 @@ class Exported:
     model: ifcopenshell.file
 
 
-@pytest.fixture(scope="module", params=["house-13", "two-storey-house"])
-def exported(request: pytest.FixtureRequest) -> Exported:
-    path = CASES / "house-13.json" if request.param == "house-13" \
-        else EXAMPLES / "two-storey-house.json"
-    problem = Problem.model_validate_json(path.read_text())
-    layout = solve(problem)
-    assert layout.report.valid
+@functools.cache
+def export(name: str) -> Exported:
+    problem, layout = solved(name)
     text = render(problem, layout, "ifc").decode()
     return Exported(problem, layout, ifcopenshell.file.from_string(text))
+
+
+@pytest.fixture(params=list(READ_BACK))
+def exported(request: pytest.FixtureRequest) -> Exported:
+    return export(request.param)
 
 
 def floors_of(e: Exported) -> list[tuple[str, Layout | object]]:
