@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import ezdxf
+import ifcopenshell
 import pytest
 from shapely.geometry import shape
 
@@ -94,6 +95,16 @@ def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) 
     )
     assert done.returncode == 0, done.stderr
     assert json.loads(geo.read_text())["type"] == "FeatureCollection"
+    ifc = tmp_path / "plan.ifc"
+    done = subprocess.run(
+        [sys.executable, "-m", "service", "solve", str(EXAMPLES / "apartment-5.json"),
+         "-o", str(ifc), "--storey-height", "2.8", "--quiet"],
+        capture_output=True, text=True, timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    model = ifcopenshell.open(str(ifc))
+    assert len(model.by_type("IfcSpace")) == 5
+    assert model.by_type("IfcWall")[0].Representation.Representations[0].Items[0].Depth == 2.8
 
 
 def test_every_output_format_has_a_writer() -> None:
