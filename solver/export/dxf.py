@@ -125,7 +125,7 @@ def _draw_floor(space: BaseLayout, problem: Problem, layout: Layout) -> None:
     shapes |= {aisle.id: Polygon(aisle.polygon) for aisle in layout.aisles}
     for room in layout.rooms:
         space.add_lwpolyline(room.polygon, close=True, dxfattribs={"layer": "A-AREA"})
-        label = space.add_mtext(f"{room.id}\\P{room.area:.2f} m²", dxfattribs={
+        label = space.add_mtext(f"{_mtext(room.id)}\\P{room.area:.2f} m²", dxfattribs={
             "layer": "A-AREA-IDEN", "char_height": ROOM_TEXT})
         label.set_location(_label_point(shapes[room.id]),
                            attachment_point=MTextEntityAlignment.MIDDLE_CENTER)
@@ -211,6 +211,17 @@ def _label_point(shape: Polygon) -> tuple[float, float]:
         return centre.x, centre.y
     inner = shapely.maximum_inscribed_circle(shape).coords[0]
     return inner[0], inner[1]
+
+
+def _mtext(text: str) -> str:
+    r"""User text as MTEXT content: its backslashes and braces escaped, so an id never
+    reads as formatting, and control characters as spaces.
+
+    >>> print(_mtext(r"a\Pb {x}"))
+    a\\Pb \{x\}
+    """
+    text = "".join(" " if ord(c) < 32 else c for c in text)
+    return text.replace("\\", "\\\\").replace("{", "\\{").replace("}", "\\}")
 
 
 def _clean(name: str) -> str:

@@ -17,6 +17,7 @@ from models import OUTSIDE, Layout, Problem
 from models.storeys import floor_view
 from solver.export import render
 from solver.export.floors import floor_layout
+from tests.paths import EXAMPLES
 
 NCS = {"A-WALL", "A-WALL-PATT", "A-DOOR", "A-GLAZ", "A-AREA", "A-AREA-IDEN", "A-FLOR-OTLN"}
 
@@ -93,3 +94,24 @@ def test_walls_have_their_thickness_and_open_at_doors_and_windows(
         assert len(space.query('ARC[layer=="A-DOOR"]')) == len(swinging)
         assert len(space.query('LINE[layer=="A-DOOR"]')) == len(swinging)
         assert len(polygons(space, "A-GLAZ")) == len(layout.windows)
+
+
+def test_user_text_reads_back_as_written_in_dxf_and_ifc() -> None:
+    """Room ids are user input: formatting codes, quotes, control characters and any
+    script come back as text, in the DXF's labels and the IFC's names."""
+    import ifcopenshell
+    import ifcopenshell.validate
+
+    problem = Problem.model_validate_json((EXAMPLES / "apartment-5.json").read_text())
+    layout = Layout.model_validate_json((EXAMPLES / "apartment-5.layout.json").read_text())
+    odd = "wc \\P {x} 'q' \"d\" \x01 été 浴室"
+    first = layout.rooms[0].model_copy(update={"id": odd})
+    layout = layout.model_copy(update={"rooms": [first, *layout.rooms[1:]]})
+    doc = read(problem, layout)
+    labels = [e.plain_text() for e in doc.modelspace().query('MTEXT[layer=="A-AREA-IDEN"]')]
+    assert odd.replace("\x01", " ") in [label.split("\n")[0] for label in labels]
+    model = ifcopenshell.file.from_string(render(problem, layout, "ifc").decode())
+    assert odd in {s.Name for s in model.by_type("IfcSpace")}
+    logger = ifcopenshell.validate.json_logger()
+    ifcopenshell.validate.validate(model, logger)
+    assert logger.statements == []
