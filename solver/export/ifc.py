@@ -98,8 +98,8 @@ class _Model:
     shared_spaces: dict[str, Any] = field(default_factory=dict)
     #: IfcDirection instances by their ratios, shared by every placement.
     directions: dict[tuple[float, ...], Any] = field(default_factory=dict)
-    #: Door and window types by class, width and depth: one per size, its shape mapped
-    #: into every door or window of that size.
+    #: Door and window types by class, width, height and wall thickness: one per size,
+    #: its shape mapped into every door or window of that size.
     types: dict[tuple[str, float, float, float], Any] = field(default_factory=dict)
 
     @classmethod
