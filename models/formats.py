@@ -7,13 +7,15 @@ Standard library only: the `floorplan` command reads it while it builds its opti
 before anything heavy may load (see `models`).
 
 >>> [f.name for f in FORMATS]
-['json', 'svg', 'dxf', 'geojson']
+['json', 'svg', 'dxf', 'geojson', 'ifc']
 >>> format_of("plan.SVG"), format_of("layout.txt"), format_of("-")
 ('svg', 'json', 'json')
 >>> MEDIA_TYPES["geojson"]
 'application/geo+json'
->>> in_words()
-'the layout JSON, an SVG plan, a DXF drawing in metres, or GeoJSON in the local frame'
+>>> in_words()[:60]
+'the layout JSON, an SVG plan, a DXF drawing in metres, GeoJS'
+>>> in_words()[60:]
+'ON in the local frame, or an IFC4 building model'
 """
 
 from __future__ import annotations
@@ -23,9 +25,9 @@ from pathlib import PurePath
 from typing import Literal, get_args
 
 #: The name of an output format (what ``format=`` and ``--format`` take).
-FormatName = Literal["json", "svg", "dxf", "geojson"]
+FormatName = Literal["json", "svg", "dxf", "geojson", "ifc"]
 #: The formats rendered from a layout, as opposed to the layout JSON itself.
-RenderedFormatName = Literal["svg", "dxf", "geojson"]
+RenderedFormatName = Literal["svg", "dxf", "geojson", "ifc"]
 
 
 @dataclass(frozen=True)
@@ -59,7 +61,39 @@ FORMATS: tuple[OutputFormat, ...] = (
                  description="a DXF drawing in metres"),
     OutputFormat("geojson", "application/geo+json", ("geojson",), binary=False,
                  description="GeoJSON in the local frame"),
+    # IFC's STEP physical file (ISO 10303-21): ASCII text. IANA registers no type for
+    # it; application/x-step is what BIM servers and buildingSMART's tools send.
+    OutputFormat("ifc", "application/x-step", ("ifc",), binary=False,
+                 description="an IFC4 building model"),
 )
+#: How high each storey of the IFC model is unless asked otherwise, metres, and the
+#: heights it may be: the lowest above the doors (2.1 m), the highest a tall hall's.
+DEFAULT_STOREY_HEIGHT = 3.0
+MIN_STOREY_HEIGHT = 2.4
+MAX_STOREY_HEIGHT = 20.0
+#: The layers of the DXF drawing: the AIA / US National CAD Standard names (``A-WALL``,
+#: ``A-AREA``, ...), or the older layer per room type (``ROOM_BEDROOM``).
+DxfLayers = Literal["ncs", "room-type"]
+DXF_LAYERS: tuple[DxfLayers, ...] = get_args(DxfLayers)
+
+
+@dataclass(frozen=True)
+class ExportOptions:
+    """How a rendered format is drawn, where the format leaves a choice."""
+
+    storey_height: float = DEFAULT_STOREY_HEIGHT
+    """IFC: metres from one storey's floor to the next; walls and spaces are as high."""
+    dxf_layers: DxfLayers = "ncs"
+    """DXF: the layer names (see `DxfLayers`)."""
+
+    def __post_init__(self) -> None:
+        if not MIN_STOREY_HEIGHT <= self.storey_height <= MAX_STOREY_HEIGHT:
+            raise ValueError(f"storey_height must be {MIN_STOREY_HEIGHT} to "
+                             f"{MAX_STOREY_HEIGHT} m, not {self.storey_height}")
+        if self.dxf_layers not in DXF_LAYERS:
+            raise ValueError(f"dxf_layers must be one of {DXF_LAYERS}, not {self.dxf_layers!r}")
+
+
 #: The formats by name.
 BY_NAME: dict[str, OutputFormat] = {f.name: f for f in FORMATS}
 #: The names of the formats, in order (for ``choices=``).
@@ -75,6 +109,24 @@ DEFAULT_FORMAT: FormatName = "json"
 # The type checkers' names and the registry must agree.
 assert get_args(FormatName) == FORMAT_NAMES, "FormatName and FORMATS disagree"
 assert get_args(RenderedFormatName) == RENDERED_FORMAT_NAMES, "RenderedFormatName disagrees"
+
+
+def storey_height_of(text: str) -> float:
+    """A storey height written out (a command-line option), checked; ValueError says
+    what is wrong with it.
+
+    >>> storey_height_of("3.2")
+    3.2
+    >>> storey_height_of("1")
+    Traceback (most recent call last):
+    ...
+    ValueError: storey_height must be 2.4 to 20.0 m, not 1.0
+    """
+    try:
+        height = float(text)
+    except ValueError:
+        raise ValueError(f"not a number of metres: {text!r}") from None
+    return ExportOptions(storey_height=height).storey_height
 
 
 def format_of(filename: str, default: FormatName = DEFAULT_FORMAT) -> FormatName:

@@ -28,7 +28,14 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from models.formats import FORMAT_NAMES, format_of, in_words
+from models.formats import (
+    DEFAULT_STOREY_HEIGHT,
+    DXF_LAYERS,
+    FORMAT_NAMES,
+    format_of,
+    in_words,
+    storey_height_of,
+)
 from service.cli.exits import (
     EXIT_FAILURE,
     EXIT_INTERRUPTED,
@@ -99,6 +106,13 @@ def _add_solve(commands: Any) -> None:
     p.add_argument("--svg", metavar="PLAN.svg", help="also draw the layout as SVG here")
     p.add_argument("--format", choices=FORMAT_NAMES,
                    help=f"what -o holds (default: from its extension, else json): {in_words()}")
+    p.add_argument("--storey-height", type=_storey_height, metavar="M",
+                   default=DEFAULT_STOREY_HEIGHT,
+                   help="ifc: metres from one storey's floor to the next (default "
+                   f"{DEFAULT_STOREY_HEIGHT:g}; also the DXF storeys' elevations)")
+    p.add_argument("--dxf-layers", choices=DXF_LAYERS, default="ncs",
+                   help="dxf: 'ncs' the AIA / US National CAD Standard layers (A-WALL, "
+                   "A-AREA, ...; default), 'room-type' the older layer per room type")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds for the whole solve (overrides options.time_limit)")
     p.add_argument("--seed", type=int, metavar="K", help="random seed (overrides options.seed)")
@@ -116,6 +130,13 @@ def _add_solve(commands: Any) -> None:
                    "sizes, adjacencies and exterior walls, options overridden) to -o "
                    "instead of solving; edit it and solve that file")
     p.set_defaults(func=cmd_solve)
+
+
+def _storey_height(text: str) -> float:
+    try:
+        return storey_height_of(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def _process_count(text: str) -> int:
@@ -304,6 +325,7 @@ def _check_writable(target: str | None) -> None:
 
 def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -> bool:
     """Write the layout JSON and the SVG; False (with a message) when one failed."""
+    from models.formats import ExportOptions
     from solver.export import render
     from solver.export.svg import render_svg
 
@@ -313,7 +335,9 @@ def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -
         if fmt == "json":
             _write_text(args.output, layout.model_dump_json(indent=2) + "\n")
         else:
-            _write_text(args.output, render(problem, layout, fmt).decode())
+            options = ExportOptions(storey_height=args.storey_height,
+                                    dxf_layers=args.dxf_layers)
+            _write_text(args.output, render(problem, layout, fmt, options).decode())
     except OSError as err:
         print(f"{PROG}: error: cannot write {args.output}: {err}", file=sys.stderr)
         ok = False

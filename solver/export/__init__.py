@@ -1,8 +1,10 @@
 """Layouts as files: one writer per output format, and `render` choosing among them.
 
-The formats are JSON (the layout itself), SVG plans (`svg.py`), DXF drawings (`dxf.py`)
-and GeoJSON (`geojson.py`), all in the problem's own metric frame. Adding a format is a
-writer here plus its entry in `models.formats` (docs/architecture.md)."""
+The formats are JSON (the layout itself), SVG plans (`svg.py`), DXF drawings (`dxf.py`),
+GeoJSON (`geojson.py`) and IFC4 building models (`ifc.py`), all in the problem's own
+metric frame. Adding a format is a writer here plus its entry in `models.formats`
+(docs/architecture.md). The choices a format leaves (a storey's height, the DXF's
+layer names) are `models.formats.ExportOptions`."""
 
 from __future__ import annotations
 
@@ -10,22 +12,28 @@ import json
 from collections.abc import Callable
 
 from models import Layout, Problem
-from models.formats import FormatName
+from models.formats import ExportOptions, FormatName
 from solver.export.dxf import to_dxf
 from solver.export.geojson import to_geojson
+from solver.export.ifc import to_ifc
 from solver.export.svg import render_svg
 
-Writer = Callable[[Problem, Layout], bytes]
+Writer = Callable[[Problem, Layout, ExportOptions], bytes]
 #: The writer of each format of `models.formats`: the bytes of the file.
 WRITERS: dict[str, Writer] = {
-    "json": lambda problem, layout: layout.model_dump_json(indent=2).encode(),
-    "svg": lambda problem, layout: render_svg(problem, layout).encode(),
-    "dxf": to_dxf,
-    "geojson": lambda problem, layout: json.dumps(to_geojson(problem, layout),
-                                                  indent=1).encode(),
+    "json": lambda problem, layout, _: layout.model_dump_json(indent=2).encode(),
+    "svg": lambda problem, layout, _: render_svg(problem, layout).encode(),
+    "dxf": lambda problem, layout, options: to_dxf(
+        problem, layout, layers=options.dxf_layers, storey_height=options.storey_height),
+    "geojson": lambda problem, layout, _: json.dumps(to_geojson(problem, layout),
+                                                     indent=1).encode(),
+    "ifc": lambda problem, layout, options: to_ifc(problem, layout,
+                                                   storey_height=options.storey_height),
 }
 
 
-def render(problem: Problem, layout: Layout, fmt: FormatName) -> bytes:
-    """`layout` in `fmt`, as the bytes of a file."""
-    return WRITERS[fmt](problem, layout)
+def render(problem: Problem, layout: Layout, fmt: FormatName,
+           options: ExportOptions | None = None) -> bytes:
+    """`layout` in `fmt`, as the bytes of a file, drawn as `options` say (else the
+    defaults)."""
+    return WRITERS[fmt](problem, layout, options or ExportOptions())

@@ -103,6 +103,9 @@ def test_submit_follow_the_events_wait_and_fetch_the_layout(fp: Client) -> None:
     assert job.info.started_at and job.info.finished_at and job.info.progress is not None
     svg = job.result(format="svg")
     assert svg.lstrip().startswith("<") and "<svg" in svg
+    ifc = job.result(format="ifc", storey_height=3.3)
+    assert "FILE_SCHEMA(('IFC4'))" in ifc and "IFCBUILDINGSTOREY" in ifc and "3.3" in ifc
+    assert "ROOM_BEDROOM" in job.result(format="dxf", dxf_layers="room-type")
     again = fp.get(job.id)
     assert again.id == job.id and again.status is JobStatus.SUCCEEDED
     assert again.refresh().finished_at == job.info.finished_at

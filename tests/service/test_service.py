@@ -15,6 +15,8 @@ from pathlib import Path
 from typing import Any
 
 import httpx2 as httpx
+import ifcopenshell
+import ifcopenshell.util.element
 import pytest
 
 from tests.servers import BACKENDS, AnyServer, service
@@ -118,6 +120,22 @@ def test_submit_follow_the_events_and_fetch_the_result(client: httpx.Client) -> 
     geo = client.get(f"/v1/layouts/{job['id']}/result", params={"format": "geojson"})
     assert geo.headers["content-type"] == "application/geo+json"
     assert geo.json()["type"] == "FeatureCollection"
+    ifc = client.get(f"/v1/layouts/{job['id']}/result",
+                     params={"format": "ifc", "storey_height": 2.8})
+    assert ifc.headers["content-type"] == "application/x-step"
+    assert f'filename="{job["id"]}.ifc"' in ifc.headers["content-disposition"]
+    model = ifcopenshell.file.from_string(ifc.text)
+    assert {s.Name for s in model.by_type("IfcSpace")} == {"living", "bed"}
+    assert {ifcopenshell.util.element.get_psets(s)["Qto_SpaceBaseQuantities"]["Height"]
+            for s in model.by_type("IfcSpace")} == {2.8}
+    too_low = client.get(f"/v1/layouts/{job['id']}/result",
+                         params={"format": "ifc", "storey_height": 1})
+    assert too_low.status_code == 422
+    ncs = client.get(f"/v1/layouts/{job['id']}/result", params={"format": "dxf"})
+    assert "A-AREA" in ncs.text and "ROOM_BEDROOM" not in ncs.text
+    by_type = client.get(f"/v1/layouts/{job['id']}/result",
+                         params={"format": "dxf", "dxf_layers": "room-type"})
+    assert "ROOM_BEDROOM" in by_type.text
 
     # Resuming after the third event replays only what came later.
     third = events[2][0]

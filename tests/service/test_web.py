@@ -191,6 +191,8 @@ def test_an_example_redraws_live_then_reports_and_downloads(page: Any, server: S
     features = json.loads(geojson)["features"]
     assert name == "apartment-5.geojson"
     assert {f["properties"].get("id") for f in features} >= set(APARTMENT_ROOMS)
+    name, ifc = download(page, "#download-ifc")
+    assert name == "apartment-5.ifc" and "FILE_SCHEMA(('IFC4'))" in ifc and "IFCSPACE" in ifc
     name, layout = download(page, "#download-json")
     assert name == "apartment-5.layout.json" and json.loads(layout)["report"]["valid"]
 

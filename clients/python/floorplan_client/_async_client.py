@@ -18,6 +18,7 @@ from floorplan_client._core import (
     BaseClient,
     BaseJob,
     BasePage,
+    DxfLayerNames,
     NotGiven,
     ProblemInput,
     RenderedFormat,
@@ -26,6 +27,7 @@ from floorplan_client._core import (
     Timeout,
     Tracker,
     problem_body,
+    result_params,
 )
 from floorplan_client._deadlines import deadline_after, expired, remaining
 from floorplan_client._exceptions import APIConnectionError, NoResultYet, WaitTimeout
@@ -181,17 +183,25 @@ class AsyncJob(BaseJob):
 
     @overload
     async def result(self, format: Literal["json"] = "json", *,
+                     storey_height: float | NotGiven = NOT_GIVEN,
+                     dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout: ...
 
     @overload
     async def result(self, format: RenderedFormat, *,
+                     storey_height: float | NotGiven = NOT_GIVEN,
+                     dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> str: ...
 
     async def result(self, format: ResultFormat = "json", *,
+                     storey_height: float | NotGiven = NOT_GIVEN,
+                     dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout | str:
-        """The job's layout, or its plan as SVG, DXF or GeoJSON text: see `Job.result`."""
+        """The job's layout, or as text its SVG plan, DXF drawing, GeoJSON or IFC model:
+        see `Job.result`."""
         options = RequestOptions("GET", f"/v1/layouts/{self.id}/result",
-                                 params={"format": format}, timeout=timeout)
+                                 params=result_params(format, storey_height, dxf_layers),
+                                 timeout=timeout)
         response = await self._client._send(options)
         if format != "json":
             self._client._expect_empty(response)

@@ -16,6 +16,7 @@ from floorplan_client._core import (
     BaseClient,
     BaseJob,
     BasePage,
+    DxfLayerNames,
     NotGiven,
     ProblemInput,
     RenderedFormat,
@@ -24,6 +25,7 @@ from floorplan_client._core import (
     Timeout,
     Tracker,
     problem_body,
+    result_params,
 )
 from floorplan_client._deadlines import deadline_after, expired, remaining
 from floorplan_client._exceptions import APIConnectionError, NoResultYet, WaitTimeout
@@ -218,21 +220,30 @@ class Job(BaseJob):
 
     @overload
     def result(self, format: Literal["json"] = "json", *,
+               storey_height: float | NotGiven = NOT_GIVEN,
+               dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
                timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout: ...
 
     @overload
     def result(self, format: RenderedFormat, *,
+               storey_height: float | NotGiven = NOT_GIVEN,
+               dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
                timeout: Timeout | NotGiven = NOT_GIVEN) -> str: ...
 
     def result(self, format: ResultFormat = "json", *,
+               storey_height: float | NotGiven = NOT_GIVEN,
+               dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
                timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout | str:
         """The job's layout as a `models.Layout`; with ``format="svg"`` its plan as SVG
-        text, with ``"dxf"`` a DXF drawing (metres, a layer per room type), with
-        ``"geojson"`` GeoJSON text in the problem's metric frame. While the job runs this
-        is the best layout so far (``report.termination`` ``in_progress``);
-        `NoResultYet` before there is one."""
+        text, with ``"dxf"`` a DXF drawing (metres; `dxf_layers` "ncs", the AIA / NCS
+        layers, by default, or "room-type"), with ``"geojson"`` GeoJSON text in the
+        problem's metric frame, with ``"ifc"`` an IFC4 building model (STEP text, storeys
+        `storey_height` metres apart, 3 by default). While the job runs this is the best
+        layout so far (``report.termination`` ``in_progress``); `NoResultYet` before
+        there is one."""
         options = RequestOptions("GET", f"/v1/layouts/{self.id}/result",
-                                 params={"format": format}, timeout=timeout)
+                                 params=result_params(format, storey_height, dxf_layers),
+                                 timeout=timeout)
         response = self._client._send(options)
         if format != "json":
             self._client._expect_empty(response)

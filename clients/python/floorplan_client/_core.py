@@ -56,7 +56,7 @@ from floorplan_client.types import (
     Termination,
     event_from,
 )
-from models.formats import FormatName, RenderedFormatName
+from models.formats import DxfLayers, FormatName, RenderedFormatName
 
 T = TypeVar("T", bound=BaseModel)
 
@@ -89,10 +89,24 @@ Timeout = float | httpx.Timeout | None
 ProblemInput = Problem | Mapping[str, Any] | str | os.PathLike[str]
 
 #: What `Job.result` can fetch: the layout (a `models.Layout`), or as text an SVG plan,
-#: a DXF drawing or GeoJSON (`models.formats`).
+#: a DXF drawing, GeoJSON or an IFC model (`models.formats`).
 ResultFormat = FormatName
 #: The formats `Job.result` returns as text, rendered from the layout.
 RenderedFormat = RenderedFormatName
+#: The DXF drawing's layer names: "ncs" (A-WALL, A-AREA, ...) or "room-type".
+DxfLayerNames = DxfLayers
+
+
+def result_params(format: ResultFormat, storey_height: float | NotGiven,
+                  dxf_layers: DxfLayerNames | NotGiven) -> dict[str, Any]:
+    """The query of GET /v1/layouts/{id}/result: the format, and the options given
+    (the service's defaults stand for the others)."""
+    params: dict[str, Any] = {"format": format}
+    if not isinstance(storey_height, NotGiven):
+        params["storey_height"] = storey_height
+    if not isinstance(dxf_layers, NotGiven):
+        params["dxf_layers"] = dxf_layers
+    return params
 
 #: Failures in sending or receiving that another attempt may well not meet.
 RETRYABLE_ERRORS: tuple[type[httpx.TransportError], ...] = (

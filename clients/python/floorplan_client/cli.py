@@ -2,17 +2,18 @@
 layout.
 
     floorplan submit PROBLEM.json [--server URL] [--api-key KEY] [--wait]
-                     [-o LAYOUT.json] [--format json|svg|dxf|geojson] [--svg PLAN.svg]
+                     [-o LAYOUT.json] [--format json|svg|dxf|geojson|ifc] [--svg PLAN.svg]
+                     [--storey-height M] [--dxf-layers ncs|room-type]
                      [--time-limit S] [--seed K] [--quiet]
 
 Without ``--wait`` (or ``-o``/``--svg``, which imply it) the job's id goes to stdout
 and the command returns at once. With it, progress goes to stderr (status, level,
 sub-domain, incumbent objective, elapsed time: a live line on a terminal with rich
 installed, else one line per event), then the layout JSON to ``-o`` (stdout when
-omitted; by its extension, or ``--format``, an SVG plan, a DXF drawing or GeoJSON, as
-the service renders them) and the plan to ``--svg``. Ctrl-C cancels the job and still
-writes the best layout found so far; a second Ctrl-C aborts at once. Exit codes are `EXIT_*` below,
-the same as ``floorplan solve``'s.
+omitted; by its extension, or ``--format``, an SVG plan, a DXF drawing, GeoJSON or an
+IFC building model, as the service renders them) and the plan to ``--svg``. Ctrl-C
+cancels the job and still writes the best layout found so far; a second Ctrl-C aborts
+at once. Exit codes are `EXIT_*` below, the same as ``floorplan solve``'s.
 
 The `floorplan` command (``service/cli.py``) adds this subcommand with `add_submit`
 when this package is installed. That command also runs ``floorplan solve``, which must
@@ -33,7 +34,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, TextIO
 
-from models.formats import FORMAT_NAMES, format_of, in_words
+from models.formats import (
+    DEFAULT_STOREY_HEIGHT,
+    DXF_LAYERS,
+    FORMAT_NAMES,
+    format_of,
+    in_words,
+    storey_height_of,
+)
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -92,6 +100,13 @@ def add_submit(commands: Any) -> None:
                    help=f"where to write the layout JSON (default and '{STDIO}': stdout)")
     p.add_argument("--format", choices=list(FORMATS),
                    help=f"what -o holds (default: from its extension, else json): {in_words()}")
+    p.add_argument("--storey-height", type=_storey_height, metavar="M",
+                   default=DEFAULT_STOREY_HEIGHT,
+                   help="ifc: metres from one storey's floor to the next (default "
+                   f"{DEFAULT_STOREY_HEIGHT:g}; also the DXF storeys' elevations)")
+    p.add_argument("--dxf-layers", choices=DXF_LAYERS, default="ncs",
+                   help="dxf: 'ncs' the AIA / US National CAD Standard layers (A-WALL, "
+                   "A-AREA, ...; default), 'room-type' the older layer per room type")
     p.add_argument("--svg", metavar="PLAN.svg", help="also write the plan as SVG here")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds for the solve (overrides options.time_limit)")
@@ -219,6 +234,13 @@ def _follow(job: Job, args: argparse.Namespace, say: _Say) -> int:
 # -- input and output -------------------------------------------------------------------
 
 
+def _storey_height(text: str) -> float:
+    try:
+        return storey_height_of(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
 def load_problem(source: str) -> Any:
     """The problem file's JSON (stdin for ``-``); `UsageError` says what is wrong."""
     from floorplan_client import ProblemFileError
@@ -257,7 +279,8 @@ def _write_outputs(job: Job, layout: Layout, args: argparse.Namespace, *, svg: b
     fmt = args.format or format_of(target)
     try:
         text = layout.model_dump_json(indent=2) + "\n" if fmt == "json" \
-            else job.result(format=fmt)
+            else job.result(format=fmt, storey_height=args.storey_height,
+                            dxf_layers=args.dxf_layers)
         _write_text(target, text)
     except OSError as err:
         print(f"{PROG}: error: cannot write {target}: {err}", file=sys.stderr)

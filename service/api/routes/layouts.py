@@ -15,7 +15,18 @@ from fastapi.responses import StreamingResponse
 
 from models import Layout
 from models import Problem as LayoutProblem
-from models.formats import BY_NAME, DEFAULT_FORMAT, MEDIA_TYPES, RENDERED_FORMAT_NAMES, FormatName
+from models.formats import (
+    BY_NAME,
+    DEFAULT_FORMAT,
+    DEFAULT_STOREY_HEIGHT,
+    MAX_STOREY_HEIGHT,
+    MEDIA_TYPES,
+    MIN_STOREY_HEIGHT,
+    RENDERED_FORMAT_NAMES,
+    DxfLayers,
+    ExportOptions,
+    FormatName,
+)
 from models.jobs import JobStatus
 from service.api.body import PROBLEM_BODY_DOC, ProblemBody
 from service.api.deps import BackendDep, JobDep, LimitsDep, OwnerDep, SettingsDep, StoreDep
@@ -127,10 +138,18 @@ def get_layout(job: JobDep) -> JobPublic:
             responses={200: {"content": {MEDIA_TYPES[f]: {} for f in RENDERED_FORMAT_NAMES}},
                        404: {"description": "unknown job, or no layout yet"}})
 def get_result(
-    job: JobDep, format: FormatName = DEFAULT_FORMAT
+    job: JobDep, format: FormatName = DEFAULT_FORMAT,
+    storey_height: Annotated[float, Query(
+        ge=MIN_STOREY_HEIGHT, le=MAX_STOREY_HEIGHT,
+        description="ifc (and dxf, for its storeys' elevations): metres from one storey's "
+        "floor to the next")] = DEFAULT_STOREY_HEIGHT,
+    dxf_layers: Annotated[DxfLayers, Query(
+        description="dxf: 'ncs', the AIA / US National CAD Standard layers (A-WALL, "
+        "A-AREA, ...), or 'room-type', the older layer per room type")] = "ncs",
 ) -> Response:
     """The layout: the final one, or the best so far while the job runs; as JSON, an
-    SVG plan, a DXF drawing (metres) or GeoJSON (local metric frame)."""
+    SVG plan, a DXF drawing (metres), GeoJSON (local metric frame) or an IFC4 building
+    model (metres)."""
     text = job.result or job.incumbent
     if text is None:
         raise ApiError(404, f"job {job.id} has no layout yet (status {job.status})",
@@ -138,7 +157,8 @@ def get_result(
     if format == "json":
         return Response(text, media_type=MEDIA_TYPES["json"])
     problem = LayoutProblem.model_validate_json(job.problem)
-    body = render(problem, Layout.model_validate_json(text), format)
+    options = ExportOptions(storey_height=storey_height, dxf_layers=dxf_layers)
+    body = render(problem, Layout.model_validate_json(text), format, options)
     # A plan shows in the browser; drawings and data download as files.
     disposition = "inline" if BY_NAME[format].inline else "attachment"
     headers = {"Content-Disposition":

@@ -9,10 +9,12 @@ import sys
 from pathlib import Path
 
 import ezdxf
+import ifcopenshell
 import pytest
 from shapely.geometry import shape
 
 from models import Layout, Problem
+from models.formats import ExportOptions
 from solver.export import render
 from solver.export.geojson import to_geojson
 from tests.paths import EXAMPLES
@@ -59,9 +61,12 @@ def test_geojson_carries_doors_and_windows_as_lines(example: tuple[Problem, Layo
     assert any(f["properties"]["kind"] == "window" for f in features)
 
 
-def test_dxf_opens_in_ezdxf_with_a_layer_per_room_type(example: tuple[Problem, Layout]) -> None:
+def test_dxf_by_room_type_opens_in_ezdxf_with_a_layer_per_room_type(
+    example: tuple[Problem, Layout],
+) -> None:
     problem, layout = example
-    doc = ezdxf.read(io.StringIO(render(problem, layout, "dxf").decode()))
+    doc = ezdxf.read(io.StringIO(render(problem, layout, "dxf",
+                                        ExportOptions(dxf_layers="room-type")).decode()))
     assert doc.units == ezdxf.units.M
     msp = doc.modelspace()
     polylines = [e for e in msp if e.dxftype() == "LWPOLYLINE"]
@@ -90,6 +95,16 @@ def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) 
     )
     assert done.returncode == 0, done.stderr
     assert json.loads(geo.read_text())["type"] == "FeatureCollection"
+    ifc = tmp_path / "plan.ifc"
+    done = subprocess.run(
+        [sys.executable, "-m", "service", "solve", str(EXAMPLES / "apartment-5.json"),
+         "-o", str(ifc), "--storey-height", "2.8", "--quiet"],
+        capture_output=True, text=True, timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    model = ifcopenshell.open(str(ifc))
+    assert len(model.by_type("IfcSpace")) == 5
+    assert model.by_type("IfcWall")[0].Representation.Representations[0].Items[0].Depth == 2.8
 
 
 def test_every_output_format_has_a_writer() -> None:

@@ -156,7 +156,7 @@ def test_outputs_draw_every_floor(
     rooms = [f["properties"] for f in geo["features"] if f["properties"]["kind"] == "room"]
     assert sorted((r["floor"], r["id"]) for r in rooms if r["id"] == "stairs") == [
         ("ground", "stairs"), ("upper", "stairs")]
-    dxf = to_dxf(problem, layout).decode()
+    dxf = to_dxf(problem, layout, layers="room-type").decode()
     assert "GROUND-ROOM_STAIRS" in dxf and "UPPER-ROOM_BEDROOM" in dxf
 
 

@@ -1,0 +1,30 @@
+"""Layouts solved once for the export tests that read files back (IFC, the NCS DXF):
+house-13 (the bench case) and the two-storey example."""
+
+from __future__ import annotations
+
+import functools
+
+import pytest
+
+from models import Layout, Problem
+from solver import solve
+from tests.paths import CASES, EXAMPLES
+
+#: The problems whose exports are read back, by name.
+READ_BACK = {"house-13": CASES / "house-13.json",
+             "two-storey-house": EXAMPLES / "two-storey-house.json"}
+
+
+@functools.cache
+def solved(name: str) -> tuple[Problem, Layout]:
+    """Problem `name` of READ_BACK and its layout, solved once for the whole run."""
+    problem = Problem.model_validate_json(READ_BACK[name].read_text())
+    layout = solve(problem)
+    assert layout.report.valid, name
+    return problem, layout
+
+
+@pytest.fixture(params=list(READ_BACK))
+def solved_case(request: pytest.FixtureRequest) -> tuple[Problem, Layout]:
+    return solved(request.param)
