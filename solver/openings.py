@@ -34,6 +34,9 @@ WALL_TOLERANCE = 1e-4
 ENTRANCE_TYPES = ("foyer", "hall", "lobby", "corridor", "living")
 #: How far inside the outline the front-door room's position point sits (metres).
 ENTRANCE_INSET = 0.05
+#: Windows on one straight exterior wall at most: a facade of 64 windows (some 190 m at
+#: the default spacing) is already more than any room of a building has.
+MAX_WINDOWS_PER_WALL = 64
 
 
 @dataclass(frozen=True)
@@ -220,7 +223,8 @@ def place_windows(
     problem: Problem, rooms: Mapping[str, Polygon], doors: list[Door]
 ) -> list[Window]:
     """Windows evenly spaced on each room's exterior walls, one per `window_spacing`
-    metres, none where a door is."""
+    metres but at most `MAX_WINDOWS_PER_WALL` on one wall (issue 20, 4: a 200 km wall
+    made 266,663 windows of a 276-byte brief), none where a door is."""
     openings = problem.openings
     outline = problem.outline().exterior
     door_lines = [LineString(d.segment) for d in doors]
@@ -230,7 +234,7 @@ def place_windows(
             continue
         walls = polygon.exterior.intersection(outline)
         for wall in _segments(walls):
-            count = int(wall.length // openings.window_spacing)
+            count = min(int(wall.length // openings.window_spacing), MAX_WINDOWS_PER_WALL)
             if count == 0 and wall.length >= openings.window_width + 2 * CORNER_CLEARANCE:
                 count = 1
             for k in range(count):

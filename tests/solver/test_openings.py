@@ -8,7 +8,13 @@ import pytest
 from shapely.geometry import LineString, Polygon, box
 
 from models import OUTSIDE, Problem
-from solver.openings import add_openings, connection_demands, walk
+from solver.openings import (
+    MAX_WINDOWS_PER_WALL,
+    add_openings,
+    connection_demands,
+    place_windows,
+    walk,
+)
 
 #   +----------+------+
 #   |  bed     | bath |   y 4..8
@@ -154,3 +160,16 @@ def test_connection_demands_leave_a_linked_problem_alone() -> None:
     # Without the option nothing changes at all.
     loose = problem(adjacency=[])
     assert connection_demands(loose) is loose
+
+
+def test_a_wall_kilometres_long_gets_a_bounded_number_of_windows() -> None:
+    # Issue 20, 4: a 200 km square of two rooms made 266,663 windows and a 20 MB result.
+    side = 1e4
+    p = Problem.model_validate({
+        "boundary": [[0, 0], [side, 0], [side, side], [0, side]],
+        "rooms": [{"id": "a", "type": "bedroom"}, {"id": "b", "type": "bedroom"}]})
+    rooms = {"a": box(0, 0, side / 2, side), "b": box(side / 2, 0, side, side)}
+    windows = place_windows(p, rooms, [])
+    # Each room has three exterior walls.
+    assert 0 < len(windows) <= 2 * 3 * MAX_WINDOWS_PER_WALL
+    assert all(w.room in rooms for w in windows)
