@@ -121,9 +121,12 @@ def _draw_floor(space: BaseLayout, problem: Problem, layout: Layout) -> None:
         column = any(word in o.label.lower() for word in COLUMN_WORDS)
         space.add_lwpolyline(_ring(o.to_box()), close=True,
                              dxfattribs={"layer": "A-COLS" if column else "A-FLOR-OBST"})
-    shapes = {room.id: Polygon(room.polygon) for room in layout.rooms}
+    # A room the solve left without floor (an empty polygon) has nothing to draw.
+    shapes = {room.id: Polygon(room.polygon) for room in layout.rooms if room.polygon}
     shapes |= {aisle.id: Polygon(aisle.polygon) for aisle in layout.aisles}
     for room in layout.rooms:
+        if room.id not in shapes:
+            continue
         space.add_lwpolyline(room.polygon, close=True, dxfattribs={"layer": "A-AREA"})
         label = space.add_mtext(f"{_mtext(room.id)}\\P{room.area:.2f} m²", dxfattribs={
             "layer": "A-AREA-IDEN", "char_height": ROOM_TEXT})

@@ -166,14 +166,16 @@ class _Model:
             ifcopenshell.api.spatial.reference_structure(
                 self.file, products=referenced, relating_structure=storey)
         for space, shape, area, height in new:
-            self.extruded(space, storey, shape, height)
+            if not shape.is_empty:  # a room the solve left without floor has no body
+                self.extruded(space, storey, shape, height)
             qto = ifcopenshell.api.pset.add_qto(
                 self.file, product=space, name="Qto_SpaceBaseQuantities")
             ifcopenshell.api.pset.edit_qto(self.file, qto=qto, properties={
                 "NetFloorArea": area, "GrossPerimeter": shape.exterior.length,
                 "Height": height})
 
-        walls = wall_segments(shapes, problem.outline(),
+        walls = wall_segments({k: p for k, p in shapes.items() if not p.is_empty},
+                              problem.outline(),
                               circulation={a.id for a in layout.aisles},
                               obstacles=[o.to_box() for o in problem.obstacles])
         elements = [self.rooted(

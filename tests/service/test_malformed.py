@@ -125,7 +125,7 @@ def test_a_layout_with_an_empty_room_exports_in_every_format(service: Service) -
         result = client.get(f"/v1/layouts/{job.json()['id']}/result")
         assert result.status_code == 200
         assert [r["polygon"] for r in result.json()["rooms"] if r["id"] == "a"] == [[]]
-        for name in ("svg", "geojson", "dxf"):
+        for name in ("svg", "geojson", "dxf", "ifc"):
             exported = client.get(f"/v1/layouts/{job.json()['id']}/result",
                                   params={"format": name})
             assert exported.status_code == 200, (name, exported.text[:300])
