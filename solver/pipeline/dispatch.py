@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from models import Layout, Problem
 from solver.events import EventSink, StopFlag
+from solver.pipeline.fixed import has_fixed, solve_fixed
 from solver.pipeline.floor import solve_floor
 from solver.pipeline.regions import regions_apply, solve_regions
 from solver.pipeline.storeys import solve_storeys
@@ -24,6 +25,9 @@ def solve(
     """Lay out `problem`: a valid layout, or a report saying why there is none. With
     `subdomains`, the sub-domains of each refinement level are solved at the same time
     on its executor; without, one after the other."""
+    if problem.floors is None and has_fixed(problem):
+        return solve_fixed(problem, solve=solve, on_event=on_event, should_stop=should_stop,
+                           subdomains=subdomains)
     if problem.floors is not None:
         return solve_storeys(problem, solve=solve, on_event=on_event,
                              should_stop=should_stop, subdomains=subdomains)
