@@ -3,9 +3,15 @@ pairwise different in topology, ranked by Eq. 12.
 
 The topology of a layout is its adjacency graph: the pairs of rooms sharing at least
 `TOPOLOGY_CONTACT` metres of wall. The first layout is solved as usual (the time
-limit, the seed); then further searches run under other seeds, each with a share of
-up to twice that time again, and a layout joins the variants when it is valid and its
-graph differs from every one found before. The variants are ranked by
+limit, the seed); then further searches run, each with a share of up to twice that
+time again, and a layout joins the variants when it is valid and its graph differs
+from every one found before. Other seeds alone seldom change the topology (the MIQP
+of a small floor has one best arrangement), so on a single floor without regions each
+further search also *demands* one wall that no variant found so far has: a hard
+adjacency between two rooms that are near each other in the best layout but do not
+touch (nearest pairs first). Whatever it finds then differs from every variant before,
+and is a layout of the problem as asked (a constraint was added, none removed); its
+report is made again for that problem (`solver.pipeline.fixed.relaid`). The variants are ranked by
 `report.objective` (Eq. 12 plus the soft shortfalls), best first; the best is the
 answer itself. Each variant's report says how far its graph is from every other's
 (`VariantInfo.difference`: the share of adjacencies in one graph and not the other).
@@ -22,9 +28,11 @@ from collections.abc import Callable
 
 from shapely.geometry import Polygon
 
-from models import Layout, Problem, VariantInfo
+from models import Adjacency, Layout, Problem, VariantInfo
 from solver.events import EventSink, Phase, SolveEvent, StopFlag
 from solver.geometry import shared_wall_length
+from solver.pipeline.fixed import relaid
+from solver.pipeline.regions import regions_apply
 from solver.pipeline.storeys import job_time_limit
 from solver.pipeline.subdomains import SubdomainExecutor
 
@@ -36,6 +44,8 @@ VARIANT_TIME_FACTOR = 3.0
 MIN_ATTEMPT_SHARE = 0.15
 #: Further searches tried per variant asked, at most.
 ATTEMPTS_PER_VARIANT = 3
+#: Rooms further apart than this (metres) in the best layout are not asked to touch.
+MAX_GAP = 4.0
 #: Seeds of further searches: the problem's seed plus multiples of this.
 SEED_STEP = 7919
 
@@ -99,6 +109,8 @@ def solve_variants(
         return first
     found: list[tuple[Layout, Graph, int]] = [(first, topology(first), problem.options.seed)]
     deadline = started + VARIANT_TIME_FACTOR * limit
+    pairs = iter(missing_walls(first)) if problem.floors is None and not regions_apply(
+        problem) else None
     share = max(limit * (VARIANT_TIME_FACTOR - 1) / max(wanted - 1, 1),
                 MIN_ATTEMPT_SHARE * limit)
     stopped = should_stop or (lambda: False)
@@ -107,10 +119,21 @@ def solve_variants(
         if len(found) >= wanted or left < MIN_ATTEMPT_SHARE * limit or stopped():
             break
         seed = (problem.options.seed + attempt * SEED_STEP) % 2**31
-        layout = solve(one.with_options(seed=seed, time_limit=min(share, left)),
-                       should_stop=should_stop, subdomains=subdomains)
+        asked = one.with_options(seed=seed, time_limit=min(share, left))
+        pair = next(pairs, None) if pairs is not None else None
+        if pair is not None:
+            while pair is not None and any(pair in g for _, g, _ in found):
+                pair = next(pairs, None)
+            if pair is not None:
+                extra = Adjacency(a=pair[0], b=pair[1], min_contact=TOPOLOGY_CONTACT)
+                asked = asked.model_copy(update={"adjacency": [*asked.adjacency, extra]})
+        layout = solve(asked, should_stop=should_stop, subdomains=subdomains)
         if not usable(layout):
             continue
+        if pair is not None:
+            layout = relaid(one, layout)
+            if not usable(layout):
+                continue
         graph = topology(layout)
         if any(graph == g for _, g, _ in found):
             continue
@@ -122,6 +145,20 @@ def solve_variants(
                                 detail=f"variant {len(found)} of {wanted} found "
                                 f"(seed {seed})"))
     return ranked(found, elapsed=time.monotonic() - started)
+
+
+def missing_walls(layout: Layout) -> list[tuple[str, str]]:
+    """Pairs of rooms of a single-floor `layout` that share less than `TOPOLOGY_CONTACT`
+    of wall, nearest first (ties by name), at most `MAX_GAP` apart."""
+    shapes = [(r.id, Polygon(r.polygon)) for r in layout.rooms if len(r.polygon) >= 3]
+    graph = topology(layout)
+    near = []
+    for (a, pa), (b, pb) in itertools.combinations(shapes, 2):
+        pair = (a, b) if a < b else (b, a)
+        gap = pa.distance(pb)
+        if pair not in graph and gap <= MAX_GAP:
+            near.append((round(gap, 3), pair))
+    return [pair for _, pair in sorted(near)]
 
 
 def ranked(found: list[tuple[Layout, Graph, int]], *, elapsed: float) -> Layout:
