@@ -108,8 +108,10 @@ def solve_variants(
     if not usable(first):
         return first
     found: list[tuple[Layout, Graph, int]] = [(first, topology(first), problem.options.seed)]
+    announce(on_event, started, first, f"variant 1 of {wanted} found (seed "
+             f"{problem.options.seed})")
     deadline = started + VARIANT_TIME_FACTOR * limit
-    pairs = iter(missing_walls(first)) if problem.floors is None and not regions_apply(
+    pairs = iter(missing_walls(problem, first)) if problem.floors is None and not regions_apply(
         problem) else None
     share = max(limit * (VARIANT_TIME_FACTOR - 1) / max(wanted - 1, 1),
                 MIN_ATTEMPT_SHARE * limit)
@@ -138,25 +140,31 @@ def solve_variants(
         if any(graph == g for _, g, _ in found):
             continue
         found.append((layout, graph, seed))
-        if on_event is not None:
-            on_event(SolveEvent(phase=Phase.VARIANT, level=0,
-                                elapsed=time.monotonic() - started,
-                                objective=layout.report.objective,
-                                detail=f"variant {len(found)} of {wanted} found "
-                                f"(seed {seed})"))
+        announce(on_event, started, layout,
+                 f"variant {len(found)} of {wanted} found (seed {seed})")
     return ranked(found, elapsed=time.monotonic() - started)
 
 
-def missing_walls(layout: Layout) -> list[tuple[str, str]]:
+def announce(on_event: EventSink | None, started: float, layout: Layout, detail: str) -> None:
+    """Tell `on_event` (if any) that a variant was found."""
+    if on_event is not None:
+        on_event(SolveEvent(phase=Phase.VARIANT, level=0, elapsed=time.monotonic() - started,
+                            objective=layout.report.objective, detail=detail))
+
+
+def missing_walls(problem: Problem, layout: Layout) -> list[tuple[str, str]]:
     """Pairs of rooms of a single-floor `layout` that share less than `TOPOLOGY_CONTACT`
-    of wall, nearest first (ties by name), at most `MAX_GAP` apart."""
-    shapes = [(r.id, Polygon(r.polygon)) for r in layout.rooms if len(r.polygon) >= 3]
+    of wall, nearest first (ties by name), at most `MAX_GAP` apart; not two fixed
+    rooms (their contact cannot change)."""
+    fixed = {room.id for room in problem.rooms if room.fixed is not None}
+    shapes = [(r.id, Polygon(r.polygon)) for r in layout.rooms
+              if len(r.polygon) >= 3]
     graph = topology(layout)
     near = []
     for (a, pa), (b, pb) in itertools.combinations(shapes, 2):
         pair = (a, b) if a < b else (b, a)
         gap = pa.distance(pb)
-        if pair not in graph and gap <= MAX_GAP:
+        if pair not in graph and gap <= MAX_GAP and not {a, b} <= fixed:
             near.append((round(gap, 3), pair))
     return [pair for _, pair in sorted(near)]
 
