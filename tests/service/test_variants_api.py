@@ -92,6 +92,20 @@ def test_a_fixed_room_outside_the_outline_is_a_422_naming_the_field(
     assert fields == ["rooms.2.fixed"]
 
 
+def test_the_event_stream_announces_the_variants(client: httpx.Client, job_id: str) -> None:
+    announced = []
+    with client.stream("GET", f"/v1/layouts/{job_id}/events") as stream:
+        kind = ""
+        for line in stream.iter_lines():
+            if line.startswith("event: "):
+                kind = line[7:]
+            elif line.startswith("data: ") and kind == "progress":
+                data = json.loads(line[6:])
+                if data.get("phase") == "variant":
+                    announced.append(data["detail"])
+    assert announced and all(d.startswith("variant ") for d in announced)
+
+
 def test_the_client_fetches_variants(server: Server, job_id: str) -> None:
     with Client(server.url) as sdk:
         job = sdk.get(job_id)
