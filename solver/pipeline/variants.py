@@ -5,7 +5,8 @@ The topology of a layout is its adjacency graph: the pairs of rooms sharing at l
 `TOPOLOGY_CONTACT` metres of wall. The first layout is solved as usual (the time
 limit, the seed); then further searches run, each with a share of up to twice that
 time again, and a layout joins the variants when it is valid and its graph differs
-from every one found before. Other seeds alone seldom change the topology (the MIQP
+from every one found before (and covers at least 99 % of the floor, or as much as the
+first). Other seeds alone seldom change the topology (the MIQP
 of a small floor has one best arrangement), so on a single floor without regions each
 further search also *demands* one wall that no variant found so far has: a hard
 adjacency between two rooms that are near each other in the best layout but do not
@@ -44,6 +45,9 @@ VARIANT_TIME_FACTOR = 3.0
 MIN_ATTEMPT_SHARE = 0.15
 #: Further searches tried per variant asked, at most.
 ATTEMPTS_PER_VARIANT = 3
+#: A further variant covers at least this share of the free area, or as much as the
+#: first layout when that covers less: a variant with holes is no option to show.
+MIN_VARIANT_COVERAGE = 0.99
 #: Rooms further apart than this (metres) in the best layout are not asked to touch.
 MAX_GAP = 4.0
 #: Seeds of further searches: the problem's seed plus multiples of this.
@@ -111,6 +115,7 @@ def solve_variants(
     announce(on_event, started, first, f"variant 1 of {wanted} found (seed "
              f"{problem.options.seed})")
     deadline = started + VARIANT_TIME_FACTOR * limit
+    coverage_floor = min(first.report.coverage, MIN_VARIANT_COVERAGE)
     pairs = iter(missing_walls(problem, first)) if problem.floors is None and not regions_apply(
         problem) else None
     share = max(limit * (VARIANT_TIME_FACTOR - 1) / max(wanted - 1, 1),
@@ -136,6 +141,8 @@ def solve_variants(
             layout = relaid(one, layout)
             if not usable(layout):
                 continue
+        if layout.report.coverage < coverage_floor:
+            continue
         graph = topology(layout)
         if any(graph == g for _, g, _ in found):
             continue
