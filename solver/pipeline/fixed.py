@@ -17,6 +17,9 @@ within `OUTPUT_SNAP` of them moved onto them, and the whole layout is checked ag
 against the problem as asked: the fixed rooms' own constraints (sizes, ratio, boundary
 walls, positions) included. A problem the fixed rooms make impossible gets the usual
 infeasibility report; its conflict names the fixed rooms' pinned sizes and corners.
+
+The search takes the time limit times the share of free rooms (at least
+`MIN_TIME_SHARE` of it): an edit of a plan with most rooms fixed comes back sooner.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from models import (
     RoomLayout,
     Termination,
 )
+from solver.budget import default_time_limit
 from solver.events import EventSink, StopFlag
 from solver.geometry import Box, domain_lines, polygon_coords, rectangles_of, snap_rooms
 from solver.openings import add_openings, connection_demands
@@ -44,6 +48,11 @@ from solver.verify.checker import check_layout
 
 #: The label of an obstacle standing for part of a fixed room that is not a rectangle.
 FIXED_PART_LABEL = "fixed room {room}"
+
+#: The search around fixed rooms takes the time limit times the share of free rooms,
+#: at least this share: the fixed rooms cannot move, and the search that would try to
+#: move them (level 1's neighbourhood search) would spend the rest for nothing.
+MIN_TIME_SHARE = 0.5
 
 Solver = Callable[..., Layout]
 
@@ -97,9 +106,11 @@ def solve_fixed(
 ) -> Layout:
     """Lay out the free rooms of `problem` around its fixed ones (with `solve`, the
     dispatcher), then put the fixed rooms back exactly and check the whole layout."""
-    layout = solve(pinned_problem(problem), on_event=on_event, should_stop=should_stop,
-                   subdomains=subdomains)
     fixed = [room.id for room in problem.rooms if room.fixed is not None]
+    limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
+    share = max(1 - len(fixed) / len(problem.rooms), MIN_TIME_SHARE)
+    pinned = pinned_problem(problem).with_options(time_limit=limit * share)
+    layout = solve(pinned, on_event=on_event, should_stop=should_stop, subdomains=subdomains)
     if not layout.rooms:
         why = layout.report.infeasibility
         if why is not None:
