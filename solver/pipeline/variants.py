@@ -5,8 +5,9 @@ The topology of a layout is its adjacency graph: the pairs of rooms sharing at l
 `TOPOLOGY_CONTACT` metres of wall. The first layout is solved as usual (the time
 limit, the seed); then further searches run, each with a share of up to twice that
 time again, and a layout joins the variants when it is valid and its graph differs
-from every one found before (and covers at least 99 % of the floor, or as much as the
-first). Other seeds alone seldom change the topology (the MIQP
+from every one found before; the search goes on until it has enough that cover at
+least 99 % of the floor (or as much as the first), and variants covering less only
+make up the number when time runs out. Other seeds alone seldom change the topology (the MIQP
 of a small floor has one best arrangement), so on a single floor without regions each
 further search also *demands* one wall that no variant found so far has: a hard
 adjacency between two rooms that are near each other in the best layout but do not
@@ -45,8 +46,9 @@ VARIANT_TIME_FACTOR = 3.0
 MIN_ATTEMPT_SHARE = 0.15
 #: Further searches tried per variant asked, at most.
 ATTEMPTS_PER_VARIANT = 3
-#: A further variant covers at least this share of the free area, or as much as the
-#: first layout when that covers less: a variant with holes is no option to show.
+#: Variants cover at least this share of the free area, or as much as the first layout
+#: when that covers less: the search goes on until it has enough of those, and others
+#: (with holes) only make up the number when it does not.
 MIN_VARIANT_COVERAGE = 0.99
 #: Rooms further apart than this (metres) in the best layout are not asked to touch.
 MAX_GAP = 4.0
@@ -112,7 +114,7 @@ def solve_variants(
     if not usable(first):
         return first
     found: list[tuple[Layout, Graph, int]] = [(first, topology(first), problem.options.seed)]
-    announce(on_event, started, first, f"variant 1 of {wanted} found (seed "
+    announce(on_event, started, first, f"variant 1 found, {wanted} asked (seed "
              f"{problem.options.seed})")
     deadline = started + VARIANT_TIME_FACTOR * limit
     coverage_floor = min(first.report.coverage, MIN_VARIANT_COVERAGE)
@@ -123,7 +125,8 @@ def solve_variants(
     stopped = should_stop or (lambda: False)
     for attempt in range(1, ATTEMPTS_PER_VARIANT * (wanted - 1) + 1):
         left = deadline - time.monotonic()
-        if len(found) >= wanted or left < MIN_ATTEMPT_SHARE * limit or stopped():
+        covering = [f for f in found if f[0].report.coverage >= coverage_floor]
+        if len(covering) >= wanted or left < MIN_ATTEMPT_SHARE * limit or stopped():
             break
         seed = (problem.options.seed + attempt * SEED_STEP) % 2**31
         asked = one.with_options(seed=seed, time_limit=min(share, left))
@@ -141,15 +144,15 @@ def solve_variants(
             layout = relaid(one, layout)
             if not usable(layout):
                 continue
-        if layout.report.coverage < coverage_floor:
-            continue
         graph = topology(layout)
         if any(graph == g for _, g, _ in found):
             continue
         found.append((layout, graph, seed))
         announce(on_event, started, layout,
-                 f"variant {len(found)} of {wanted} found (seed {seed})")
-    return ranked(found, elapsed=time.monotonic() - started)
+                 f"variant {len(found)} found, {wanted} asked (seed {seed})")
+    # Those covering enough first; those with holes only to make up the number.
+    found.sort(key=lambda f: f[0].report.coverage < coverage_floor)
+    return ranked(found[:wanted], elapsed=time.monotonic() - started)
 
 
 def announce(on_event: EventSink | None, started: float, layout: Layout, detail: str) -> None:
