@@ -153,7 +153,8 @@ class ConflictItem(BaseModel):
         description="min_size, max_size (one axis each), aspect_ratio, position, boundary, "
         "adjacency; connection and entrance for what require_connected added (a wall "
         "for a door, the front-door room covering the entrance); vertical in a building "
-        "of several storeys: a vertical room held where another floor put it")
+        "of several storeys: a vertical room held where another floor put it; fixed: a "
+        "room held at its `fixed` polygon (path rooms.<r>.fixed)")
     rooms: list[str] = Field(description="ids of the rooms the constraint names")
     constraint: str = Field(
         description="compact form, e.g. kitchen.width>=4, kitchen.boundary=east, "

@@ -29,6 +29,8 @@ from collections.abc import Callable
 from shapely.geometry import Polygon
 
 from models import (
+    ConflictItem,
+    ConflictSet,
     ConstraintCheck,
     Infeasibility,
     Layout,
@@ -46,6 +48,8 @@ from solver.pipeline.run import OUTPUT_SNAP
 from solver.pipeline.subdomains import SubdomainExecutor
 from solver.verify.checker import check_layout
 
+#: The fields a pinned room's conflict items name: all of them its `fixed` polygon.
+PINNED_FIELDS = frozenset({"min_size", "max_size", "target_size", "positions"})
 #: The label of an obstacle standing for part of a fixed room that is not a rectangle.
 FIXED_PART_LABEL = "fixed room {room}"
 
@@ -114,12 +118,38 @@ def solve_fixed(
     if not layout.rooms:
         why = layout.report.infeasibility
         if why is not None:
-            why = why.model_copy(update={"reason": f"{why.reason} (rooms fixed: "
-                                         f"{', '.join(fixed)}; each is held at its fixed "
-                                         "polygon, by its size and two opposite corners)"})
+            why = why.model_copy(update={
+                "reason": f"{why.reason} (rooms fixed: {', '.join(fixed)}; each is held "
+                "at its fixed polygon, by its size and two opposite corners)",
+                "conflict": fixed_conflict(problem, why.conflict)})
         return layout.model_copy(update={"report": layout.report.model_copy(
             update={"infeasibility": why})})
     return relaid(problem, layout)
+
+
+def fixed_conflict(problem: Problem, conflict: ConflictSet | None) -> ConflictSet | None:
+    """`conflict` of the pinned problem in the user's terms: the pinned size and corners
+    of a fixed room become one item, its `fixed` polygon (``rooms.<r>.fixed``)."""
+    if conflict is None:
+        return None
+    index = {room.id: r for r, room in enumerate(problem.rooms)}
+    items: list[ConflictItem] = []
+    for item in conflict.constraints:
+        parts = item.path.split(".")
+        room = problem.rooms[int(parts[1])] if parts[0] == "rooms" and len(parts) > 2 else None
+        if room is None or room.fixed is None or parts[2] not in PINNED_FIELDS:
+            items.append(item)
+            continue
+        path = f"rooms.{index[room.id]}.fixed"
+        if any(i.path == path for i in items):
+            continue
+        items.append(ConflictItem(
+            path=path, kind="fixed", rooms=[room.id], constraint=f"{room.id}.fixed",
+            phrase=f"'{room.id}' is fixed at its polygon ({len(room.fixed or [])} vertices)"))
+    return conflict.model_copy(update={
+        "constraints": items,
+        "explanation": f"{conflict.explanation} A fixed room's size and corners are those "
+        "of its fixed polygon."})
 
 
 def relaid(problem: Problem, layout: Layout) -> Layout:

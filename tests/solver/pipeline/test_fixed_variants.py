@@ -78,6 +78,13 @@ def test_fixed_rooms_that_leave_no_room_for_the_rest_are_explained() -> None:
     assert layout.report.termination is Termination.INFEASIBLE
     assert layout.report.infeasibility is not None
     assert "living" in layout.report.infeasibility.reason
+    # The conflict names the fixed room by its `fixed` field, not by the size and
+    # corners that hold it there.
+    conflict = layout.report.infeasibility.conflict
+    assert conflict is not None
+    assert "rooms.1.fixed" in [item.path for item in conflict.constraints]
+    assert all(item.kind != "min_size" or item.rooms != ["living"]
+               for item in conflict.constraints)
 
 
 def test_variants_are_valid_distinct_and_ranked() -> None:
