@@ -16,7 +16,8 @@ The answer then gets the fixed rooms' polygons exactly as given, the free rooms'
 within `OUTPUT_SNAP` of them moved onto them, and the whole layout is checked again
 against the problem as asked: the fixed rooms' own constraints (sizes, ratio, boundary
 walls, positions) included. A problem the fixed rooms make impossible gets the usual
-infeasibility report; its conflict names the fixed rooms' pinned sizes and corners.
+infeasibility report; its conflict names a fixed room by its polygon
+(`rooms.<r>.fixed`), not by the size and corners that pin it.
 
 The search takes the time limit times the share of free rooms (at least
 `MIN_TIME_SHARE` of it): an edit of a plan with most rooms fixed comes back sooner.
