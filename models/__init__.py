@@ -34,6 +34,7 @@ if TYPE_CHECKING:
         Report,
         RoomLayout,
         Termination,
+        VariantInfo,
         Window,
     )
     from models.parts import (
@@ -54,7 +55,7 @@ _WHERE = {
     "models.layout": (
         "OUTSIDE", "Aisle", "Circulation", "ConflictItem", "ConflictSet", "ConstraintCheck",
         "Door", "ExtraRectangles", "FloorLayout", "Infeasibility", "Layout", "Rect", "Report",
-        "RoomLayout", "Termination", "Window",
+        "RoomLayout", "Termination", "VariantInfo", "Window",
     ),
     "models.parts": (
         "DEFAULT_MAX_ROOMS", "Adjacency", "Floor", "Obstacle", "Openings", "Options", "Region",
@@ -92,6 +93,7 @@ __all__ = [
     "Room",
     "RoomLayout",
     "Termination",
+    "VariantInfo",
     "VerticalRoom",
     "Weights",
     "Window",

@@ -153,7 +153,8 @@ class ConflictItem(BaseModel):
         description="min_size, max_size (one axis each), aspect_ratio, position, boundary, "
         "adjacency; connection and entrance for what require_connected added (a wall "
         "for a door, the front-door room covering the entrance); vertical in a building "
-        "of several storeys: a vertical room held where another floor put it")
+        "of several storeys: a vertical room held where another floor put it; fixed: a "
+        "room held at its `fixed` polygon (path rooms.<r>.fixed)")
     rooms: list[str] = Field(description="ids of the rooms the constraint names")
     constraint: str = Field(
         description="compact form, e.g. kitchen.width>=4, kitchen.boundary=east, "
@@ -185,6 +186,24 @@ class Infeasibility(BaseModel):
     conflict: ConflictSet | None = Field(
         None, description="when the problem is infeasible: a small set of its constraints "
         "that cannot hold together, searched in the time the solve had left")
+
+
+class VariantInfo(BaseModel):
+    """Where a layout stands among the design variants of its job (`Options.variants`)."""
+
+    index: int = Field(description="its place in `Layout.variants`, 0 = the best (the "
+                       "layout itself)")
+    seed: int = Field(description="the seed of the search that found it (options.seed of "
+                      "an ordinary solve gives the same search again)")
+    adjacencies: list[tuple[str, str]] = Field(
+        default_factory=list, description="its topology: the pairs of rooms sharing at "
+        "least 0.9 m of wall, each pair sorted, sorted ('<floor>/<room>' with floors)")
+    difference: list[float] = Field(
+        default_factory=list, description="per variant, in order: the share of "
+        "adjacencies that differ between the two (pairs in one graph and not the other, "
+        "over pairs in either; 0 with itself, > 0 between any two variants)")
+    least_difference: float | None = Field(
+        None, description="the smallest difference to another variant (null when alone)")
 
 
 class Report(BaseModel):
@@ -220,6 +239,9 @@ class Report(BaseModel):
     )
     total_shortfall: float = Field(
         0.0, description="the sum of the violations' shortfalls, metres")
+    variant: VariantInfo | None = Field(
+        None, description="with options.variants above 1: which variant this is and how "
+        "much its topology differs from the others")
 
 
 class FloorLayout(BaseModel):
@@ -248,6 +270,11 @@ class Layout(BaseModel):
         None, description="for a problem with `floors`: one layout per floor, in the "
         "problem's order (the top-level rooms, doors and windows then stay empty and the "
         "top-level report sums the floors up)")
+    variants: list[Layout] | None = Field(
+        None, description="with options.variants above 1: the design variants, each a "
+        "full layout with its own report (`report.variant` says how distinct), all valid, "
+        "pairwise different in topology, ranked by Eq. 12 (report.objective), best first; "
+        "the first is this layout itself (without `variants`). Null otherwise")
 
     @property
     def all_rooms(self) -> list[RoomLayout]:

@@ -37,6 +37,10 @@ DEFAULT_MAX_ROOMS = 400
 MAX_ROOM_RECTS = 4
 #: Geometric tolerance in metres for "on the boundary" and similar tests.
 TOLERANCE = 1e-6
+#: The most design variants a job may ask for (`Options.variants`).
+MAX_VARIANTS = 12
+#: The most vertices a fixed room's polygon may have (`Room.fixed`).
+MAX_FIXED_VERTICES = 100
 #: Default aisle width between regions (metres): two people pass, a wheelchair turns.
 DEFAULT_AISLE_WIDTH = 1.8
 #: Narrowest and widest aisle accepted (metres).
@@ -109,6 +113,21 @@ class Room(_Strict):
         "all of them, or a list of min_size, max_size, aspect_ratio, positions, boundary. "
         "With options.strict false every one of them is soft anyway",
     )
+
+    fixed: Annotated[
+        list[Point], Field(min_length=4, max_length=MAX_FIXED_VERTICES)
+    ] | None = Field(
+        None, description="the polygon the room must be exactly ([x, y] vertices, "
+        "axis-aligned edges, inside the outline, over no obstacle and no other fixed "
+        "room): the room is placed there as given and the other rooms are laid out around "
+        "it; its own constraints are still checked on that polygon, and adjacencies to it "
+        "hold as to any room. A repeated closing vertex is dropped",
+    )
+
+    @field_validator("fixed", mode="before")
+    @classmethod
+    def _drop_fixed_closing_vertex(cls, value: Any) -> Any:
+        return open_ring(value)
 
     def soft_families(self, strict: bool = True) -> frozenset[SoftFamily]:
         """The families of this room's constraints that are soft: all of them when the
@@ -250,6 +269,13 @@ class Options(_Strict):
         "partitioned into regions automatically and solved through regions and aisles "
         "(with an entrance or not: without one the aisles reach the facade); 0 never "
         "partitions",
+    )
+    variants: Annotated[int, Field(ge=1, le=MAX_VARIANTS)] = Field(
+        1, description="how many design variants to return (1-12): up to this many valid "
+        "layouts whose topologies differ (the graph of rooms sharing at least 0.9 m of wall "
+        "is not the same), ranked by Eq. 12, best first, in `Layout.variants`; the search "
+        "takes up to 3x the time limit. Fewer come back when no more distinct ones are "
+        "found in time",
     )
     strict: bool = Field(
         True, description="false: every constraint that can be relaxed (sizes, aspect "

@@ -22,6 +22,7 @@ from pydantic import Field, ValidationError, ValidationInfo, model_validator
 from pydantic_core import InitErrorDetails
 from shapely import STRtree
 from shapely.geometry import Point as ShapelyPoint
+from shapely.geometry import Polygon
 
 from models.parts import (
     DEFAULT_AISLE_WIDTH,
@@ -34,6 +35,7 @@ from models.parts import (
     MAX_AISLE_WIDTH,
     MAX_COORDINATE,
     MAX_ROOM_RECTS,
+    MAX_VARIANTS,
     MIN_AISLE_WIDTH,
     SOFT_FAMILIES,
     TOLERANCE,
@@ -76,6 +78,7 @@ __all__ = [
     "MAX_AISLE_WIDTH",
     "MAX_COORDINATE",
     "MAX_ROOM_RECTS",
+    "MAX_VARIANTS",
     "MIN_AISLE_WIDTH",
     "SOFT_FAMILIES",
     "TOLERANCE",
@@ -138,6 +141,7 @@ class Problem(ProblemFields):
         if self.floors is not None or self.vertical:
             errors = storey_errors(
                 self, (info.context or {}).get("max_rooms", DEFAULT_MAX_ROOMS))
+            errors += _storey_fixed_errors(self)
             if errors:
                 raise ValidationError.from_exception_data(type(self).__name__, errors)
             return self
@@ -148,6 +152,7 @@ class Problem(ProblemFields):
         errors = list(boundary_errors(self.boundary))
         if not errors:
             errors += _placement_errors(self)
+            errors += _fixed_errors(self)
         errors += _reference_errors(self)
         if errors:
             raise ValidationError.from_exception_data(type(self).__name__, errors)
@@ -212,6 +217,66 @@ def _placement_errors(problem: Problem) -> list[InitErrorDetails]:
                 errors.append(field_error(("rooms", r, "boundary", b), edge, "unknown_edge",
                                           f"edge {edge} does not exist: the boundary has "
                                           f"{len(problem.boundary)} edges"))
+    return errors
+
+
+def _fixed_errors(problem: Problem) -> list[InitErrorDetails]:
+    """Why a room's `fixed` polygon cannot be placed: an edge neither horizontal nor
+    vertical (or of zero length), no area or a ring crossing itself, a part outside
+    the outline, over an obstacle or over another fixed room; with `regions` (not
+    supported yet) any fixed room. Each error names ``rooms.<r>.fixed``."""
+    errors: list[InitErrorDetails] = []
+    grown = problem.outline().buffer(TOLERANCE, join_style="mitre")
+    obstacles = [o.to_box() for o in problem.obstacles]
+    placed: list[tuple[str, Polygon]] = []
+    for r, room in enumerate(problem.rooms):
+        if room.fixed is None:
+            continue
+        loc: tuple[str | int, ...] = ("rooms", r, "fixed")
+        if problem.regions is not None:
+            errors.append(field_error(loc, room.fixed, "fixed_with_regions",
+                                      f"room '{room.id}' is fixed: fixed rooms cannot be "
+                                      "combined with `regions` yet"))
+            continue
+        shape_errors = list(boundary_errors(room.fixed))
+        if shape_errors:
+            for e in shape_errors:
+                k = e["loc"][1:] if len(e["loc"]) > 1 else ()
+                errors.append(field_error((*loc, *k), e["input"], f"fixed_{e['type'].type}",
+                                          f"fixed polygon of room '{room.id}': "
+                                          f"{e['type'].message()}"))
+            continue
+        polygon = Polygon(room.fixed)
+        if not grown.contains(polygon):
+            errors.append(field_error(loc, room.fixed, "fixed_outside",
+                                      f"the fixed polygon of room '{room.id}' is not inside "
+                                      "the boundary"))
+        for i, obstacle in enumerate(obstacles):
+            if polygon.intersection(obstacle).area > TOLERANCE:
+                errors.append(field_error(loc, room.fixed, "fixed_over_obstacle",
+                                          f"the fixed polygon of room '{room.id}' covers "
+                                          f"obstacle {i}"))
+        for other_id, other in placed:
+            if polygon.intersection(other).area > TOLERANCE:
+                errors.append(field_error(loc, room.fixed, "fixed_overlap",
+                                          f"the fixed polygon of room '{room.id}' overlaps "
+                                          f"fixed room '{other_id}'"))
+        placed.append((room.id, polygon))
+    return errors
+
+
+def _storey_fixed_errors(problem: Problem) -> list[InitErrorDetails]:
+    """Fixed rooms are not supported in buildings of several storeys yet: each is an
+    error naming its field."""
+    errors = [field_error(("floors", f, "rooms", r, "fixed"), room.fixed, "fixed_with_floors",
+                          f"room '{room.id}' is fixed: fixed rooms are not supported with "
+                          "`floors` yet")
+              for f, floor in enumerate(problem.floors or [])
+              for r, room in enumerate(floor.rooms) if room.fixed is not None]
+    errors += [field_error(("vertical", v, "fixed"), room.fixed, "fixed_with_floors",
+                           f"room '{room.id}' is fixed: fixed rooms are not supported with "
+                           "`floors` yet")
+               for v, room in enumerate(problem.vertical) if room.fixed is not None]
     return errors
 
 

@@ -19,6 +19,7 @@ class Phase(StrEnum):
     SUBDOMAIN = "subdomain"  # a sub-domain solve ended
     CONFLICT = "conflict"  # the search for constraints that cannot hold together ended
     INCUMBENT = "incumbent"  # SCIP found a better solution of the current MIQP
+    VARIANT = "variant"  # a further design variant was found (options.variants)
     DONE = "done"
 
 

@@ -1,7 +1,12 @@
 """The `floorplan` command line: solve a problem file from the shell.
 
     floorplan solve PROBLEM.json -o LAYOUT.json [--svg PLAN.svg] [--time-limit S]
-                    [--seed K] [--max-levels N] [--processes N] [--quiet] [--expand]
+                    [--seed K] [--max-levels N] [--variants N] [--processes N] [--quiet]
+                    [--expand]
+
+With ``-o DIR/`` (a name ending in '/', or an existing directory) every design variant
+(options.variants) is written to DIR as ``variant-1.json``, ``variant-2.json``, ...
+(best first, in --format); ``--svg DIR/`` likewise draws each as ``variant-<i>.svg``.
 
 Progress goes to stderr (one line per solver event, new incumbents at most a few
 times a second), then a one-line summary; the layout JSON goes to ``-o`` (stdout when
@@ -116,6 +121,10 @@ def _add_solve(commands: Any) -> None:
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds for the whole solve (overrides options.time_limit)")
     p.add_argument("--seed", type=int, metavar="K", help="random seed (overrides options.seed)")
+    p.add_argument("--variants", type=int, metavar="N",
+                   help="design variants to look for, 1-12 (overrides options.variants): "
+                   "distinct valid layouts ranked best first; with -o DIR/ each is written "
+                   "to its own file there")
     p.add_argument("--max-levels", type=int, metavar="N",
                    help="deepest hierarchy level (overrides options.max_levels)")
     p.add_argument("--processes", type=_process_count, default=1, metavar="N",
@@ -173,7 +182,7 @@ def main(argv: list[str] | None = None, extra: Sequence[CommandAdder] = ()) -> i
 def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
     problem = load_problem(args.problem)
     problem = with_overrides(problem, time_limit=args.time_limit, seed=args.seed,
-                             max_levels=args.max_levels)
+                             max_levels=args.max_levels, variants=args.variants)
     if args.expand:
         return write_expanded(args, problem)
 
@@ -310,9 +319,23 @@ def with_overrides(problem: Problem, **overrides: Any) -> Problem:
     return problem.model_copy(update={"options": options})
 
 
+def is_directory_target(target: str | None) -> bool:
+    """Whether `target` names a directory to write one file per variant into: it ends
+    with a path separator or is an existing directory."""
+    return target is not None and target != STDIO and (
+        target.endswith(("/", os.sep)) or Path(target).is_dir())
+
+
 def _check_writable(target: str | None) -> None:
     """Refuse before solving rather than lose the result afterwards."""
     if target is None or target == STDIO:
+        return
+    if is_directory_target(target):
+        path = Path(target).resolve()
+        if not path.is_dir() and not path.parent.is_dir():
+            raise UsageError(f"{target}: directory {path.parent} does not exist")
+        if path.is_dir() and not os.access(path, os.W_OK):
+            raise UsageError(f"{target}: directory is not writable")
         return
     parent = Path(target).resolve().parent
     if not parent.is_dir():
@@ -325,14 +348,28 @@ def _check_writable(target: str | None) -> None:
 
 def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -> bool:
     """Write the layout JSON and the SVG; False (with a message) when one failed."""
-    from models.formats import ExportOptions
+    from models.formats import BY_NAME, ExportOptions
     from solver.export import render
     from solver.export.svg import render_svg
 
     ok = True
-    fmt = args.format or format_of(args.output)
+    if is_directory_target(args.output):
+        fmt = args.format or "json"
+    else:
+        fmt = args.format or format_of(args.output)
+    variants = layout.variants or [layout]
     try:
-        if fmt == "json":
+        if is_directory_target(args.output):
+            Path(args.output).mkdir(exist_ok=True)
+            for i, variant in enumerate(variants, start=1):
+                target = str(Path(args.output) / f"variant-{i}.{BY_NAME[fmt].extension}")
+                if fmt == "json":
+                    _write_text(target, variant.model_dump_json(indent=2) + "\n")
+                else:
+                    options = ExportOptions(storey_height=args.storey_height,
+                                            dxf_layers=args.dxf_layers)
+                    _write_text(target, render(problem, variant, fmt, options).decode())
+        elif fmt == "json":
             _write_text(args.output, layout.model_dump_json(indent=2) + "\n")
         else:
             options = ExportOptions(storey_height=args.storey_height,
@@ -341,7 +378,16 @@ def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -
     except OSError as err:
         print(f"{PROG}: error: cannot write {args.output}: {err}", file=sys.stderr)
         ok = False
-    if args.svg:
+    if args.svg and is_directory_target(args.svg):
+        try:
+            Path(args.svg).mkdir(exist_ok=True)
+            for i, variant in enumerate(variants, start=1):
+                _write_text(str(Path(args.svg) / f"variant-{i}.svg"),
+                            render_svg(problem, variant))
+        except OSError as err:
+            print(f"{PROG}: error: cannot write {args.svg}: {err}", file=sys.stderr)
+            ok = False
+    elif args.svg:
         try:
             _write_text(args.svg, render_svg(problem, layout))
         except OSError as err:

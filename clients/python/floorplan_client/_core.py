@@ -98,10 +98,13 @@ DxfLayerNames = DxfLayers
 
 
 def result_params(format: ResultFormat, storey_height: float | NotGiven,
-                  dxf_layers: DxfLayerNames | NotGiven) -> dict[str, Any]:
+                  dxf_layers: DxfLayerNames | NotGiven,
+                  variant: int | NotGiven = NOT_GIVEN) -> dict[str, Any]:
     """The query of GET /v1/layouts/{id}/result: the format, and the options given
     (the service's defaults stand for the others)."""
     params: dict[str, Any] = {"format": format}
+    if not isinstance(variant, NotGiven):
+        params["variant"] = variant
     if not isinstance(storey_height, NotGiven):
         params["storey_height"] = storey_height
     if not isinstance(dxf_layers, NotGiven):

@@ -28,6 +28,7 @@ from models.formats import (
     FormatName,
 )
 from models.jobs import JobStatus
+from models.parts import MAX_VARIANTS
 from service.api.body import PROBLEM_BODY_DOC, ProblemBody
 from service.api.deps import BackendDep, JobDep, LimitsDep, OwnerDep, SettingsDep, StoreDep
 from service.api.errors import STORE_RETRY_AFTER, ApiError
@@ -38,6 +39,7 @@ from service.records import Job
 from service.store import IdempotencyConflict
 from solver.export import render
 from solver.pipeline.storeys import job_time_limit
+from solver.pipeline.variants import variant_time_factor
 
 #: Longest wait between two looks at the store while streaming events (the backend
 #: wakes the stream sooner when it knows of new events).
@@ -105,11 +107,15 @@ def effective_time_limit(problem: LayoutProblem, ceiling: float) -> tuple[Layout
     `ceiling` (FLOORPLAN_MAX_TIME_LIMIT). A limit the user gave above it was refused
     already (422); the default, which grows with the rooms and adds up over a
     building's floors, is capped at it, and the capped limit written into the problem
-    so that the solve divides that time among its floors."""
+    so that the solve divides that time among its floors. With design variants
+    (options.variants above 1) the job may take `variant_time_factor` times one
+    layout's limit, and one layout's limit is cut so that the whole stays under
+    `ceiling`."""
+    factor = variant_time_factor(problem)
     time_limit = job_time_limit(problem)
-    if time_limit <= ceiling:
-        return problem, time_limit
-    return problem.with_options(time_limit=ceiling), ceiling
+    if time_limit * factor <= ceiling:
+        return problem, time_limit * factor
+    return problem.with_options(time_limit=ceiling / factor), ceiling
 
 
 @router.get("", response_model=JobPage)
@@ -146,14 +152,20 @@ def get_result(
     dxf_layers: Annotated[DxfLayers, Query(
         description="dxf: 'ncs', the AIA / US National CAD Standard layers (A-WALL, "
         "A-AREA, ...), or 'room-type', the older layer per room type")] = "ncs",
+    variant: Annotated[int | None, Query(
+        ge=0, lt=MAX_VARIANTS, description="with options.variants: the design variant to "
+        "give, 0 the best (the layout itself), in the order of `variants`; a 404 when the "
+        "job found fewer")] = None,
 ) -> Response:
     """The layout: the final one, or the best so far while the job runs; as JSON, an
     SVG plan, a DXF drawing (metres), GeoJSON (local metric frame) or an IFC4 building
-    model (metres)."""
+    model (metres). With `variant`, that design variant of the final layout."""
     text = job.result or job.incumbent
     if text is None:
         raise ApiError(404, f"job {job.id} has no layout yet (status {job.status})",
                        kind="no-result-yet", title="No layout yet")
+    if variant is not None:
+        text = _variant_text(job, variant)
     if format == "json":
         return Response(text, media_type=MEDIA_TYPES["json"])
     problem = LayoutProblem.model_validate_json(job.problem)
@@ -164,6 +176,21 @@ def get_result(
     headers = {"Content-Disposition":
                f'{disposition}; filename="{job.id}.{BY_NAME[format].extension}"'}
     return Response(body, media_type=MEDIA_TYPES[format], headers=headers)
+
+
+def _variant_text(job: Job, index: int) -> str:
+    """Design variant `index` of `job`'s final layout, as JSON; a 404 when the job has
+    not ended yet or found fewer variants."""
+    if job.result is None:
+        raise ApiError(404, f"job {job.id} has no final layout yet (status {job.status}): "
+                       "variants come with it", kind="no-result-yet", title="No layout yet")
+    layout = Layout.model_validate_json(job.result)
+    variants = layout.variants if layout.variants is not None else (
+        [layout] if layout.all_rooms else [])
+    if index >= len(variants):
+        raise ApiError(404, f"job {job.id} has {len(variants)} variant(s); there is no "
+                       f"variant {index}", kind="no-such-variant", title="No such variant")
+    return variants[index].model_dump_json()
 
 
 @router.get("/{job_id}/events", responses={200: {"content": {"text/event-stream": {}}},

@@ -1,0 +1,207 @@
+"""Fixed rooms (issue 21): rooms whose polygon the user gives (`Room.fixed`), the other
+rooms laid out around them.
+
+A fixed room is *pinned* as the storeys pin a vertical room on a later floor
+(`solver.pipeline.storeys`): its polygon's largest rectangle becomes the room, with
+its size exact (C_size) and two opposite corners to cover (C_pos), so the MIQP can put
+it nowhere else and the hierarchy cannot change it (halves cover their parent, the
+bounding box may not outgrow the maximum); the rest of an L- or T-shaped polygon
+becomes obstacles. The free rooms are laid out around it by the ordinary pipeline, and
+their adjacencies to it hold as to any room, since it is a room of every level's MIQP
+(to an L- or T-shaped fixed room, the MIQP counts the contact with its largest
+rectangle only: conservative, the final check counts the whole polygon). Adjacencies
+between two fixed rooms are left to the final check.
+
+The answer then gets the fixed rooms' polygons exactly as given, the free rooms' walls
+within `OUTPUT_SNAP` of them moved onto them, and the whole layout is checked again
+against the problem as asked: the fixed rooms' own constraints (sizes, ratio, boundary
+walls, positions) included. A problem the fixed rooms make impossible gets the usual
+infeasibility report; its conflict names a fixed room by its polygon
+(`rooms.<r>.fixed`), not by the size and corners that pin it.
+
+The search takes the time limit times the share of free rooms (at least
+`MIN_TIME_SHARE` of it): an edit of a plan with most rooms fixed comes back sooner.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from shapely.geometry import Polygon
+
+from models import (
+    ConflictItem,
+    ConflictSet,
+    ConstraintCheck,
+    Infeasibility,
+    Layout,
+    Obstacle,
+    Problem,
+    RoomLayout,
+    Termination,
+)
+from solver.budget import default_time_limit
+from solver.events import EventSink, StopFlag
+from solver.geometry import Box, domain_lines, polygon_coords, rectangles_of, snap_rooms
+from solver.openings import add_openings, connection_demands
+from solver.pipeline.assemble import outline_of
+from solver.pipeline.run import OUTPUT_SNAP
+from solver.pipeline.subdomains import SubdomainExecutor
+from solver.verify.checker import check_layout
+
+#: The fields a pinned room's conflict items name: all of them its `fixed` polygon.
+PINNED_FIELDS = frozenset({"min_size", "max_size", "target_size", "positions"})
+#: The label of an obstacle standing for part of a fixed room that is not a rectangle.
+FIXED_PART_LABEL = "fixed room {room}"
+
+#: The search around fixed rooms takes the time limit times the share of free rooms,
+#: at least this share: the fixed rooms cannot move, and the search that would try to
+#: move them (level 1's neighbourhood search) would spend the rest for nothing.
+MIN_TIME_SHARE = 0.5
+
+Solver = Callable[..., Layout]
+
+
+def has_fixed(problem: Problem) -> bool:
+    """Whether some room of a single-floor `problem` is fixed."""
+    return any(room.fixed is not None for room in problem.rooms)
+
+
+def fixed_boxes(problem: Problem) -> dict[str, list[Box]]:
+    """Room id -> the rectangles of its fixed polygon, largest first."""
+    return {room.id: sorted(rectangles_of(Polygon(room.fixed)),
+                            key=lambda b: -b.width * b.depth)
+            for room in problem.rooms if room.fixed is not None}
+
+
+def pinned_problem(problem: Problem) -> Problem:
+    """`problem` with each fixed room held at its polygon's largest rectangle (exact
+    size, two opposite corners to cover, one rectangle) and the rest of the polygon
+    as obstacles; never partitioned into regions."""
+    boxes = fixed_boxes(problem)
+    rooms, obstacles = [], list(problem.obstacles)
+    for room in problem.rooms:
+        if room.id not in boxes:
+            rooms.append(room)
+            continue
+        b, *rest = boxes[room.id]
+        rooms.append(room.model_copy(update={
+            "fixed": None, "min_size": (b.width, b.depth), "max_size": (b.width, b.depth),
+            "target_size": (b.width, b.depth), "aspect_ratio": None,
+            "positions": [(b.x0, b.y0), (b.x1, b.y1)], "boundary": [],
+            "shape": "rectangle", "max_rects": 1, "soft": False,
+        }))
+        obstacles += [Obstacle(x=p.x0, y=p.y0, width=p.width, depth=p.depth,
+                               label=FIXED_PART_LABEL.format(room=room.id)) for p in rest]
+    options = problem.options.model_copy(update={"regions_above": 0})
+    # Between fixed rooms a contact is what it is: the final check judges it.
+    adjacency = [a for a in problem.adjacency
+                 if not all(n in boxes for n in (a.a, *a.partners))]
+    return problem.model_copy(update={"rooms": rooms, "obstacles": obstacles,
+                                      "adjacency": adjacency, "options": options})
+
+
+def solve_fixed(
+    problem: Problem,
+    *,
+    solve: Solver,
+    on_event: EventSink | None = None,
+    should_stop: StopFlag | None = None,
+    subdomains: SubdomainExecutor | None = None,
+) -> Layout:
+    """Lay out the free rooms of `problem` around its fixed ones (with `solve`, the
+    dispatcher), then put the fixed rooms back exactly and check the whole layout."""
+    fixed = [room.id for room in problem.rooms if room.fixed is not None]
+    limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
+    share = max(1 - len(fixed) / len(problem.rooms), MIN_TIME_SHARE)
+    pinned = pinned_problem(problem).with_options(time_limit=limit * share)
+    layout = solve(pinned, on_event=on_event, should_stop=should_stop, subdomains=subdomains)
+    if not layout.rooms:
+        why = layout.report.infeasibility
+        if why is not None:
+            why = why.model_copy(update={
+                "reason": f"{why.reason} (rooms fixed: {', '.join(fixed)}; each is held "
+                "at its fixed polygon, by its size and two opposite corners)",
+                "conflict": fixed_conflict(problem, why.conflict)})
+        return layout.model_copy(update={"report": layout.report.model_copy(
+            update={"infeasibility": why})})
+    return relaid(problem, layout)
+
+
+def fixed_conflict(problem: Problem, conflict: ConflictSet | None) -> ConflictSet | None:
+    """`conflict` of the pinned problem in the user's terms: the pinned size and corners
+    of a fixed room become one item, its `fixed` polygon (``rooms.<r>.fixed``)."""
+    if conflict is None:
+        return None
+    index = {room.id: r for r, room in enumerate(problem.rooms)}
+    items: list[ConflictItem] = []
+    for item in conflict.constraints:
+        parts = item.path.split(".")
+        room = problem.rooms[int(parts[1])] if parts[0] == "rooms" and len(parts) > 2 else None
+        if room is None or room.fixed is None or parts[2] not in PINNED_FIELDS:
+            items.append(item)
+            continue
+        path = f"rooms.{index[room.id]}.fixed"
+        if any(i.path == path for i in items):
+            continue
+        items.append(ConflictItem(
+            path=path, kind="fixed", rooms=[room.id], constraint=f"{room.id}.fixed",
+            phrase=f"'{room.id}' is fixed at its polygon ({len(room.fixed or [])} vertices)"))
+    return conflict.model_copy(update={
+        "constraints": items,
+        "explanation": f"{conflict.explanation} A fixed room's size and corners are those "
+        "of its fixed polygon."})
+
+
+def relaid(problem: Problem, layout: Layout) -> Layout:
+    """`layout` of `pinned_problem(problem)` with the fixed rooms put back exactly, the
+    walls near theirs snapped onto them, and the report made again for `problem`."""
+    exact = fixed_boxes(problem)
+    xs, ys = domain_lines(problem)
+    xs = [*xs, *(v for boxes in exact.values() for b in boxes for v in (b.x0, b.x1))]
+    ys = [*ys, *(v for boxes in exact.values() for b in boxes for v in (b.y0, b.y1))]
+    placed = {room.id: [Box.of(r) for r in room.rectangles] for room in layout.rooms}
+    rooms = snap_rooms(placed, xs, ys, OUTPUT_SNAP)
+    rooms.update(exact)
+    checked = connection_demands(problem)
+    check = check_layout(checked, rooms)
+    polygons = {room.id: outline_of(rooms[room.id]) for room in problem.rooms}
+    out = [RoomLayout(id=room.id, type=room.type, polygon=polygon_coords(polygons[room.id]),
+                      rectangles=[b.to_rect() for b in rooms[room.id]],
+                      area=round(float(polygons[room.id].area), 6))
+           for room in problem.rooms]
+    openings = add_openings(checked, polygons)
+    constraints, valid = check.constraints, check.valid
+    if problem.options.require_connected:
+        connected = openings.circulation is not None and openings.circulation.reachable
+        unreachable = openings.circulation.unreachable if openings.circulation else []
+        constraints = [*constraints, ConstraintCheck(
+            kind="circulation", rooms=unreachable, satisfied=connected,
+            soft=not problem.options.strict,
+            detail="every room reachable from the entrance" if connected else
+            f"unreachable: {', '.join(unreachable)}")]
+        valid = valid and (connected or not problem.options.strict)
+    w = problem.weights
+    violations = [c for c in constraints if c.soft and not c.satisfied]
+    shortfall = sum(c.shortfall for c in violations)
+    report = layout.report.model_copy(update={
+        "coverage": check.coverage, "uncovered_area": check.uncovered_area,
+        "constraints": constraints, "size_error": check.size_error,
+        "objective": w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
+        + w.violation * shortfall,
+        "valid": valid, "circulation": openings.circulation, "violations": violations,
+        "total_shortfall": round(shortfall, 6),
+    })
+    if layout.report.valid and not valid:
+        broken = sorted({r for c in constraints if not c.satisfied and not c.soft
+                         for r in c.rooms})
+        report = report.model_copy(update={
+            "termination": Termination.NO_SOLUTION,
+            "infeasibility": Infeasibility(
+                reason="the layout around the fixed rooms breaks the hard constraints the "
+                f"report marks unsatisfied (rooms {', '.join(broken)}): a fixed room's own "
+                "constraints must hold on its fixed polygon"),
+        })
+    return layout.model_copy(update={"rooms": out, "doors": openings.doors,
+                                     "windows": openings.windows, "report": report})
+
