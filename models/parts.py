@@ -251,6 +251,12 @@ class Options(_Strict):
         "(with an entrance or not: without one the aisles reach the facade); 0 never "
         "partitions",
     )
+    diverse: bool = Field(
+        False, description="the seed draws the arrangement: the first layout's rooms are "
+        "pulled in directions drawn from the seed and the improvement keeps which room lies "
+        "on which side of which, so different seeds give different plans where the brief "
+        "allows (batches turn it on; issue 23)",
+    )
     strict: bool = Field(
         True, description="false: every constraint that can be relaxed (sizes, aspect "
         "ratios, positions, boundary walls, adjacencies, and what require_connected adds) "
