@@ -40,20 +40,23 @@ class Outcome:
 
 
 def _worker(conn: Connection, warm_up: str | None) -> None:
-    """A worker's loop: import `warm_up` once, then run (function, argument) pairs sent
-    on `conn` until it is closed, answering ("ok", result) or ("error", message)."""
+    """A worker's loop: import `warm_up` once, say so, then run (function, argument)
+    pairs sent on `conn` until it is closed, answering ("ok", result) or ("error",
+    message)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if warm_up:
         __import__(warm_up)
-    while True:
-        try:
+    try:
+        conn.send(("ready", None))
+        while True:
             function, argument = conn.recv()
-        except EOFError:
-            return
-        try:
-            conn.send(("ok", function(argument)))
-        except Exception as err:  # a failed task is data; the worker carries on
-            conn.send(("error", f"{type(err).__name__}: {err}"))
+            try:
+                answer = ("ok", function(argument))
+            except Exception as err:  # a failed task is data; the worker carries on
+                answer = ("error", f"{type(err).__name__}: {err}")
+            conn.send(answer)
+    except (EOFError, BrokenPipeError):
+        return  # the pool closed its end: the batch is over
 
 
 @dataclass
@@ -63,6 +66,9 @@ class _Slot:
     key: Any = None
     started: float = 0.0
     limit: float = 0.0
+    #: The worker has imported what it warms up with and waits for tasks (a task's hard
+    #: limit counts from when it is handed over, so not before).
+    ready: bool = False
 
 
 class WarmPool:
@@ -87,7 +93,7 @@ class WarmPool:
         slot.process.join(CLOSE_SECONDS)
         slot.conn.close()
         fresh = self._start()
-        slot.process, slot.conn, slot.key = fresh.process, fresh.conn, None
+        slot.process, slot.conn, slot.key, slot.ready = fresh.process, fresh.conn, None, False
 
     def results(
         self, tasks: Iterator[tuple[Any, TaskFunction, Any, float]],
@@ -101,7 +107,7 @@ class WarmPool:
         while True:
             if not should_stop() and not exhausted:
                 for slot in self._slots:
-                    if slot.key is not None:
+                    if slot.key is not None or not slot.ready:
                         continue
                     task = next(pending, None)
                     if task is None:
@@ -113,7 +119,8 @@ class WarmPool:
             busy = [s for s in self._slots if s.key is not None]
             if should_stop() or (exhausted and not busy):
                 return
-            by_conn = {s.conn: s for s in busy}
+            starting = [s for s in self._slots if not s.ready]
+            by_conn = {s.conn: s for s in busy + starting}
             by_sentinel = {s.process.sentinel: s for s in busy}
             ready = wait([*by_conn, *by_sentinel], timeout=POLL_SECONDS)
             answered: set[int] = set()
@@ -125,6 +132,9 @@ class WarmPool:
                     status, value = slot.conn.recv()
                 except (EOFError, OSError):
                     continue  # it died: its sentinel says so below
+                if status == "ready":
+                    slot.ready = True
+                    continue
                 answered.add(id(slot))
                 key, slot.key = slot.key, None
                 yield (Outcome(key, result=value) if status == "ok"
