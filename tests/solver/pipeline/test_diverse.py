@@ -1,0 +1,56 @@
+"""Different plans from different seeds (options.diverse, issue 23), on real SCIP; and
+programmes drawn from a template (models.programme)."""
+
+from __future__ import annotations
+
+import json
+
+from models import Problem
+from models.programme import vary_programme
+from solver import solve
+from solver.distinct import count_distinct
+from tests.paths import ROOT
+
+APARTMENT = json.loads((ROOT / "examples/apartment-5.json").read_text())
+FLAT_7 = json.loads((ROOT / "examples/flat-7-template.json").read_text())
+
+
+def test_diverse_seeds_give_different_valid_plans() -> None:
+    problem = Problem.model_validate(APARTMENT)
+    layouts = [solve(problem.with_options(seed=seed, time_limit=1.5, diverse=True))
+               for seed in range(6)]
+    assert all(layout.report.valid for layout in layouts)
+    plans, graphs = count_distinct(layouts)
+    # Measured: 2 to 6 plans of 6 at 1.5 s (issue 23: the improvement often pulls the
+    # arrangements back together; see bench/README.md).
+    assert plans >= 2, [layout.report.objective for layout in layouts]
+    assert graphs >= 1
+
+
+def test_the_pull_is_drawn_from_the_seed() -> None:
+    problem = Problem.model_validate(APARTMENT)
+    one, again = (solve(problem.with_options(seed=4, time_limit=1.5, diverse=True))
+                  for _ in range(2))
+    assert count_distinct([one, again])[0] in (1, 2)  # same draw; timing may differ
+    assert one.report.valid and again.report.valid
+
+
+def test_drawn_programmes_differ_in_rooms_and_sizes_within_the_template() -> None:
+    plain = Problem.model_validate(FLAT_7)
+    drawn = [vary_programme(FLAT_7, seed) for seed in range(12)]
+    assert len({len(p.rooms) for p in drawn}) >= 2
+    assert len({tuple(r.target_size for r in p.rooms) for p in drawn}) == 12
+    for p in drawn:
+        for room in p.rooms:
+            assert room.min_size is not None and room.max_size is not None
+            assert room.target_size is not None
+            assert all(room.min_size[a] <= room.target_size[a] <= room.max_size[a]
+                       for a in (0, 1))
+        assert {r.type for r in plain.rooms} >= {r.type for r in p.rooms} - {"bathroom"}
+
+
+def test_a_drawn_programme_is_laid_out_validly() -> None:
+    problem = vary_programme(FLAT_7, 3).with_options(seed=3, time_limit=3, diverse=True)
+    layout = solve(problem)
+    assert layout.report.valid
+    assert {r.id for r in layout.rooms} == {r.id for r in problem.rooms}
