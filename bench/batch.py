@@ -29,8 +29,8 @@ CASES = ROOT.parent / "shared" / "bench" / "cases"
 DEFAULT_BRIEFS = (CASES / "apartment-5.json", CASES / "house-13.json",
                   ROOT / "examples" / "flat-7-template.json")
 #: As service.batch's defaults (bench may not import service): seconds per room, least.
-SECONDS_PER_ROOM = 0.15
-MIN_SECONDS = 0.5
+SECONDS_PER_ROOM = 0.4
+MIN_SECONDS = 1.0
 GOOD_COVERAGE = 0.99
 
 

@@ -21,14 +21,41 @@ from models.formats import FormatName
 #: A batch's layouts get this per-layout time limit by default, seconds per room (and at
 #: least `BATCH_MIN_SECONDS`): a batch is many plans, each good rather than the best.
 #: Measured on apartment-5 in bench/README.md (issue 23).
-BATCH_SECONDS_PER_ROOM = 0.15
-BATCH_MIN_SECONDS = 0.5
+BATCH_SECONDS_PER_ROOM = 0.4
+BATCH_MIN_SECONDS = 1.0
 #: A layout still running this long after its time limit (times `HARD_LIMIT_FACTOR`,
 #: plus `HARD_LIMIT_GRACE` s) has its process killed and fails.
 HARD_LIMIT_FACTOR = 2.0
 HARD_LIMIT_GRACE = 10.0
 #: A layout counts as good when valid and covering at least this share of the floor.
 GOOD_COVERAGE = 0.99
+#: Once a brief has this many good layouts, its next solves stop at the first good
+#: incumbent whose Eq. 12 is within `DEFAULT_TOLERANCE` of the best so far (relative).
+REFERENCE_LAYOUTS = 4
+DEFAULT_TOLERANCE = 0.5
+#: The summary's termination of a layout stopped at a good-enough incumbent.
+GOOD_ENOUGH = "good-enough"
+
+
+class BestSoFar:
+    """Per brief, the lowest Eq. 12 of its good layouts so far: what the next layouts of
+    the brief must come within a tolerance of to stop early (`good_enough`)."""
+
+    def __init__(self, tolerance: float | None) -> None:
+        self.tolerance = tolerance
+        self._good: dict[str, list[float]] = {}
+
+    def add(self, row: LayoutRow) -> None:
+        if row.good and row.objective is not None:
+            self._good.setdefault(row.brief, []).append(row.objective)
+
+    def good_enough(self, brief: str) -> float | None:
+        """The Eq. 12 at which a layout of `brief` may stop; None until the brief has
+        `REFERENCE_LAYOUTS` good layouts, or without a tolerance."""
+        found = self._good.get(brief, [])
+        if self.tolerance is None or len(found) < REFERENCE_LAYOUTS:
+            return None
+        return min(found) * (1 + self.tolerance)
 
 
 def batch_time_limit(problem: Problem) -> float:
@@ -50,6 +77,9 @@ class LayoutTask:
     seed: int
     time_limit: float | None = None
     vary_program: bool = False
+    #: Stop the solve at the first incumbent that passes the checker, covers
+    #: `GOOD_COVERAGE` of the floor and has an Eq. 12 at most this (None: solve on).
+    good_enough: float | None = None
 
 
 class LayoutRow(BaseModel):
@@ -88,12 +118,40 @@ def task_problem(task: LayoutTask) -> Problem:
     return problem.with_options(**changes)
 
 
-def lay_out(task: LayoutTask) -> tuple[Problem, Layout]:
-    """Solve one layout of a batch (in the calling process)."""
+class GoodEnough:
+    """An `on_event` sink and `should_stop` flag for a batch's solve: the flag is raised
+    by the first incumbent that passes the checker (on the layout as `solve` would
+    return it), covers `GOOD_COVERAGE` of the floor and has an Eq. 12 at most `bound`.
+    A batch wants many good plans, not each one's last hundredths."""
+
+    def __init__(self, problem: Problem, bound: float) -> None:
+        self.problem = problem
+        self.bound = bound
+        self.reached = False
+
+    def __call__(self, event: Any) -> None:
+        from solver import Phase, check_layout
+
+        if (self.reached or event.phase is not Phase.INCUMBENT or event.rooms is None
+                or event.objective is None or event.objective > self.bound or event.floor):
+            return
+        check = check_layout(self.problem, event.rooms)
+        self.reached = check.valid and check.coverage >= GOOD_COVERAGE
+
+    def __bool__(self) -> bool:
+        return self.reached
+
+
+def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
+    """Solve one layout of a batch (in the calling process); the last value says whether
+    the solve stopped at a good-enough incumbent (`GoodEnough`)."""
     from solver import solve
 
     problem = task_problem(task)
-    return problem, solve(problem)
+    if task.good_enough is None or problem.floors is not None:
+        return problem, solve(problem), False
+    good = GoodEnough(problem, task.good_enough)
+    return problem, solve(problem, on_event=good, should_stop=lambda: good.reached), good.reached
 
 
 def lay_out_to_file(args: tuple[LayoutTask, str, FormatName, str]) -> tuple[dict[str, Any], str]:
@@ -105,7 +163,7 @@ def lay_out_to_file(args: tuple[LayoutTask, str, FormatName, str]) -> tuple[dict
 
     task, path, fmt, name = args
     started = time.monotonic()
-    problem, layout = lay_out(task)
+    problem, layout, stopped_early = lay_out(task)
     if fmt == "json":
         data = (layout.model_dump_json(indent=2) + "\n").encode()
     else:
@@ -120,6 +178,8 @@ def lay_out_to_file(args: tuple[LayoutTask, str, FormatName, str]) -> tuple[dict
     finally:
         tmp.unlink(missing_ok=True)
     row = row_of(name, task.seed, layout, time.monotonic() - started, file=target.name)
+    if stopped_early:
+        row.termination = GOOD_ENOUGH
     return row.model_dump(mode="json"), layout.model_dump_json()
 
 

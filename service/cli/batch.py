@@ -72,10 +72,16 @@ def add_batch(commands: Any) -> None:
                    help="what each layout's file holds (default json)")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds per layout (default: the brief's options.time_limit, else "
-                   "0.15 s per room, at least 0.5 s)")
+                   "0.4 s per room, at least 1 s)")
     p.add_argument("--vary", choices=["program"], action="append", default=[],
                    help="'program': draw room counts and sizes from a templated brief's "
                    "template, per seed")
+    p.add_argument("--tolerance", type=float, default=None, metavar="T",
+                   help="once a brief has 4 good layouts (valid, covering 99 %%), stop each "
+                   "next solve at its first good layout whose Eq. 12 is within T (relative, "
+                   "default 0.5) of the brief's best so far; not with --vary program")
+    p.add_argument("--full", action="store_true",
+                   help="never stop a solve early: each layout gets its whole time limit")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     p.set_defaults(func=cmd_batch)
 
@@ -144,6 +150,8 @@ def cmd_batch(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
         raise UsageError(f"{out}: cannot make the folder: {err}") from None
     if args.time_limit is not None and not 0 < args.time_limit <= 86400:
         raise UsageError("--time-limit: between 0 and 86400 seconds")
+    if args.tolerance is not None and args.tolerance < 0:
+        raise UsageError("--tolerance: 0 or more")
     return run_batch(args, briefs, out, interrupted)
 
 
@@ -151,6 +159,8 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
               interrupted: Callable[[], bool]) -> int:
     from models import Layout, Problem
     from service.batch import (
+        DEFAULT_TOLERANCE,
+        BestSoFar,
         LayoutRow,
         LayoutTask,
         Tally,
@@ -163,6 +173,11 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     extension = next(f.extension for f in FORMATS if f.name == args.format)
     tally = Tally()
     done = _journal(out, tally)
+    tolerance = None if args.full or "program" in args.vary else (
+        DEFAULT_TOLERANCE if args.tolerance is None else args.tolerance)
+    best = BestSoFar(tolerance)
+    for row in tally.rows:
+        best.add(row)
     todo: list[tuple[str, int, Path]] = []
     for name in briefs:
         for seed in range(args.seed, args.seed + args.count):
@@ -177,7 +192,8 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
 
     def tasks() -> Iterator[tuple[Any, Any, Any, float]]:
         for name, seed, path in todo:
-            task = LayoutTask(briefs[name], seed, args.time_limit, "program" in args.vary)
+            task = LayoutTask(briefs[name], seed, args.time_limit, "program" in args.vary,
+                              good_enough=best.good_enough(name))
             yield ((name, seed), lay_out_to_file, (task, str(path), args.format, name),
                    hard_limit(limits[name]))
 
@@ -201,6 +217,7 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
                 else:
                     row, layout = LayoutRow(brief=name, seed=seed, error=outcome.error), None
                 tally.add(row, layout)
+                best.add(row)
                 finished += 1
                 if bar is not None:
                     bar.advance(row)
