@@ -150,3 +150,34 @@ def test_a_restart_midway_loses_nothing_and_repeats_nothing(backend: str,
             assert all(a <= 2 for a in attempts) and attempts.count(1) >= 3
     finally:
         second.stop()
+
+
+def test_the_client_and_floorplan_submit_make_and_read_batches(server: AnyServer,
+                                                                tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    from floorplan_client import BatchLine, Client
+
+    from tests.service.test_cli import _env
+
+    with Client(server.url) as fp:
+        batch = fp.submit_batch(TINY, 3, seed=5, time_limit=1)
+        deadline = time.monotonic() + 120
+        while not fp.get_batch(batch.id).status.terminal:
+            assert time.monotonic() < deadline
+            time.sleep(0.2)
+        lines = list(fp.batch_results(batch.id, page_size=2))
+        assert [line.seed for line in lines] == [5, 6, 7]
+        assert all(isinstance(line, BatchLine) and line.layout is not None for line in lines)
+        assert fp.get_batch(batch.id, summary=True).valid == 3
+    brief = tmp_path / "tiny.json"
+    brief.write_text(json.dumps(TINY))
+    done = subprocess.run(
+        [sys.executable, "-m", "service", "submit", str(brief), "--server", server.url,
+         "--count", "2", "--time-limit", "1", "--out", str(tmp_path / "out")],
+        capture_output=True, text=True, timeout=180, env=_env())
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        "two-rooms-000000.json", "two-rooms-000001.json"]
+    assert "2 valid" in done.stderr
