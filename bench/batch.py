@@ -5,7 +5,9 @@
 Each brief (default: apartment-5 and house-13 of the shared cases, and the templated
 7-room flat of examples/) is laid out `--count` times on a warm pool of `--processes`
 processes, by our solver as `floorplan batch` runs it (``options.diverse``, the batch's
-per-layout time limit) and by the annealing baseline (bench/anneal.py) given the same
+per-layout time limit; the first `REFERENCE_LAYOUTS` layouts solved to the end, the
+others stopped at their first good layout within `TOLERANCE` of the best Eq. 12 of
+those, solver.stopping) and by the annealing baseline (bench/anneal.py) given the same
 time per layout, in the same run. Reported per brief and solver: layouts per second
 (wall clock), the share valid with coverage >= 0.99, and the share of distinct plans
 (solver.distinct). The pool is the standard library's: bench may not import service.
@@ -32,6 +34,8 @@ DEFAULT_BRIEFS = (CASES / "apartment-5.json", CASES / "house-13.json",
 SECONDS_PER_ROOM = 0.4
 MIN_SECONDS = 1.0
 GOOD_COVERAGE = 0.99
+REFERENCE_LAYOUTS = 4
+TOLERANCE = 0.5
 
 
 def per_layout_limit(problem: Problem) -> float:
@@ -42,23 +46,27 @@ def _warm() -> None:
     import solver.pipeline.dispatch  # noqa: F401  (SCIP, once per process)
 
 
-def _ours(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float, str]:
+def _ours(args: tuple[dict[str, Any], int, float, float | None]
+          ) -> tuple[bool, float | None, str]:
     from solver import solve
+    from solver.stopping import GoodEnough
 
-    brief, seed, limit = args
+    brief, seed, limit, bound = args
     problem = Problem.model_validate(brief).with_options(seed=seed, time_limit=limit,
                                                          diverse=True)
-    layout = solve(problem)
-    good = layout.report.valid and layout.report.coverage >= GOOD_COVERAGE
-    return good, layout.report.coverage, layout.model_dump_json()
+    good = GoodEnough(problem, bound if bound is not None else -1.0)
+    layout = solve(problem, on_event=good, should_stop=lambda: good.reached)
+    ok = layout.report.valid and layout.report.coverage >= GOOD_COVERAGE
+    return ok, layout.report.objective, layout.model_dump_json()
 
 
-def _anneal(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float, str]:
+def _anneal(args: tuple[dict[str, Any], int, float, float | None]
+            ) -> tuple[bool, float | None, str]:
     from bench.anneal import anneal
     from solver.geometry import make_domain, room_polygon
     from solver.verify.checker import check_layout
 
-    brief, seed, limit = args
+    brief, seed, limit, _ = args
     problem = Problem.model_validate(brief)
     result = anneal(problem, make_domain(problem), time_limit=limit, seed=seed)
     check = check_layout(problem, result.rooms)
@@ -70,15 +78,19 @@ def _anneal(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float, str]:
                                 rectangles=[b.to_rect() for b in boxes], area=polygon.area))
     layout = Layout(rooms=rooms, report=Report(coverage=check.coverage,
                                                uncovered_area=check.uncovered_area))
-    return check.valid and check.coverage >= GOOD_COVERAGE, check.coverage, \
-        layout.model_dump_json()
+    return check.valid and check.coverage >= GOOD_COVERAGE, None, layout.model_dump_json()
 
 
 def measure(pool: ProcessPoolExecutor, solver: str, brief: dict[str, Any], count: int,
             limit: float) -> dict[str, Any]:
     function = _ours if solver == "ours" else _anneal
     started = time.monotonic()
-    outcomes = list(pool.map(function, [(brief, seed, limit) for seed in range(count)]))
+    first = min(REFERENCE_LAYOUTS, count)
+    outcomes = list(pool.map(function, [(brief, seed, limit, None) for seed in range(first)]))
+    found = [objective for ok, objective, _ in outcomes if ok and objective is not None]
+    bound = min(found) * (1 + TOLERANCE) if found else None
+    outcomes += pool.map(function, [(brief, seed, limit, bound)
+                                    for seed in range(first, count)])
     seconds = time.monotonic() - started
     plans = DistinctPlans()
     for _, _, layout_json in outcomes:

@@ -118,39 +118,16 @@ def task_problem(task: LayoutTask) -> Problem:
     return problem.with_options(**changes)
 
 
-class GoodEnough:
-    """An `on_event` sink and `should_stop` flag for a batch's solve: the flag is raised
-    by the first incumbent that passes the checker (on the layout as `solve` would
-    return it), covers `GOOD_COVERAGE` of the floor and has an Eq. 12 at most `bound`.
-    A batch wants many good plans, not each one's last hundredths."""
-
-    def __init__(self, problem: Problem, bound: float) -> None:
-        self.problem = problem
-        self.bound = bound
-        self.reached = False
-
-    def __call__(self, event: Any) -> None:
-        from solver import Phase, check_layout
-
-        if (self.reached or event.phase is not Phase.INCUMBENT or event.rooms is None
-                or event.objective is None or event.objective > self.bound or event.floor):
-            return
-        check = check_layout(self.problem, event.rooms)
-        self.reached = check.valid and check.coverage >= GOOD_COVERAGE
-
-    def __bool__(self) -> bool:
-        return self.reached
-
-
 def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
     """Solve one layout of a batch (in the calling process); the last value says whether
     the solve stopped at a good-enough incumbent (`GoodEnough`)."""
     from solver import solve
+    from solver.stopping import GoodEnough
 
     problem = task_problem(task)
     if task.good_enough is None or problem.floors is not None:
         return problem, solve(problem), False
-    good = GoodEnough(problem, task.good_enough)
+    good = GoodEnough(problem, task.good_enough, coverage=GOOD_COVERAGE)
     return problem, solve(problem, on_event=good, should_stop=lambda: good.reached), good.reached
 
 

@@ -54,3 +54,19 @@ def test_a_drawn_programme_is_laid_out_validly() -> None:
     layout = solve(problem)
     assert layout.report.valid
     assert {r.id for r in layout.rooms} == {r.id for r in problem.rooms}
+
+
+def test_good_enough_stops_at_the_first_good_layout() -> None:
+    from solver.stopping import GoodEnough
+
+    problem = Problem.model_validate(APARTMENT).with_options(seed=2, time_limit=4,
+                                                            diverse=True)
+    good = GoodEnough(problem, bound=1e9)
+    layout = solve(problem, on_event=good, should_stop=lambda: good.reached)
+    assert good.reached
+    assert layout.report.valid and layout.report.coverage >= 0.99
+    assert layout.report.termination.value == "interrupted"
+    never = GoodEnough(problem, bound=0.0)  # Eq. 12 is never 0 here: the solve runs on
+    full = solve(problem, on_event=never, should_stop=lambda: never.reached)
+    assert not never.reached and full.report.termination.value != "interrupted"
+    assert full.report.objective <= layout.report.objective + 1e-6
