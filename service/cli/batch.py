@@ -3,6 +3,7 @@
 
     floorplan batch INPUT... --count N --out DIR [--processes P] [--seed S]
                     [--format json|svg|dxf|geojson] [--time-limit S] [--vary program]
+                    [--tolerance T | --full]
 
 Each brief (a file, every ``*.json`` brief in a folder, or a templated brief) is laid out
 N times, with seeds S, S+1, ... and ``options.diverse`` (service/batch.py). DIR gets
