@@ -66,14 +66,25 @@ def _draw_rooms(rooms: list[Any], rng: random.Random) -> list[Any]:
     return out
 
 
-def _draw_sizes(problem: Problem, rooms: list[Any], rng: random.Random) -> Problem:
-    """Each room the brief gave as a bare type gets a target drawn around the
-    template's, within its bounds."""
-    templated = {room.id for room, sketch in zip(problem.rooms, rooms, strict=True)
+def vary_sizes(problem: Problem, seed: int) -> Problem:
+    """`problem` with every room's target drawn within `SIZE_SPREAD` of its own, inside
+    the room's bounds (``--vary sizes``): the brief's ranges say what sizes it allows,
+    its targets which it prefers; a batch may want the whole range."""
+    if problem.floors is not None:
+        return problem
+    rng = random.Random(seed)
+    return _draw_sizes(problem, {room.id for room in problem.rooms}, rng)
+
+
+def _draw_sizes(problem: Problem, drawn: set[str] | list[Any], rng: random.Random) -> Problem:
+    """Each room in `drawn` (ids, or the brief's room list whose bare types are drawn)
+    gets a target drawn around its own, within its bounds."""
+    if isinstance(drawn, list):
+        drawn = {room.id for room, sketch in zip(problem.rooms, drawn, strict=True)
                  if isinstance(sketch, str)}
     changed = []
     for room in problem.rooms:
-        if room.id not in templated or room.target_size is None:
+        if room.id not in drawn or room.target_size is None:
             changed.append(room)
             continue
         lo = room.min_size or (0.0, 0.0)

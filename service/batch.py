@@ -77,6 +77,8 @@ class LayoutTask:
     seed: int
     time_limit: float | None = None
     vary_program: bool = False
+    #: Draw each room's target within 20 % of its own, inside its bounds.
+    vary_sizes: bool = False
     #: Stop the solve at the first incumbent that passes the checker, covers
     #: `GOOD_COVERAGE` of the floor and has an Eq. 12 at most this (None: solve on).
     good_enough: float | None = None
@@ -110,6 +112,10 @@ def task_problem(task: LayoutTask) -> Problem:
         problem = vary_programme(task.brief, task.seed)
     else:
         problem = Problem.model_validate(task.brief)
+    if task.vary_sizes and not task.vary_program:  # a drawn programme has drawn sizes
+        from models.programme import vary_sizes
+
+        problem = vary_sizes(problem, task.seed)
     changes: dict[str, Any] = {"seed": task.seed, "diverse": True}
     if task.time_limit is not None:
         changes["time_limit"] = task.time_limit

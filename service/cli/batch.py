@@ -74,9 +74,10 @@ def add_batch(commands: Any) -> None:
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds per layout (default: the brief's options.time_limit, else "
                    "0.4 s per room, at least 1 s)")
-    p.add_argument("--vary", choices=["program"], action="append", default=[],
+    p.add_argument("--vary", choices=["program", "sizes"], action="append", default=[],
                    help="'program': draw room counts and sizes from a templated brief's "
-                   "template, per seed")
+                   "template, per seed; 'sizes': draw each room's target size within 20 %% "
+                   "of its own, inside its bounds (repeatable)")
     p.add_argument("--tolerance", type=float, default=None, metavar="T",
                    help="once a brief has 4 good layouts (valid, covering 99 %%), stop each "
                    "next solve at its first good layout whose Eq. 12 is within T (relative, "
@@ -174,7 +175,7 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     extension = next(f.extension for f in FORMATS if f.name == args.format)
     tally = Tally()
     done = _journal(out, tally)
-    tolerance = None if args.full or "program" in args.vary else (
+    tolerance = None if args.full or args.vary else (
         DEFAULT_TOLERANCE if args.tolerance is None else args.tolerance)
     best = BestSoFar(tolerance)
     for row in tally.rows:
@@ -194,6 +195,7 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     def tasks() -> Iterator[tuple[Any, Any, Any, float]]:
         for name, seed, path in todo:
             task = LayoutTask(briefs[name], seed, args.time_limit, "program" in args.vary,
+                              vary_sizes="sizes" in args.vary,
                               good_enough=best.good_enough(name))
             yield ((name, seed), lay_out_to_file, (task, str(path), args.format, name),
                    hard_limit(limits[name]))

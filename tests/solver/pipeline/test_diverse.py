@@ -70,3 +70,18 @@ def test_good_enough_stops_at_the_first_good_layout() -> None:
     full = solve(problem, on_event=never, should_stop=lambda: never.reached)
     assert not never.reached and full.report.termination.value != "interrupted"
     assert full.report.objective <= layout.report.objective + 1e-6
+
+
+def test_drawn_sizes_stay_within_each_rooms_bounds() -> None:
+    from models.programme import vary_sizes
+
+    problem = Problem.model_validate(APARTMENT)
+    drawn = [vary_sizes(problem, seed) for seed in range(10)]
+    assert len({tuple(r.target_size for r in p.rooms) for p in drawn}) == 10
+    for p in drawn:
+        assert [r.id for r in p.rooms] == [r.id for r in problem.rooms]
+        for room in p.rooms:
+            assert room.min_size is not None and room.max_size is not None
+            assert room.target_size is not None
+            assert all(room.min_size[a] <= room.target_size[a] <= room.max_size[a]
+                       for a in (0, 1))
