@@ -252,10 +252,9 @@ class Options(_Strict):
         "partitions",
     )
     diverse: bool = Field(
-        False, description="the seed draws the arrangement: the first layout's rooms are "
-        "pulled in directions drawn from the seed and the improvement keeps which room lies "
-        "on which side of which, so different seeds give different plans where the brief "
-        "allows (batches turn it on; issue 23)",
+        False, description="the seed breaks Eq. 12's near-ties: the level-1 improvement "
+        "pulls each room slightly in a direction drawn from the seed, so different seeds "
+        "give different plans where the brief leaves room (batches turn it on; issue 23)",
     )
     strict: bool = Field(
         True, description="false: every constraint that can be relaxed (sizes, aspect "

@@ -24,7 +24,6 @@ from solver.heuristics.level_one import (
     wings_wanted,
 )
 from solver.heuristics.slicing import slicing_applies, slicing_has_demands, slicing_layout
-from solver.heuristics.variety import pull_at_random
 from solver.miqp.formulation import active_families, build_level
 from solver.miqp.objective import e_band_shortfall
 from solver.miqp.scip_run import LevelResult, LevelStatus
@@ -194,8 +193,6 @@ def _level_one(
         lm = build_level(spec, feasibility=True)
         if window is None:  # no window held: the user's bounds, sizes pulled to the targets
             e_band_shortfall(lm, target_bands(problem, domain, FIRST_BAND))
-        if problem.options.diverse:
-            pull_at_random(lm, problem.options.seed)
         share = left * (ATTEMPT_SHARE if window is not None or may_widen else 1.0)
         result = run.run(lm, share)
         label = "user bounds" if window is None else f"target ±{window:.0%}"

@@ -15,16 +15,29 @@ APARTMENT = json.loads((ROOT / "examples/apartment-5.json").read_text())
 FLAT_7 = json.loads((ROOT / "examples/flat-7-template.json").read_text())
 
 
-def test_diverse_seeds_give_different_valid_plans() -> None:
+def test_diverse_seeds_break_ties_differently() -> None:
+    from solver.distinct import DistinctPlans
+
     problem = Problem.model_validate(APARTMENT)
     layouts = [solve(problem.with_options(seed=seed, time_limit=1.5, diverse=True))
                for seed in range(6)]
     assert all(layout.report.valid for layout in layouts)
-    plans, graphs = count_distinct(layouts)
-    # Measured: 2 to 6 plans of 6 at 1.5 s (issue 23: the improvement often pulls the
-    # arrangements back together; see bench/README.md).
-    assert plans >= 2, [layout.report.objective for layout in layouts]
-    assert graphs >= 1
+    exact = DistinctPlans(share=0.0)  # any cell of the 10 cm grid differing
+    for layout in layouts:
+        exact.add(layout)
+    assert exact.plans >= 3
+
+
+def test_drawn_sizes_give_distinct_valid_plans() -> None:
+    from models.programme import vary_sizes
+
+    problem = Problem.model_validate(APARTMENT)
+    layouts = [solve(vary_sizes(problem, seed).with_options(seed=seed, time_limit=3,
+                                                            diverse=True))
+               for seed in range(6)]
+    assert all(layout.report.valid for layout in layouts)
+    plans, _ = count_distinct(layouts)  # at most 5 % of the floor alike
+    assert plans >= 3, [layout.report.objective for layout in layouts]
 
 
 def test_the_pull_is_drawn_from_the_seed() -> None:
