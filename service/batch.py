@@ -3,8 +3,8 @@ command and the service's batches share: the task of one layout (`LayoutTask`, r
 `lay_out` in whatever process), the row a finished layout leaves in the summary
 (`LayoutRow`), and the summary itself (`BatchSummary`: counts, rate, distinct plans).
 
-Every layout of a batch is solved with ``options.diverse`` (the seed draws the
-arrangement) and ``options.seed`` = the batch's seed + its index; with `vary_program`
+Every layout of a batch is solved with ``options.diverse`` (the seed breaks Eq. 12's
+near-ties) and ``options.seed`` = the batch's seed + its index; with `vary_program`
 the seed also draws the programme from a templated brief (`models.programme`)."""
 
 from __future__ import annotations
