@@ -104,11 +104,13 @@ class AsyncClient(BaseClient):
     async def submit_batch(self, problem: ProblemInput, count: int, *, seed: int = 0,
                            time_limit: float | None = None, vary_program: bool = False,
                            timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
+        """Queue a batch; see `Client.submit_batch`."""
         options = self._batch_options(problem, count, seed, time_limit, vary_program, timeout)
         return self._parse(await self._send(options), BatchInfo)
 
     async def get_batch(self, batch_id: str, *, summary: bool = False,
                         timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
+        """A batch's progress; see `Client.get_batch`."""
         options = RequestOptions("GET", f"/v1/batches/{batch_id}",
                                  params={"summary": "true"} if summary else None,
                                  timeout=timeout)
@@ -118,6 +120,7 @@ class AsyncClient(BaseClient):
                             page_size: int = C.DEFAULT_PAGE_SIZE,
                             timeout: Timeout | NotGiven = NOT_GIVEN
                             ) -> AsyncIterator[BatchLine]:
+        """The batch's finished layouts, page after page; see `Client.batch_results`."""
         while True:
             options = RequestOptions(
                 "GET", f"/v1/batches/{batch_id}/results", timeout=timeout,
@@ -135,6 +138,7 @@ class AsyncClient(BaseClient):
 
     async def cancel_batch(self, batch_id: str, *,
                            timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
+        """Cancel the batch's layouts not yet finished; see `Client.cancel_batch`."""
         options = RequestOptions("POST", f"/v1/batches/{batch_id}/cancel", timeout=timeout)
         return self._parse(await self._send(options), BatchInfo)
 
