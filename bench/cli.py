@@ -4,6 +4,7 @@
                     [--only NAME ...] [--solvers ours,flat,anneal] [--flat-limit S]
     python -m bench --report-only [--out DIR] [--cases DIR]
     python -m bench planted [options]   # planted briefs: bench/planted_report.py
+    python -m bench batch [options]     # layouts per second of a batch: bench/batch.py
 
 Cases run one after another, and on each case the solvers run one after another
 (never two at once), repeat after repeat, so they share the machine equally.
@@ -18,6 +19,7 @@ import sys
 import time
 from pathlib import Path
 
+from bench.batch import main as batch_main
 from bench.evaluate import RunRecord, evaluate
 from bench.planted_report import main as planted_main
 from bench.report import build_results, machine_info, write_outputs
@@ -80,6 +82,8 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["planted"]:  # the gap to planted plans (issue 19): its own report
         return planted_main(argv[1:])
+    if argv[:1] == ["batch"]:  # layouts per second of a batch (issue 23)
+        return batch_main(argv[1:])
     args = parse_args(argv)
     if args.report_only:
         return rewrite_report(args.out, args.cases)

@@ -18,7 +18,7 @@ from uuid import UUID
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
-from models.layout import ConflictSet, Termination
+from models.layout import ConflictSet, Layout, Termination
 from models.problem import Problem
 
 
@@ -169,3 +169,66 @@ def format_number(value: float) -> str:
     if not math.isfinite(value) or abs(value) >= SCIP_INFINITY:
         return "-inf" if value < 0 else "inf"
     return f"{value:.3g}" if abs(value) >= 1e6 else f"{round(value, 2) + 0.0:.2f}"
+
+
+# Batches (issue 23): many layouts of one brief, each its own job.
+
+#: Most layouts one batch may ask for.
+MAX_BATCH_COUNT = 10_000
+
+
+class BatchRequest(WireModel):
+    """``POST /v1/batches``: one brief laid out `count` times, seeds `seed`, `seed` + 1, ..."""
+
+    problem: dict[str, Any] = Field(description="the brief: a problem, templated or not")
+    count: int = Field(ge=1, le=MAX_BATCH_COUNT, description="layouts to make")
+    seed: int = Field(0, ge=0, le=2**31 - 1 - MAX_BATCH_COUNT,
+                      description="the first layout's seed")
+    time_limit: float | None = Field(
+        None, gt=0, le=86400, description="seconds per layout (default: the brief's "
+        "options.time_limit, else 0.4 s per room, at least 1 s)")
+    vary_program: bool = Field(False, description="draw room counts and sizes from a "
+                               "templated brief's template, per seed")
+    name: str | None = Field(None, max_length=200, description="default: the brief's name")
+
+
+class BatchPublic(WireModel):
+    """A batch as clients see it: its progress and counts."""
+
+    id: JobId
+    name: str
+    count: int
+    seed: int
+    vary_program: bool
+    status: JobStatus = Field(description="queued until a layout starts, running until every "
+                              "layout ended; then succeeded (every layout), failed (some "
+                              "failed) or canceled (some canceled)")
+    queued: int
+    running: int
+    succeeded: int
+    failed: int
+    canceled: int
+    valid: int | None = Field(None, description="with ?summary=true: layouts valid and "
+                              "covering 99 % of the floor")
+    distinct_plans: int | None = Field(None, description="with ?summary=true: geometrically "
+                                       "distinct plans among the finished layouts")
+    distinct_graphs: int | None = Field(None, description="with ?summary=true: distinct room "
+                                        "adjacency graphs")
+    created_at: datetime
+
+
+class BatchLayoutLine(WireModel):
+    """One line of ``GET /v1/batches/{id}/results`` (NDJSON): a finished layout."""
+
+    index: int = Field(description="the layout's place in the batch (seed = batch seed + index)")
+    seed: int
+    job_id: JobId
+    status: JobStatus
+    termination: Termination | None = None
+    valid: bool | None = None
+    coverage: float | None = None
+    objective: float | None = Field(None, description="Eq. 12")
+    solve_time: float | None = None
+    layout: Layout | None = Field(None, description="the layout (left out with "
+                                  "?layouts=false)")
+    error: JobError | None = None

@@ -277,6 +277,11 @@ class Options(_Strict):
         "takes up to 3x the time limit. Fewer come back when no more distinct ones are "
         "found in time",
     )
+    diverse: bool = Field(
+        False, description="the seed breaks Eq. 12's near-ties: the level-1 improvement "
+        "pulls each room slightly in a direction drawn from the seed, so different seeds "
+        "give different plans where the brief leaves room (batches turn it on; issue 23)",
+    )
     strict: bool = Field(
         True, description="false: every constraint that can be relaxed (sizes, aspect "
         "ratios, positions, boundary walls, adjacencies, and what require_connected adds) "

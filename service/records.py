@@ -41,3 +41,28 @@ class Event:
     kind: str
     data: str
 
+
+
+@dataclass(frozen=True)
+class Batch:
+    """A batch of layouts (issue 23): its jobs name it in their `batch_id`."""
+
+    id: str
+    owner: str
+    name: str
+    count: int
+    seed: int
+    vary_program: bool
+    created_at: float
+
+
+@dataclass(frozen=True)
+class BatchLayout:
+    """One finished layout of a batch: its place, its job and the job's outcome."""
+
+    index: int
+    job_id: str
+    status: JobStatus
+    termination: str | None
+    result: str | None
+    error: dict[str, Any] | None

@@ -89,7 +89,7 @@ class Settings(BaseSettings):
     max_time_limit: float = Field(600.0, gt=0, description="largest options.time_limit allowed")
     queue_limit: int = Field(1000, ge=1, description="jobs waiting at most; beyond, 429")
     max_jobs_per_key: int = Field(
-        100, ge=1, description="queued and running jobs of one API key (of everyone when "
+        400, ge=1, description="queued and running jobs of one API key (of everyone when "
         "keys are off) at most; beyond, 429 too-many-jobs. Keep it under queue_limit so "
         "that one key cannot fill the queue for the others",
     )

@@ -41,6 +41,10 @@ jobs = Table(
     Column("worker", String(200)),
     Column("heartbeat_at", Float),
     Column("dispatched_at", Float),
+    # Issue 23: a job that is one layout of a batch, and its place in the batch (its
+    # seed is the batch's seed plus this).
+    Column("batch_id", String(36), index=True),
+    Column("batch_index", Integer),
     # A retried POST finds the job its Idempotency-Key made; concurrent ones that all
     # found none cannot each make one (migration 0003).
     Index("ux_jobs_owner_idempotency_key", "owner", "idempotency_key", unique=True),
@@ -53,4 +57,16 @@ events = Table(
     Column("kind", String(16), nullable=False),
     Column("data", Text, nullable=False),
     Column("created_at", Float, nullable=False),
+)
+
+# Issue 23: a batch is ordinary jobs (jobs.batch_id), made in one transaction with it.
+batches = Table(
+    "batches", metadata,
+    Column("id", String(36), primary_key=True),
+    Column("owner", String(64), nullable=False, default=""),
+    Column("name", String(200), nullable=False),
+    Column("count", Integer, nullable=False),
+    Column("seed", Integer, nullable=False),
+    Column("vary_program", Boolean, nullable=False, default=False),
+    Column("created_at", Float, nullable=False, index=True),
 )

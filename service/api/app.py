@@ -17,7 +17,7 @@ from models.templates import TemplatedProblem
 from service.api import web
 from service.api.errors import ProblemDetails, TrustedHosts, install
 from service.api.limits import Limits
-from service.api.routes import health, layouts, validate
+from service.api.routes import batches, health, layouts, validate
 from service.jobs.factory import make_backend
 from service.settings import Settings, get_settings
 
@@ -48,6 +48,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     install(app)
     app.add_middleware(TrustedHosts, allowed_hosts=settings.trusted_hosts)
     app.include_router(layouts.router)
+    app.include_router(batches.router)
     app.include_router(validate.router)
     app.include_router(health.router)
     web.install(app)  # the page at /, its static files, the examples

@@ -79,7 +79,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    extra: list[solver_cli.CommandAdder] = [add_serve, add_worker]
+    from service.cli.batch import add_batch
+
+    extra: list[solver_cli.CommandAdder] = [add_batch, add_serve, add_worker]
     try:  # `floorplan submit` comes with the Python client (clients/python), when installed
         from floorplan_client.cli import add_submit
     except ModuleNotFoundError as err:

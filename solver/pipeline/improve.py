@@ -19,6 +19,7 @@ from solver.heuristics.neighbourhood import (
     covered_area,
     search_neighbourhoods,
 )
+from solver.heuristics.variety import pull_at_random
 from solver.miqp.formulation import build_level
 from solver.miqp.model import LevelModel
 from solver.miqp.scip_run import Incumbent, complete_start
@@ -104,6 +105,8 @@ def improve_level_one(
         return first
     lm = build_level(level_one_spec(run.problem, domain, window=None, wings=run.wings,
                                     soft=run.soft))
+    if run.problem.options.diverse:
+        pull_at_random(lm, run.problem.options.seed)
     start = complete_start(lm, first, time_limit=deadline - time.monotonic())
     if start.values is None:
         return first

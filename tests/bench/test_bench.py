@@ -137,3 +137,20 @@ def test_results_give_the_spread_of_the_runs_beside_the_median() -> None:
     assert "100.0 % (99.5-100.0) %" not in table and "100.0 (99.5-100.0) %" in table
     # Without the flat baseline there is no comparison to make.
     assert "Speed-up" not in table and "Quality against the flat baseline" not in table
+
+
+def test_bench_batch_measures_ours_and_the_annealer_on_the_same_brief(tmp_path: Path) -> None:
+    from bench.batch import main as batch_main
+
+    brief = tmp_path / "tiny.json"
+    brief.write_text(json.dumps({
+        "name": "tiny", "boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],
+        "rooms": [{"id": "a", "type": "living", "min_size": [2, 2], "target_size": [3, 4]},
+                  {"id": "b", "type": "bedroom", "min_size": [2, 2], "target_size": [3, 4]}],
+        "options": {"time_limit": 1}}))
+    out = tmp_path / "rows.json"
+    assert batch_main([str(brief), "--count", "5", "--processes", "2", "--out", str(out)]) == 0
+    rows = json.loads(out.read_text())
+    assert [r["solver"] for r in rows] == ["ours", "anneal"]
+    assert all(r["layouts"] == 5 and r["per_second"] > 0 for r in rows)
+    assert rows[0]["good"] == 1.0 and 0 < rows[0]["distinct"] <= 1

@@ -73,7 +73,8 @@ _WHERE = {
         "ServerError", "Unauthorized", "WaitTimeout",
     ),
     "floorplan_client.types": (
-        "ErrorInfo", "Event", "FieldError", "IncumbentEvent", "JobInfo", "JobStatus",
+        "BatchInfo", "BatchLine", "ErrorInfo", "Event", "FieldError", "IncumbentEvent",
+        "JobInfo", "JobStatus",
         "ProblemDocument", "Progress", "ProgressEvent", "StatusEvent", "Validation",
     ),
 }
@@ -88,6 +89,8 @@ __all__ = [
     "AsyncJob",
     "AsyncPage",
     "BadRequest",
+    "BatchInfo",
+    "BatchLine",
     "Client",
     "Conflict",
     "ErrorInfo",

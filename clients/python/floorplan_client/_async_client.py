@@ -31,7 +31,16 @@ from floorplan_client._core import (
 )
 from floorplan_client._deadlines import deadline_after, expired, remaining
 from floorplan_client._exceptions import APIConnectionError, NoResultYet, WaitTimeout
-from floorplan_client.types import Event, JobInfo, JobPage, JobStatus, Layout, Validation
+from floorplan_client.types import (
+    BatchInfo,
+    BatchLine,
+    Event,
+    JobInfo,
+    JobPage,
+    JobStatus,
+    Layout,
+    Validation,
+)
 
 
 class AsyncClient(BaseClient):
@@ -91,6 +100,49 @@ class AsyncClient(BaseClient):
         page = self._parse(await self._send(options), JobPage)
         return AsyncPage(self, [AsyncJob(self, info) for info in page.data],
                          page.next_cursor, status, limit)
+
+    # Batches (issue 23): see `Client.submit_batch` and the methods after it.
+
+    async def submit_batch(self, problem: ProblemInput, count: int, *, seed: int = 0,
+                           time_limit: float | None = None, vary_program: bool = False,
+                           timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
+        """Queue a batch; see `Client.submit_batch`."""
+        options = self._batch_options(problem, count, seed, time_limit, vary_program, timeout)
+        return self._parse(await self._send(options), BatchInfo)
+
+    async def get_batch(self, batch_id: str, *, summary: bool = False,
+                        timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
+        """A batch's progress; see `Client.get_batch`."""
+        options = RequestOptions("GET", f"/v1/batches/{batch_id}",
+                                 params={"summary": "true"} if summary else None,
+                                 timeout=timeout)
+        return self._parse(await self._send(options), BatchInfo)
+
+    async def batch_results(self, batch_id: str, *, after: int = -1, layouts: bool = True,
+                            page_size: int = C.DEFAULT_PAGE_SIZE,
+                            timeout: Timeout | NotGiven = NOT_GIVEN
+                            ) -> AsyncIterator[BatchLine]:
+        """The batch's finished layouts, page after page; see `Client.batch_results`."""
+        while True:
+            options = RequestOptions(
+                "GET", f"/v1/batches/{batch_id}/results", timeout=timeout,
+                params={"after": after, "limit": page_size,
+                        "layouts": "true" if layouts else "false"})
+            response = await self._send(options)
+            if response.is_error:
+                raise self._status_error(response)
+            lines = self._batch_lines(response)
+            for line in lines:
+                yield line
+            if len(lines) < page_size:
+                return
+            after = lines[-1].index
+
+    async def cancel_batch(self, batch_id: str, *,
+                           timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
+        """Cancel the batch's layouts not yet finished; see `Client.cancel_batch`."""
+        options = RequestOptions("POST", f"/v1/batches/{batch_id}/cancel", timeout=timeout)
+        return self._parse(await self._send(options), BatchInfo)
 
     async def validate(self, problem: ProblemInput, *, explain: bool = False,
                        time_limit: float | None = None,

@@ -30,6 +30,8 @@ from floorplan_client._core import (
 from floorplan_client._deadlines import deadline_after, expired, remaining
 from floorplan_client._exceptions import APIConnectionError, NoResultYet, WaitTimeout
 from floorplan_client.types import (
+    BatchInfo,
+    BatchLine,
     Event,
     JobInfo,
     JobPage,
@@ -124,6 +126,52 @@ class Client(BaseClient):
                                  params=self._validate_params(explain, time_limit),
                                  timeout=timeout)
         return self._parse(self._send(options), Validation)
+
+    # Batches (issue 23).
+
+    def submit_batch(self, problem: ProblemInput, count: int, *, seed: int = 0,
+                     time_limit: float | None = None, vary_program: bool = False,
+                     timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
+        """Queue `count` layouts of one brief, seeds `seed`, `seed` + 1, ..., each its own
+        plan (``options.diverse``); with `vary_program` each its own programme drawn from
+        a templated brief. `time_limit` is per layout. `RateLimited` when the queue
+        cannot take them all."""
+        options = self._batch_options(problem, count, seed, time_limit, vary_program, timeout)
+        return self._parse(self._send(options), BatchInfo)
+
+    def get_batch(self, batch_id: str, *, summary: bool = False,
+                  timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
+        """A batch's progress (its layouts by status); with `summary` also the valid
+        layouts and the distinct plans and adjacency graphs among them."""
+        options = RequestOptions("GET", f"/v1/batches/{batch_id}",
+                                 params={"summary": "true"} if summary else None,
+                                 timeout=timeout)
+        return self._parse(self._send(options), BatchInfo)
+
+    def batch_results(self, batch_id: str, *, after: int = -1, layouts: bool = True,
+                      page_size: int = C.DEFAULT_PAGE_SIZE,
+                      timeout: Timeout | NotGiven = NOT_GIVEN) -> Iterator[BatchLine]:
+        """The batch's finished layouts with index above `after`, in index order, page
+        after page until none are left (layouts finishing meanwhile included)."""
+        while True:
+            options = RequestOptions(
+                "GET", f"/v1/batches/{batch_id}/results", timeout=timeout,
+                params={"after": after, "limit": page_size,
+                        "layouts": "true" if layouts else "false"})
+            response = self._send(options)
+            if response.is_error:
+                raise self._status_error(response)
+            lines = self._batch_lines(response)
+            yield from lines
+            if len(lines) < page_size:
+                return
+            after = lines[-1].index
+
+    def cancel_batch(self, batch_id: str, *,
+                     timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
+        """Cancel the batch's layouts not yet finished; finished ones stay."""
+        options = RequestOptions("POST", f"/v1/batches/{batch_id}/cancel", timeout=timeout)
+        return self._parse(self._send(options), BatchInfo)
 
     # Sending.
 

@@ -43,6 +43,7 @@ from floorplan_client._exceptions import (
     Unauthorized,
 )
 from floorplan_client.types import (
+    BatchLine,
     Event,
     IncumbentEvent,
     JobInfo,
@@ -181,6 +182,22 @@ class BaseClient:
         key = idempotency_key or _new_key()
         return RequestOptions("POST", "/v1/layouts", json=problem_body(problem),
                               headers={"Idempotency-Key": key}, timeout=timeout)
+
+    @staticmethod
+    def _batch_options(problem: ProblemInput, count: int, seed: int,
+                       time_limit: float | None, vary_program: bool,
+                       timeout: Timeout | NotGiven) -> RequestOptions:
+        body: dict[str, Any] = {"problem": problem_body(problem), "count": count, "seed": seed,
+                                "vary_program": vary_program}
+        if time_limit is not None:
+            body["time_limit"] = time_limit
+        return RequestOptions("POST", "/v1/batches", json=body, timeout=timeout)
+
+    @staticmethod
+    def _batch_lines(response: httpx.Response) -> list[BatchLine]:
+        """The lines of a page of a batch's results (NDJSON)."""
+        return [BatchLine.model_validate_json(line) for line in response.text.splitlines()
+                if line.strip()]
 
     @staticmethod
     def _list_params(status: JobStatus | str | None, limit: int,

@@ -111,6 +111,14 @@ def add_submit(commands: Any) -> None:
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds for the solve (overrides options.time_limit)")
     p.add_argument("--seed", type=int, metavar="K", help="random seed (overrides options.seed)")
+    p.add_argument("--count", type=int, metavar="N",
+                   help="a batch (issue 23): N layouts of the problem, seeds --seed (default "
+                   "0), +1, ..., each its own plan; prints the batch's id; with --wait "
+                   "follows it, and with --out writes its layouts")
+    p.add_argument("--vary", choices=["program"],
+                   help="with --count: draw room counts and sizes from a templated brief")
+    p.add_argument("--out", metavar="DIR",
+                   help="with --count: write each layout as DIR/NAME-SEED.json (implies --wait)")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress or summary on stderr; warnings and errors only")
     # Ctrl-C is ours: it cancels the job (the solver's Ctrl-C handling is for local solves).
@@ -132,6 +140,10 @@ def cmd_submit(args: argparse.Namespace) -> int:
 def _submit(args: argparse.Namespace) -> int:
     from floorplan_client import NOT_GIVEN, Client, FloorplanError, InvalidProblem
 
+    if args.count is not None:
+        return _submit_batch(args)
+    if args.out is not None or args.vary is not None:
+        raise UsageError("--out and --vary go with --count")
     problem = load_problem(args.problem)
     options = problem.setdefault("options", {}) if isinstance(problem, dict) else None
     for name in ("time_limit", "seed"):
@@ -478,3 +490,71 @@ def make_display(*, quiet: bool, stream: TextIO | None = None) -> Display:
         except ImportError:
             pass
     return PlainDisplay(stream)
+
+
+#: Seconds between two looks at a batch's progress while following it.
+BATCH_POLL = 1.0
+
+
+def _submit_batch(args: argparse.Namespace) -> int:
+    """``floorplan submit --count N``: queue a batch, and with --wait or --out follow it
+    (a progress line per change) and write its layouts."""
+    import time
+    from pathlib import Path
+
+    from floorplan_client import NOT_GIVEN, Client, FloorplanError, InvalidProblem
+
+    if args.count < 1:
+        raise UsageError("--count: at least 1")
+    if args.output is not None or args.svg is not None:
+        raise UsageError("a batch writes to --out DIR, not -o or --svg")
+    problem = load_problem(args.problem)
+    say = _Say(sys.stderr, quiet=args.quiet)
+    api_key = NOT_GIVEN if args.api_key is None else args.api_key
+    with Client(args.server, api_key=api_key) as fp:
+        try:
+            batch = fp.submit_batch(problem, args.count, seed=args.seed or 0,
+                                    time_limit=args.time_limit,
+                                    vary_program=args.vary == "program")
+        except InvalidProblem as err:
+            lines = "\n".join(f"  {e}" for e in err.errors) or f"  {err.problem.detail}"
+            print(f"{PROG}: error: {args.problem}: the service refused the problem\n{lines}",
+                  file=sys.stderr)
+            return EXIT_INVALID
+        except FloorplanError as err:
+            print(f"{PROG}: error: {err}", file=sys.stderr)
+            return EXIT_FAILURE
+        print(batch.id, flush=True)
+        say(f"{PROG}: batch {batch.id} of {batch.count} layouts queued on {fp.base_url}")
+        if not (args.wait or args.out):
+            return EXIT_OK
+        try:
+            shown = None
+            while not batch.status.terminal:
+                time.sleep(BATCH_POLL)
+                batch = fp.get_batch(batch.id)
+                line = (f"{batch.succeeded + batch.failed + batch.canceled}/{batch.count} done, "
+                        f"{batch.running} running, {batch.failed} failed")
+                if line != shown:
+                    say(f"{PROG}: {line}")
+                    shown = line
+            batch = fp.get_batch(batch.id, summary=True)
+            say(f"{PROG}: batch {batch.status.value}: {batch.valid} valid, "
+                f"{batch.distinct_plans} distinct plans, {batch.distinct_graphs} adjacency "
+                "graphs")
+            if args.out:
+                out = Path(args.out)
+                out.mkdir(parents=True, exist_ok=True)
+                for line in fp.batch_results(batch.id):
+                    if line.layout is not None:
+                        target = out / f"{batch.name}-{line.seed:06d}.json"
+                        target.write_text(line.layout.model_dump_json(indent=2) + "\n",
+                                          encoding="utf-8")
+        except FloorplanError as err:
+            print(f"{PROG}: error: batch {batch.id}: {err}", file=sys.stderr)
+            return EXIT_FAILURE
+        except KeyboardInterrupt:
+            fp.cancel_batch(batch.id)
+            print(f"{PROG}: canceled the rest of batch {batch.id}", file=sys.stderr)
+            return EXIT_INTERRUPTED
+    return EXIT_OK if batch.failed == 0 else EXIT_NO_LAYOUT

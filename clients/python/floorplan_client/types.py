@@ -14,6 +14,8 @@ from pydantic import ConfigDict, Field
 
 from models import Layout, Problem, Termination
 from models.jobs import (
+    BatchLayoutLine,
+    BatchPublic,
     FieldError,
     JobError,
     JobPage,
@@ -26,6 +28,8 @@ from models.jobs import (
 )
 
 __all__ = [
+    "BatchInfo",
+    "BatchLine",
     "ErrorInfo",
     "Event",
     "FieldError",
@@ -47,6 +51,10 @@ __all__ = [
 JobInfo = JobPublic
 #: Why a job failed (the service's `JobError`).
 ErrorInfo = JobError
+#: A batch of layouts as the service reports it (issue 23; the service's `BatchPublic`).
+BatchInfo = BatchPublic
+#: One finished layout of a batch, a line of its results (the service's `BatchLayoutLine`).
+BatchLine = BatchLayoutLine
 
 
 class ProblemDocument(WireModel):

@@ -87,6 +87,10 @@ class Reconciler:
         return self.thread is not None and self.thread.is_alive()
 
     def _loop(self, stopping: threading.Event) -> None:
+        try:
+            self.resend_queued()
+        except Exception as err:  # the store or Redis is away: the passes below go on
+            log.warning("reconciler: %s", err)
         while not stopping.is_set():
             try:
                 if self.also is not None:
@@ -95,6 +99,18 @@ class Reconciler:
             except Exception as err:  # the store or Redis is away: try again next time
                 log.warning("reconciler: %s", err)
             stopping.wait(self.settings.reconcile_seconds)
+
+    def resend_queued(self) -> None:
+        """Once, when a node starts: every queued job goes to the broker again. A worker
+        killed with a job's message received but the job not yet claimed (a batch's
+        layouts queue by the hundred) holds that message unacknowledged until Redis's
+        visibility timeout, twenty minutes and more; the job would wait that long after
+        a restart (issue 23). Duplicates are harmless: the claim is conditional."""
+        queued = self.store.queued()
+        if queued:
+            log.info("sending %d queued jobs again after a start", len(queued))
+        for job_id in queued:
+            self.dispatcher.send(job_id)
 
     def reconcile(self) -> None:
         settings, store, send = self.settings, self.store, self.dispatcher.send

@@ -1,0 +1,178 @@
+"""Batches (/v1/batches, issue 23): one brief laid out many times, each layout an ordinary
+job of the store (so the embedded runner and the Celery workers solve them as any job,
+a restart requeues what was running and keeps what is done), made in one transaction
+with the batch's row."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from datetime import UTC, datetime
+from typing import Annotated
+
+from fastapi import APIRouter, Query, Request, Response
+from fastapi.responses import StreamingResponse
+
+from models import Layout
+from models.jobs import BatchLayoutLine, BatchPublic, BatchRequest, JobError, JobStatus
+from service.api.body import parse_problem
+from service.api.deps import BackendDep, OwnerDep, SettingsDep, StoreDep
+from service.api.errors import STORE_RETRY_AFTER, ApiError
+from service.api.limits import too_many
+from service.api.routes.layouts import RETRY_AFTER, effective_time_limit
+from service.batch import GOOD_COVERAGE, LayoutTask, task_problem
+from service.records import Batch
+from service.store import JobStore
+
+#: Most lines one page of results holds.
+MAX_PAGE = 500
+DEFAULT_PAGE = 100
+
+router = APIRouter(prefix="/v1/batches", tags=["batches"])
+
+
+def batch_or_404(batch_id: str, store: StoreDep, owner: OwnerDep) -> Batch:
+    batch = store.get_batch(batch_id, owner)
+    if batch is None:
+        raise ApiError(404, f"batch {batch_id} not found", kind="not-found")
+    return batch
+
+
+@router.post("", status_code=202, response_model=BatchPublic,
+             responses={422: {"description": "invalid brief"},
+                        429: {"description": "the queue cannot take the batch"}})
+def submit_batch(
+    body: BatchRequest, response: Response, store: StoreDep, backend: BackendDep,
+    settings: SettingsDep, owner: OwnerDep,
+) -> BatchPublic:
+    """Queue `count` layouts of the brief, seeds `seed`, `seed` + 1, ..., each solved with
+    options.diverse (and with `vary_program` its own programme). Follow it with
+    GET /v1/batches/{id} and its results."""
+    # The brief gets the checks of any job's body (issue 20): its sizes, the model (a
+    # 422 naming the field), the outline's extent and the time-limit ceiling.
+    parse_problem(json.dumps(body.problem).encode(), settings)
+    unwritable = store.unwritable()
+    if unwritable is not None:  # accepted, the layouts would be lost: nothing is taken
+        raise ApiError(503, f"the job store cannot take jobs now: {unwritable}",
+                       kind="store-unavailable", headers={"Retry-After": str(STORE_RETRY_AFTER)})
+    mine = store.active(owner)
+    if mine + body.count > settings.max_jobs_per_key:
+        raise too_many(f"this key's queued and running jobs with the batch's {body.count}",
+                       mine + body.count, settings.max_jobs_per_key,
+                       "FLOORPLAN_MAX_JOBS_PER_KEY", "too-many-jobs")
+    if store.count(JobStatus.QUEUED) + body.count > settings.queue_limit:
+        raise ApiError(429, f"the queue cannot take {body.count} more layouts; try fewer or "
+                       "later", kind="queue-full", headers={"Retry-After": str(RETRY_AFTER)})
+    problems = []
+    for index in range(body.count):
+        task = LayoutTask(body.problem, body.seed + index, body.time_limit, body.vary_program)
+        problem, time_limit = effective_time_limit(task_problem(task), settings.max_time_limit)
+        problems.append((problem.model_dump_json(), time_limit))
+    name = body.name or str(body.problem.get("name") or "batch")
+    batch, made = store.create_batch(owner=owner, name=name[:200], seed=body.seed,
+                                     vary_program=body.vary_program, problems=problems)
+    for job in made:
+        backend.submitted(job)
+    response.headers["Location"] = f"/v1/batches/{batch.id}"
+    return batch_public(store, batch)
+
+
+@router.get("/{batch_id}", response_model=BatchPublic, responses={404: {"description": "unknown"}})
+def get_batch(
+    batch_id: str, store: StoreDep, owner: OwnerDep,
+    summary: Annotated[bool, Query(description="also count valid layouts and distinct "
+                                   "plans (reads every finished layout)")] = False,
+) -> BatchPublic:
+    """Progress: the batch's layouts by status; with ?summary=true the valid ones and the
+    distinct plans and adjacency graphs among them."""
+    return batch_public(store, batch_or_404(batch_id, store, owner), summary=summary)
+
+
+@router.get("/{batch_id}/results", responses={
+    200: {"content": {"application/x-ndjson": {}},
+          "description": "one BatchLayoutLine per line; a `Link: <...>; rel=\"next\"` header "
+                         "while more finished layouts follow"},
+    404: {"description": "unknown"}})
+def get_results(
+    batch_id: str, request: Request, store: StoreDep, owner: OwnerDep,
+    after: Annotated[int, Query(ge=-1, description="the last index already read")] = -1,
+    limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = DEFAULT_PAGE,
+    layouts: Annotated[bool, Query(description="false: the lines without their layouts")] = True,
+) -> StreamingResponse:
+    """The finished layouts, in index order, a page at a time (NDJSON)."""
+    batch = batch_or_404(batch_id, store, owner)
+    found = store.batch_layouts(batch.id, after=after, limit=limit)
+    headers = {}
+    if len(found) == limit:
+        url = request.url.include_query_params(after=found[-1].index, limit=limit)
+        headers["Link"] = f'<{url}>; rel="next"'
+
+    def lines() -> Iterator[str]:
+        for item in found:
+            layout = Layout.model_validate_json(item.result) if item.result else None
+            report = layout.report if layout is not None else None
+            line = BatchLayoutLine(
+                index=item.index, seed=batch.seed + item.index, job_id=item.job_id,
+                status=item.status, termination=item.termination,
+                valid=None if report is None else report.valid,
+                coverage=None if report is None else report.coverage,
+                objective=None if report is None else report.objective,
+                solve_time=None if report is None else report.solve_time,
+                layout=layout if layouts else None,
+                error=JobError(**item.error) if item.error else None)
+            yield line.model_dump_json(exclude_none=True) + "\n"
+
+    return StreamingResponse(lines(), media_type="application/x-ndjson", headers=headers)
+
+
+@router.post("/{batch_id}/cancel", response_model=BatchPublic,
+             responses={404: {"description": "unknown"}})
+def cancel_batch(batch_id: str, store: StoreDep, backend: BackendDep,
+                 owner: OwnerDep) -> BatchPublic:
+    """Cancel every layout not yet finished (queued ones at once, running ones stop and
+    keep their best layout); finished layouts stay."""
+    batch = batch_or_404(batch_id, store, owner)
+    for job_id in store.batch_unfinished(batch.id):
+        backend.cancel(job_id)
+    return batch_public(store, batch)
+
+
+def batch_public(store: JobStore, batch: Batch, *, summary: bool = False) -> BatchPublic:
+    counts = store.batch_counts(batch.id)
+    n = {status: counts.get(status, 0) for status in JobStatus}
+    if n[JobStatus.QUEUED] + n[JobStatus.RUNNING] == 0:
+        status = (JobStatus.CANCELED if n[JobStatus.CANCELED] else JobStatus.FAILED
+                  if n[JobStatus.FAILED] else JobStatus.SUCCEEDED)
+    elif n[JobStatus.QUEUED] == batch.count:
+        status = JobStatus.QUEUED
+    else:
+        status = JobStatus.RUNNING
+    valid = plans = graphs = None
+    if summary:
+        valid, plans, graphs = _summary(store, batch)
+    return BatchPublic(
+        id=batch.id, name=batch.name, count=batch.count, seed=batch.seed,
+        vary_program=batch.vary_program, status=status, queued=n[JobStatus.QUEUED],
+        running=n[JobStatus.RUNNING], succeeded=n[JobStatus.SUCCEEDED],
+        failed=n[JobStatus.FAILED], canceled=n[JobStatus.CANCELED], valid=valid,
+        distinct_plans=plans, distinct_graphs=graphs,
+        created_at=datetime.fromtimestamp(batch.created_at, UTC))
+
+
+def _summary(store: JobStore, batch: Batch) -> tuple[int, int, int]:
+    from solver.distinct import DistinctPlans
+
+    plans = DistinctPlans()
+    valid, after = 0, -1
+    while True:
+        page = store.batch_layouts(batch.id, after=after, limit=MAX_PAGE)
+        for item in page:
+            if item.result is None:
+                continue
+            layout = Layout.model_validate_json(item.result)
+            valid += layout.report.valid and layout.report.coverage >= GOOD_COVERAGE
+            if layout.all_rooms:
+                plans.add(layout)
+        if len(page) < MAX_PAGE:
+            return valid, plans.plans, plans.graphs
+        after = page[-1].index

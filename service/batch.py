@@ -1,0 +1,215 @@
+"""Batches (issue 23): one brief laid out under many seeds. What the `floorplan batch`
+command and the service's batches share: the task of one layout (`LayoutTask`, run by
+`lay_out` in whatever process), the row a finished layout leaves in the summary
+(`LayoutRow`), and the summary itself (`BatchSummary`: counts, rate, distinct plans).
+
+Every layout of a batch is solved with ``options.diverse`` (the seed breaks Eq. 12's
+near-ties) and ``options.seed`` = the batch's seed + its index; with `vary_program`
+the seed also draws the programme from a templated brief (`models.programme`)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from pydantic import BaseModel, Field
+
+from models import Layout, Problem
+from models.formats import FormatName
+
+#: A batch's layouts get this per-layout time limit by default, seconds per room (and at
+#: least `BATCH_MIN_SECONDS`): a batch is many plans, each good rather than the best.
+#: Measured on apartment-5 in bench/README.md (issue 23).
+BATCH_SECONDS_PER_ROOM = 0.4
+BATCH_MIN_SECONDS = 1.0
+#: A layout still running this long after its time limit (times `HARD_LIMIT_FACTOR`,
+#: plus `HARD_LIMIT_GRACE` s) has its process killed and fails.
+HARD_LIMIT_FACTOR = 2.0
+HARD_LIMIT_GRACE = 10.0
+#: A layout counts as good when valid and covering at least this share of the floor.
+GOOD_COVERAGE = 0.99
+#: Once a brief has this many good layouts, its next solves stop at the first good
+#: incumbent whose Eq. 12 is within `DEFAULT_TOLERANCE` of the best so far (relative).
+REFERENCE_LAYOUTS = 4
+DEFAULT_TOLERANCE = 0.5
+#: The summary's termination of a layout stopped at a good-enough incumbent.
+GOOD_ENOUGH = "good-enough"
+
+
+class BestSoFar:
+    """Per brief, the lowest Eq. 12 of its good layouts so far: what the next layouts of
+    the brief must come within a tolerance of to stop early (`good_enough`)."""
+
+    def __init__(self, tolerance: float | None) -> None:
+        self.tolerance = tolerance
+        self._good: dict[str, list[float]] = {}
+
+    def add(self, row: LayoutRow) -> None:
+        if row.good and row.objective is not None:
+            self._good.setdefault(row.brief, []).append(row.objective)
+
+    def good_enough(self, brief: str) -> float | None:
+        """The Eq. 12 at which a layout of `brief` may stop; None until the brief has
+        `REFERENCE_LAYOUTS` good layouts, or without a tolerance."""
+        found = self._good.get(brief, [])
+        if self.tolerance is None or len(found) < REFERENCE_LAYOUTS:
+            return None
+        return min(found) * (1 + self.tolerance)
+
+
+def batch_time_limit(problem: Problem) -> float:
+    """The per-layout time limit of a batch when none is given."""
+    return max(BATCH_MIN_SECONDS, BATCH_SECONDS_PER_ROOM * problem.room_count)
+
+
+def hard_limit(time_limit: float) -> float:
+    """Seconds after which a layout's process is killed."""
+    return time_limit * HARD_LIMIT_FACTOR + HARD_LIMIT_GRACE
+
+
+@dataclass(frozen=True)
+class LayoutTask:
+    """One layout of a batch: the brief (JSON as sent, a template not yet expanded), its
+    seed, the per-layout time limit and what to draw at random."""
+
+    brief: dict[str, Any]
+    seed: int
+    time_limit: float | None = None
+    vary_program: bool = False
+    #: Draw each room's target within 20 % of its own, inside its bounds.
+    vary_sizes: bool = False
+    #: Stop the solve at the first incumbent that passes the checker, covers
+    #: `GOOD_COVERAGE` of the floor and has an Eq. 12 at most this (None: solve on).
+    good_enough: float | None = None
+
+
+class LayoutRow(BaseModel):
+    """A finished layout of a batch, as the summary lists it."""
+
+    brief: str = Field(description="the brief's name (its file's stem)")
+    seed: int
+    file: str | None = Field(None, description="the layout's file, relative to the batch's "
+                             "folder (CLI), or None")
+    valid: bool = False
+    coverage: float = 0.0
+    objective: float | None = Field(None, description="Eq. 12 of the layout")
+    time: float = Field(0.0, description="seconds the solve took")
+    rooms: int = 0
+    termination: str | None = None
+    error: str | None = Field(None, description="why the layout failed, if it did")
+
+    @property
+    def good(self) -> bool:
+        return self.error is None and self.valid and self.coverage >= GOOD_COVERAGE
+
+
+def task_problem(task: LayoutTask) -> Problem:
+    """The problem `task` solves: its programme (drawn or the brief's), its options."""
+    if task.vary_program:
+        from models.programme import vary_programme
+
+        problem = vary_programme(task.brief, task.seed)
+    else:
+        problem = Problem.model_validate(task.brief)
+    if task.vary_sizes and not task.vary_program:  # a drawn programme has drawn sizes
+        from models.programme import vary_sizes
+
+        problem = vary_sizes(problem, task.seed)
+    changes: dict[str, Any] = {"seed": task.seed, "diverse": True}
+    if task.time_limit is not None:
+        changes["time_limit"] = task.time_limit
+    elif problem.options.time_limit is None:
+        changes["time_limit"] = batch_time_limit(problem)
+    return problem.with_options(**changes)
+
+
+def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
+    """Solve one layout of a batch (in the calling process); the last value says whether
+    the solve stopped at a good-enough incumbent (`GoodEnough`)."""
+    from solver import solve
+    from solver.stopping import GoodEnough
+
+    problem = task_problem(task)
+    if task.good_enough is None or problem.floors is not None:
+        return problem, solve(problem), False
+    good = GoodEnough(problem, task.good_enough, coverage=GOOD_COVERAGE)
+    return problem, solve(problem, on_event=good, should_stop=lambda: good.reached), good.reached
+
+
+def lay_out_to_file(args: tuple[LayoutTask, str, FormatName, str]) -> tuple[dict[str, Any], str]:
+    """`lay_out` then write the layout to `path` in `fmt` (write then rename): the task of a
+    `floorplan batch` worker. Returns the summary row (as JSON data) and the layout
+    JSON, for the distinct-plan count."""
+    import os
+    from pathlib import Path
+
+    task, path, fmt, name = args
+    started = time.monotonic()
+    problem, layout, stopped_early = lay_out(task)
+    if fmt == "json":
+        data = (layout.model_dump_json(indent=2) + "\n").encode()
+    else:
+        from solver.export import render
+
+        data = render(problem, layout, fmt)
+    target = Path(path)
+    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_bytes(data)
+        tmp.replace(target)
+    finally:
+        tmp.unlink(missing_ok=True)
+    row = row_of(name, task.seed, layout, time.monotonic() - started, file=target.name)
+    if stopped_early:
+        row.termination = GOOD_ENOUGH
+    return row.model_dump(mode="json"), layout.model_dump_json()
+
+
+def row_of(name: str, seed: int, layout: Layout, seconds: float,
+           file: str | None = None) -> LayoutRow:
+    r = layout.report
+    return LayoutRow(brief=name, seed=seed, file=file, valid=r.valid and bool(layout.all_rooms),
+                     coverage=round(r.coverage, 6),
+                     objective=None if r.objective is None else round(r.objective, 6),
+                     time=round(seconds, 4), rooms=len(layout.all_rooms),
+                     termination=r.termination.value)
+
+
+class BatchSummary(BaseModel):
+    """A batch's counts: layouts done, valid, failed, distinct plans and adjacency
+    graphs, throughput."""
+
+    layouts: int = Field(0, description="layouts finished (failed ones included)")
+    valid: int = Field(0, description="valid layouts covering at least 99 % of the floor")
+    failed: int = Field(0, description="layouts that failed (error, crash, hard limit)")
+    distinct_plans: int = Field(0, description="geometrically distinct plans among the "
+                                "layouts (solver.distinct: at most 5 % of the floor differs)")
+    distinct_graphs: int = Field(0, description="distinct room adjacency graphs")
+    seconds: float = Field(0.0, description="wall-clock seconds of this run")
+    rate: float = Field(0.0, description="layouts per second in this run")
+    rows: list[LayoutRow] = Field(default_factory=list)
+
+
+class Tally:
+    """A running `BatchSummary`: rows and layouts added as they finish."""
+
+    def __init__(self) -> None:
+        from solver.distinct import DistinctPlans
+
+        self.rows: list[LayoutRow] = []
+        self.plans = DistinctPlans()
+
+    def add(self, row: LayoutRow, layout: Layout | None) -> None:
+        self.rows.append(row)
+        if layout is not None and row.error is None and layout.all_rooms:
+            self.plans.add(layout)
+
+    def summary(self, seconds: float, done_here: int) -> BatchSummary:
+        rows = sorted(self.rows, key=lambda r: (r.brief, r.seed))
+        return BatchSummary(
+            layouts=len(rows), valid=sum(r.good for r in rows),
+            failed=sum(r.error is not None for r in rows),
+            distinct_plans=self.plans.plans, distinct_graphs=self.plans.graphs,
+            seconds=round(seconds, 3), rate=round(done_here / seconds, 3) if seconds else 0.0,
+            rows=rows)

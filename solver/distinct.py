@@ -1,0 +1,113 @@
+"""How many different plans a batch holds (issue 23): plans compared as pictures, and
+their adjacency graphs.
+
+Two plans are the same when at most `SAME_PLAN_SHARE` of their floor belongs to a
+different room (or to no room in one of them), the floor drawn on a grid of
+`CELL` metres. A plan whose every room moved by a few centimetres is then the same
+plan, as a user looking at both would say; a kitchen that swapped sides is not.
+`DistinctPlans` counts a batch's plans greedily: a plan is new when it differs from
+every plan counted before it.
+
+A plan's adjacency graph is the set of room pairs sharing at least `MIN_CONTACT` metres
+of wall; rooms are compared by id (a brief names its rooms once for every seed).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+
+from models import Layout, RoomLayout
+
+#: Side of a grid cell when plans are compared, metres.
+CELL = 0.1
+#: Plans differing on at most this share of their floor's cells are the same plan.
+SAME_PLAN_SHARE = 0.05
+#: Two rooms are adjacent in the graph when they share this much wall, metres.
+MIN_CONTACT = 0.5
+
+
+def _floors(layout: Layout) -> list[list[RoomLayout]]:
+    return [layout.rooms] if layout.floors is None else [f.rooms for f in layout.floors]
+
+
+def raster(layout: Layout, *, cell: float = CELL) -> tuple[tuple[str, ...], np.ndarray]:
+    """The plan as a grid of room numbers (0: no room), floor after floor, with the room
+    ids the numbers stand for (1-based, sorted) and the grid's origin at the lower left
+    of the rooms' bounds."""
+    rooms = layout.all_rooms
+    ids = tuple(sorted({r.id for r in rooms}))
+    number = {room_id: k + 1 for k, room_id in enumerate(ids)}
+    grids = []
+    for floor in _floors(layout):
+        boxes = [(number[r.id], b) for r in floor for b in r.rectangles]
+        if not boxes:
+            continue
+        x0 = min(b.x for _, b in boxes)
+        y0 = min(b.y for _, b in boxes)
+        nx = round(max(b.x + b.width for _, b in boxes) / cell - x0 / cell)
+        ny = round(max(b.y + b.depth for _, b in boxes) / cell - y0 / cell)
+        grid = np.zeros((max(ny, 1), max(nx, 1)), dtype=np.int32)
+        for k, b in boxes:
+            i0, i1 = round((b.y - y0) / cell), round((b.y + b.depth - y0) / cell)
+            j0, j1 = round((b.x - x0) / cell), round((b.x + b.width - x0) / cell)
+            grid[i0:i1, j0:j1] = k
+        grids.append(grid.ravel())
+    return ids, np.concatenate(grids) if grids else np.zeros(0, dtype=np.int32)
+
+
+def adjacency_graph(layout: Layout, *, min_contact: float = MIN_CONTACT
+                    ) -> frozenset[tuple[str, str]]:
+    """The pairs of rooms (ids, sorted) sharing at least `min_contact` metres of wall,
+    on any floor."""
+    pairs: set[tuple[str, str]] = set()
+    for floor in _floors(layout):
+        shapes = {r.id: Polygon(r.polygon) for r in floor if len(r.polygon) >= 3}
+        for (a, pa), (b, pb) in itertools.combinations(sorted(shapes.items()), 2):
+            if shapely.length(pa.boundary.intersection(pb.boundary)) >= min_contact:
+                pairs.add((a, b))
+    return frozenset(pairs)
+
+
+class DistinctPlans:
+    """Counts the different plans and adjacency graphs among the layouts `add`ed."""
+
+    def __init__(self, *, share: float = SAME_PLAN_SHARE, cell: float = CELL) -> None:
+        self.share = share
+        self.cell = cell
+        self._plans: dict[tuple[tuple[str, ...], int], list[np.ndarray]] = {}
+        self._graphs: set[frozenset[tuple[str, str]]] = set()
+        self.layouts = 0
+
+    def add(self, layout: Layout) -> bool:
+        """Count `layout`; True when its plan is new."""
+        self.layouts += 1
+        self._graphs.add(adjacency_graph(layout))
+        ids, grid = raster(layout, cell=self.cell)
+        same_shape = self._plans.setdefault((ids, grid.size), [])
+        if same_shape:
+            differing = (np.stack(same_shape) != grid).sum(axis=1)
+            if differing.min() <= self.share * grid.size:
+                return False
+        same_shape.append(grid)
+        return True
+
+    @property
+    def plans(self) -> int:
+        return sum(len(grids) for grids in self._plans.values())
+
+    @property
+    def graphs(self) -> int:
+        return len(self._graphs)
+
+
+def count_distinct(layouts: Sequence[Layout]) -> tuple[int, int]:
+    """(distinct plans, distinct adjacency graphs) among `layouts`."""
+    counter = DistinctPlans()
+    for layout in layouts:
+        counter.add(layout)
+    return counter.plans, counter.graphs

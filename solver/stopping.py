@@ -1,0 +1,36 @@
+"""Stopping a solve at a good-enough layout (issue 23, batches): a batch wants many good
+plans, not each one's last hundredths of Eq. 12.
+
+`GoodEnough` is an `on_event` sink for `solve` whose `reached` makes its `should_stop`:
+it turns true at the first incumbent that passes the checker (the layout as `solve`
+would return it then: gaps absorbed), covers `coverage` of the floor and has an Eq. 12
+of at most `bound`. The solve then ends as if interrupted, and its answer is checked again as
+any answer is.
+"""
+
+from __future__ import annotations
+
+from models import Problem
+from solver.events import Phase, SolveEvent
+from solver.verify.checker import check_layout
+
+#: Share of the floor a layout must cover to be good enough, by default.
+DEFAULT_COVERAGE = 0.99
+
+
+class GoodEnough:
+    """Pass as ``solve(problem, on_event=good, should_stop=lambda: good.reached)``."""
+
+    def __init__(self, problem: Problem, bound: float, *,
+                 coverage: float = DEFAULT_COVERAGE) -> None:
+        self.problem = problem
+        self.bound = bound
+        self.coverage = coverage
+        self.reached = False
+
+    def __call__(self, event: SolveEvent) -> None:
+        if (self.reached or event.phase is not Phase.INCUMBENT or event.rooms is None
+                or event.objective is None or event.objective > self.bound or event.floor):
+            return
+        check = check_layout(self.problem, event.rooms)
+        self.reached = check.valid and check.coverage >= self.coverage

@@ -1,0 +1,150 @@
+"""`floorplan batch` (issue 23), run for real in subprocesses: files and summary, skip
+and resume, Ctrl-C; and its warm pool, with real crashing and hanging workers."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from service.cli.exits import EXIT_INTERRUPTED, EXIT_OK
+from service.cli.pool import WarmPool
+from tests.service.test_cli import TINY, _env, floorplan, write_problem
+
+pytestmark = pytest.mark.slow
+
+
+def _summary(out: Path) -> dict:
+    return json.loads((out / "summary.json").read_text())
+
+
+def test_batch_writes_a_file_per_layout_and_the_summaries(tmp_path: Path) -> None:
+    brief = write_problem(tmp_path, TINY, "tiny.json")
+    done = floorplan("batch", brief, "--count", "4", "--out", "out", "--processes", "2",
+                     "--seed", "7", "--time-limit", "1", cwd=tmp_path)
+    assert done.returncode == EXIT_OK, done.stderr
+    out = tmp_path / "out"
+    assert sorted(p.name for p in out.glob("tiny-*.json")) == [
+        f"tiny-{s:06d}.json" for s in range(7, 11)]
+    summary = _summary(out)
+    assert summary["layouts"] == 4 and summary["failed"] == 0
+    assert summary["valid"] == 4
+    assert 1 <= summary["distinct_plans"] <= 4
+    assert [r["seed"] for r in summary["rows"]] == [7, 8, 9, 10]
+    with (out / "summary.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["seed"]) for r in rows] == [7, 8, 9, 10]
+    assert all(r["valid"] == "True" and float(r["coverage"]) >= 0.99 for r in rows)
+    assert all(float(r["objective"]) >= 0 and float(r["time"]) > 0 for r in rows)
+    assert "4 of 4 layouts (0 done before), 4 valid, 0 failed" in done.stderr
+
+
+def test_batch_svg_format(tmp_path: Path) -> None:
+    brief = write_problem(tmp_path, TINY, "tiny.json")
+    done = floorplan("batch", brief, "-n", "1", "-o", "out", "--format", "svg",
+                     "--time-limit", "1", "-q", cwd=tmp_path)
+    assert done.returncode == EXIT_OK, done.stderr
+    assert (tmp_path / "out/tiny-000000.svg").read_text().lstrip().startswith("<")
+    assert done.stderr == ""
+
+
+def test_rerun_skips_what_is_done_and_goes_on(tmp_path: Path) -> None:
+    brief = write_problem(tmp_path, TINY, "tiny.json")
+    first = floorplan("batch", brief, "-n", "2", "-o", "out", "--time-limit", "1",
+                      cwd=tmp_path)
+    assert first.returncode == EXIT_OK, first.stderr
+    out = tmp_path / "out"
+    stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("tiny-*.json")}
+    (out / "tiny-000001.json").unlink()  # lost: to be done again
+    again = floorplan("batch", brief, "-n", "3", "-o", "out", "--time-limit", "1",
+                      cwd=tmp_path)
+    assert again.returncode == EXIT_OK, again.stderr
+    assert "3 of 3 layouts (1 done before)" in again.stderr
+    assert (out / "tiny-000000.json").stat().st_mtime_ns == stamps["tiny-000000.json"]
+    assert (out / "tiny-000001.json").exists() and (out / "tiny-000002.json").exists()
+    summary = _summary(out)
+    assert summary["layouts"] == 3 and [r["seed"] for r in summary["rows"]] == [0, 1, 2]
+
+
+def test_ctrl_c_stops_and_keeps_what_is_done(tmp_path: Path) -> None:
+    brief = write_problem(tmp_path, TINY, "tiny.json")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "service", "batch", str(brief), "-n", "500", "-o", "out",
+         "--time-limit", "1", "--processes", "2"],
+        cwd=tmp_path, env=_env(), stderr=subprocess.PIPE, text=True)
+    out = tmp_path / "out"
+    deadline = time.monotonic() + 60
+    while len(list(out.glob("tiny-*.json"))) < 2 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=30)
+    assert proc.returncode == EXIT_INTERRUPTED, stderr
+    summary = _summary(out)
+    assert 2 <= summary["layouts"] < 500
+    assert all((out / r["file"]).exists() for r in summary["rows"])
+    assert "interrupted" in stderr
+
+
+def test_invalid_brief_is_refused_before_anything_runs(tmp_path: Path) -> None:
+    brief = write_problem(tmp_path, {**TINY, "rooms": []}, "bad.json")
+    done = floorplan("batch", brief, "-n", "2", "-o", "out", cwd=tmp_path)
+    assert done.returncode == 2
+    assert "bad.json: invalid problem" in done.stderr
+    assert not (tmp_path / "out").exists()
+
+
+# -- the warm pool, with real processes ------------------------------------------------
+
+
+def square(x: int) -> int:
+    return x * x
+
+
+def crash_on_three(x: int) -> int:
+    if x == 3:
+        os._exit(9)
+    return x
+
+
+def hang_on_two(x: int) -> int:
+    if x == 2:
+        time.sleep(60)
+    return x
+
+
+def pid(_: int) -> int:
+    return os.getpid()
+
+
+def _run(function, keys, limit=30.0):  # type: ignore[no-untyped-def]
+    with WarmPool(2, warm_up=__name__) as pool:
+        return {o.key: o for o in pool.results((k, function, k, limit) for k in keys)}
+
+
+def test_pool_runs_every_task_on_warm_workers() -> None:
+    outcomes = _run(square, range(8))
+    assert {k: o.result for k, o in outcomes.items()} == {k: k * k for k in range(8)}
+    pids = {o.result for o in _run(pid, range(10)).values()}
+    assert len(pids) <= 2  # the same two processes served every task
+
+
+def test_a_crash_fails_one_task_not_the_pool() -> None:
+    outcomes = _run(crash_on_three, range(6))
+    assert outcomes[3].error is not None and "died" in outcomes[3].error
+    assert {k: o.result for k, o in outcomes.items() if k != 3} == {0: 0, 1: 1, 2: 2, 4: 4,
+                                                                    5: 5}
+
+
+def test_a_task_past_its_hard_limit_is_killed() -> None:
+    started = time.monotonic()
+    outcomes = _run(hang_on_two, range(4), limit=1.0)
+    assert time.monotonic() - started < 20
+    assert outcomes[2].error is not None and "hard limit" in outcomes[2].error
+    assert [outcomes[k].result for k in (0, 1, 3)] == [0, 1, 3]
