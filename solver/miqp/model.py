@@ -35,6 +35,9 @@ class LevelModel:
     #: Event callbacks of the current solve; SCIP takes each handler once per model, so
     #: the runner installs handlers once and swaps what they call.
     hooks: dict[str, Any] = field(default_factory=dict)
+    #: SCIP's primal heuristics run aggressively: for a first layout that the default
+    #: settings did not find (`solver.pipeline.first_layout`).
+    aggressive: bool = False
 
     @property
     def big_m_x(self) -> float:

@@ -119,7 +119,7 @@ def run_level(
     m.setParam("limits/gap", GAP_LIMIT)
     m.setParam("randomization/randomseedshift", seed)
     m.setParam("timing/clocktype", 2)  # wall clock: the user's time limit is wall time
-    tune(m)
+    tune(m, aggressive=lm.aggressive)
     started = time.monotonic()
     _install_hooks(lm)
     lm.hooks.update(on_incumbent=on_incumbent, should_stop=should_stop, started=started)
@@ -147,10 +147,13 @@ def _read_rects(m: Model, sol: object, lm: LevelModel) -> dict[str, Box]:
     return rects
 
 
-def tune(m: Model) -> None:
+def tune(m: Model, *, aggressive: bool = False) -> None:
     """Settings measured on our level models (bench/NOTES.md): the NLP heuristics find
     nothing the LP-based ones miss on these convex MIQPs and cost most of the time,
-    and fast presolving and separation prove optimality 5-20x sooner on small levels."""
+    and fast presolving and separation prove optimality 5-20x sooner on small levels.
+    With `aggressive`, SCIP's primal heuristics run more often and longer."""
+    if aggressive:
+        m.setHeuristics(SCIP_PARAMSETTING.AGGRESSIVE)
     for heuristic in ("subnlp", "nlpdiving", "mpec"):
         m.setParam(f"heuristics/{heuristic}/freq", -1)
     m.setSeparating(SCIP_PARAMSETTING.FAST)

@@ -185,12 +185,16 @@ def _level_one(
         first = _slice(run, domain, time.monotonic() + (deadline - time.monotonic()) * share)
     if large and first is None:
         first = _construct(run, domain, time.monotonic() + (deadline - time.monotonic()) / 2)
-    for window in [] if first is not None else windows_to_try(problem):
+    for attempt, window in enumerate([] if first is not None else windows_to_try(problem)):
         left = single_by - time.monotonic()
         if left <= 0.05 or run.stopped():
             break
         spec = level_one_spec(problem, domain, window=window, wings=run.wings)
         lm = build_level(spec, feasibility=True)
+        # After a window that gave nothing, SCIP looks harder for a first layout (issue
+        # 19: hard planted briefs); the first attempt keeps the settings that serve
+        # the paper's cases best.
+        lm.aggressive = attempt > 0
         if window is None:  # no window held: the user's bounds, sizes pulled to the targets
             e_band_shortfall(lm, target_bands(problem, domain, FIRST_BAND))
         share = left * (ATTEMPT_SHARE if window is not None or may_widen else 1.0)
@@ -330,8 +334,9 @@ def _with_wings(run: Run, domain: Domain, deadline: float, why: str
         # proves of it holds for every shape.
         wings = run.wings | ({r: may[r] for r in chosen} if last else dict.fromkeys(chosen, 1))
         spec = level_one_spec(problem, domain, window=None, wings=wings)
-        result = run.run(build_level(spec, feasibility=True),
-                         left if last else left * ATTEMPT_SHARE)
+        lm = build_level(spec, feasibility=True)
+        lm.aggressive = True  # one rectangle per room gave nothing (issue 19)
+        result = run.run(lm, left if last else left * ATTEMPT_SHARE)
         label = (f"user bounds, every room of up to {max(may.values()) + 1} rectangles"
                  if last and len(chosen) == len(problem.rooms)
                  else f"user bounds, {', '.join(chosen)} as two rectangles")
