@@ -125,6 +125,19 @@ def add_submit(commands: Any) -> None:
     p.set_defaults(func=cmd_submit, own_signals=True)
 
 
+def _submit_failed(problem: str, err: Exception) -> int:
+    """Report a submission the service refused or could not take; the exit code."""
+    from floorplan_client import InvalidProblem
+
+    if isinstance(err, InvalidProblem):
+        lines = "\n".join(f"  {e}" for e in err.errors) or f"  {err.problem.detail}"
+        print(f"{PROG}: error: {problem}: the service refused the problem\n{lines}",
+              file=sys.stderr)
+        return EXIT_INVALID
+    print(f"{PROG}: error: {err}", file=sys.stderr)
+    return EXIT_FAILURE
+
+
 def cmd_submit(args: argparse.Namespace) -> int:
     """Run ``floorplan submit``; returns the exit code."""
     try:
@@ -138,7 +151,7 @@ def cmd_submit(args: argparse.Namespace) -> int:
 
 
 def _submit(args: argparse.Namespace) -> int:
-    from floorplan_client import NOT_GIVEN, Client, FloorplanError, InvalidProblem
+    from floorplan_client import NOT_GIVEN, Client, FloorplanError
 
     if args.count is not None:
         return _submit_batch(args)
@@ -161,14 +174,8 @@ def _submit(args: argparse.Namespace) -> int:
     with Client(args.server, api_key=api_key) as fp:
         try:
             job = fp.submit(problem)
-        except InvalidProblem as err:
-            lines = "\n".join(f"  {e}" for e in err.errors) or f"  {err.problem.detail}"
-            print(f"{PROG}: error: {args.problem}: the service refused the problem\n{lines}",
-                  file=sys.stderr)
-            return EXIT_INVALID
         except FloorplanError as err:
-            print(f"{PROG}: error: {err}", file=sys.stderr)
-            return EXIT_FAILURE
+            return _submit_failed(args.problem, err)
         if not follow:
             print(job.id, flush=True)
             say(f"{PROG}: queued job {job.id} on {fp.base_url}")
@@ -502,7 +509,7 @@ def _submit_batch(args: argparse.Namespace) -> int:
     import time
     from pathlib import Path
 
-    from floorplan_client import NOT_GIVEN, Client, FloorplanError, InvalidProblem
+    from floorplan_client import NOT_GIVEN, Client, FloorplanError
 
     if args.count < 1:
         raise UsageError("--count: at least 1")
@@ -516,14 +523,8 @@ def _submit_batch(args: argparse.Namespace) -> int:
             batch = fp.submit_batch(problem, args.count, seed=args.seed or 0,
                                     time_limit=args.time_limit,
                                     vary_program=args.vary == "program")
-        except InvalidProblem as err:
-            lines = "\n".join(f"  {e}" for e in err.errors) or f"  {err.problem.detail}"
-            print(f"{PROG}: error: {args.problem}: the service refused the problem\n{lines}",
-                  file=sys.stderr)
-            return EXIT_INVALID
         except FloorplanError as err:
-            print(f"{PROG}: error: {err}", file=sys.stderr)
-            return EXIT_FAILURE
+            return _submit_failed(args.problem, err)
         print(batch.id, flush=True)
         say(f"{PROG}: batch {batch.id} of {batch.count} layouts queued on {fp.base_url}")
         if not (args.wait or args.out):
