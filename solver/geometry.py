@@ -384,7 +384,8 @@ Box(x0=0.0, y0=2.0, x1=1.0, y1=3.0)]
 
 
 def shared_wall_length(a: BaseGeometry, b: BaseGeometry) -> float:
-    """Length in metres of the boundary two rooms share.
+    """Length in metres of the boundary two rooms share, all its stretches together
+    (an adjacency's contact is one stretch: `longest_shared_wall`).
 
     >>> shared_wall_length(box(0, 0, 3, 3), box(3, 1, 5, 4))
     2.0
@@ -392,6 +393,43 @@ def shared_wall_length(a: BaseGeometry, b: BaseGeometry) -> float:
     0.0
     """
     return float(a.boundary.intersection(b.boundary).length)
+
+
+def longest_shared_wall(a: Polygon, b: Polygon) -> LineString | None:
+    """The longest straight stretch of wall two rooms share.
+
+    >>> from shapely.geometry import box
+    >>> longest_shared_wall(box(0, 0, 3, 3), box(3, 1, 5, 4)).length
+    2.0
+    """
+    shared = a.exterior.intersection(b.exterior)
+    segments = [s for s in straight_stretches(shared) if s.length > EPS]
+    return max(segments, key=lambda s: s.length, default=None)
+
+
+def straight_stretches(geometry: BaseGeometry) -> list[LineString]:
+    """The straight pieces of a linear geometry, collinear neighbours merged."""
+    lines = [g for g in getattr(geometry, "geoms", [geometry])
+             if isinstance(g, LineString) and not g.is_empty]
+    if not lines:
+        return []
+    merged = shapely.line_merge(shapely.union_all(lines))
+    pieces = []
+    for line in getattr(merged, "geoms", [merged]):
+        coords = list(line.coords)
+        run = [coords[0]]
+        for point in coords[1:]:
+            # A bend ends a straight stretch: axis-aligned walls turn by 90 degrees.
+            if len(run) >= 2 and not _collinear(run[-2], run[-1], point):
+                pieces.append(LineString(run))
+                run = [run[-1]]
+            run.append(point)
+        pieces.append(LineString(run))
+    return [LineString([p.coords[0], p.coords[-1]]) for p in pieces]
+
+
+def _collinear(a: tuple[float, ...], b: tuple[float, ...], c: tuple[float, ...]) -> bool:
+    return abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) < 1e-9
 
 
 def room_polygon(rects: Sequence[Box]) -> Polygon:

@@ -14,12 +14,11 @@ from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-import shapely
 from shapely.geometry import LineString, Point, Polygon
-from shapely.geometry.base import BaseGeometry
 
 from models import OUTSIDE, Adjacency, Circulation, Door, Problem, Window
 from models.problem import inside_entrance
+from solver.geometry import longest_shared_wall, straight_stretches
 
 #: A door keeps this far (metres) from the corners of the wall it is in.
 CORNER_CLEARANCE = 0.1
@@ -178,7 +177,7 @@ def front_door(problem: Problem, rooms: Mapping[str, Polygon]) -> Door | None:
         walls = polygon.exterior.intersection(outline)
         if walls.is_empty or walls.distance(entrance) > 1e-3:
             continue
-        wall = min(_segments(walls), key=lambda s: s.distance(entrance))
+        wall = min(straight_stretches(walls), key=lambda s: s.distance(entrance))
         segment = door_segment(wall, problem.openings.door_width, centre=entrance)
         if segment is not None:
             return Door(between=(OUTSIDE, room_id), segment=segment, opens_into=room_id)
@@ -233,7 +232,7 @@ def place_windows(
         if problem.room(room_id).type in openings.windowless:
             continue
         walls = polygon.exterior.intersection(outline)
-        for wall in _segments(walls):
+        for wall in straight_stretches(walls):
             count = min(int(wall.length // openings.window_spacing), MAX_WINDOWS_PER_WALL)
             if count == 0 and wall.length >= openings.window_width + 2 * CORNER_CLEARANCE:
                 count = 1
@@ -281,18 +280,6 @@ def door_steps(start: str, links: Mapping[str, set[str]], ends: set[str]) -> dic
     return steps
 
 
-def longest_shared_wall(a: Polygon, b: Polygon) -> LineString | None:
-    """The longest straight stretch of wall two rooms share.
-
-    >>> from shapely.geometry import box
-    >>> longest_shared_wall(box(0, 0, 3, 3), box(3, 1, 5, 4)).length
-    2.0
-    """
-    shared = a.exterior.intersection(b.exterior)
-    segments = [s for s in _segments(shared) if s.length > EPS]
-    return max(segments, key=lambda s: s.length, default=None)
-
-
 def door_segment(
     wall: LineString, width: float, *, centre: Point | None = None
 ) -> tuple[tuple[float, float], tuple[float, float]] | None:
@@ -322,31 +309,6 @@ def door_segment(
     at = min(max(at, clearance + width / 2), length - clearance - width / 2)
     start, end = wall.interpolate(at - width / 2), wall.interpolate(at + width / 2)
     return ((round(start.x, 6), round(start.y, 6)), (round(end.x, 6), round(end.y, 6)))
-
-
-def _segments(geometry: BaseGeometry) -> list[LineString]:
-    """The straight pieces of a linear geometry, collinear neighbours merged."""
-    lines = [g for g in getattr(geometry, "geoms", [geometry])
-             if isinstance(g, LineString) and not g.is_empty]
-    if not lines:
-        return []
-    merged = shapely.line_merge(shapely.union_all(lines))
-    pieces = []
-    for line in getattr(merged, "geoms", [merged]):
-        coords = list(line.coords)
-        run = [coords[0]]
-        for point in coords[1:]:
-            # A bend ends a straight stretch: axis-aligned walls turn by 90 degrees.
-            if len(run) >= 2 and not _collinear(run[-2], run[-1], point):
-                pieces.append(LineString(run))
-                run = [run[-1]]
-            run.append(point)
-        pieces.append(LineString(run))
-    return [LineString([p.coords[0], p.coords[-1]]) for p in pieces]
-
-
-def _collinear(a: tuple[float, ...], b: tuple[float, ...], c: tuple[float, ...]) -> bool:
-    return abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) < 1e-9
 
 
 def _larger(rooms: Mapping[str, Polygon], a: str, b: str) -> str:

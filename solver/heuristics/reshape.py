@@ -35,6 +35,7 @@ from solver.geometry import (
     Domain,
     GeometryError,
     edges_named,
+    longest_shared_wall,
     rectangles_of,
     room_polygon,
     shared_wall_length,
@@ -412,6 +413,7 @@ def _contact_miss(state: Mapping[str, Polygon], a: str, partners: Sequence[str],
                   contact: float) -> float:
     if a not in state:
         return math.inf
-    best = max((shared_wall_length(state[a], state[p]) for p in partners if p in state),
-               default=0.0)
+    # The longest straight stretch: the checker's contact, and where the door goes.
+    walls = [longest_shared_wall(state[a], state[p]) for p in partners if p in state]
+    best = max((w.length for w in walls if w is not None), default=0.0)
     return max(0.0, contact - best)

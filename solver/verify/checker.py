@@ -30,6 +30,7 @@ from solver.geometry import (
     boundary_edges,
     domain_lines,
     edges_named,
+    longest_shared_wall,
     room_polygon,
     shared_wall_length,
     snap_rooms,
@@ -359,7 +360,9 @@ def _adjacency(adj: Adjacency, placed: Placed, tol: float) -> ConstraintCheck:
         return ConstraintCheck(kind="adjacency", rooms=rooms, satisfied=False,
                                detail=f"'{adj.a}' not placed")
     a = placed[adj.a].snapped
-    contact = {b: shared_wall_length(a, placed[b].snapped) for b in partners if b in placed}
+    # One straight stretch, as Eq. 10 makes it and a door needs: an L wrapping its
+    # partner's corner shares two short walls whose sum would pass.
+    contact = {b: _contact(a, placed[b].snapped) for b in partners if b in placed}
     if not contact:
         return ConstraintCheck(kind="adjacency", rooms=rooms, satisfied=False,
                                detail="no partner placed")
@@ -370,6 +373,11 @@ def _adjacency(adj: Adjacency, placed: Placed, tol: float) -> ConstraintCheck:
     if adj.any_of is not None:
         detail = f"best contact {contact[best]:.2f} m with '{best}' {needs}"
     return ConstraintCheck(kind="adjacency", rooms=rooms, satisfied=ok, detail=detail)
+
+
+def _contact(a: BaseGeometry, b: BaseGeometry) -> float:
+    wall = longest_shared_wall(a, b)
+    return 0.0 if wall is None else float(wall.length)
 
 
 def check_coverage(

@@ -15,12 +15,9 @@ from models import (
     Door,
     Problem,
 )
+from solver.geometry import longest_shared_wall
 from solver.openings import door_segment as _door_segment
-from solver.openings import (
-    front_door,
-    longest_shared_wall,
-    may_connect,
-)
+from solver.openings import front_door, may_connect
 from solver.pipeline.regions.partition import rooms_only
 
 

@@ -204,6 +204,16 @@ def test_adjacency_contact_length(min_contact: float, satisfied: bool) -> None:
     assert check.detail == f"contact 2.00 m (needs {min_contact:.2f})"
 
 
+def test_adjacency_contact_is_one_straight_stretch_not_the_sum_of_walls() -> None:
+    """An L wrapping its partner's corner shares 0.6 m on each of two walls: 1.2 m in
+    all, but no stretch a 0.9 m door fits in, and Eq. 10 asks for one."""
+    p = problem({"id": "a"}, {"id": "b"}, adjacency=[{"a": "a", "b": "b"}])
+    rooms = {"a": [Box(0, 0, 3, 2.4), Box(0, 2.4, 2.4, 3)], "b": [Box(2.4, 2.4, 4, 4)]}
+    check = one(check_layout(p, rooms), "adjacency")
+    assert not check.satisfied
+    assert check.detail == "contact 0.60 m (needs 0.90)"
+
+
 def test_adjacency_tolerates_a_hairline_gap() -> None:
     p = problem({"id": "a"}, {"id": "b"}, adjacency=[{"a": "a", "b": "b"}])
     rooms = {"a": [Box(0, 0, 3, 3)], "b": [Box(3.0000004, 1, 6, 3)]}
