@@ -73,6 +73,8 @@ GAP = "~gap"
 COVER_GOAL = 0.9905
 #: Share of the steps tried that swap two rooms' floors.
 SWAP_SHARE = 0.2
+#: Share of the steps tried that nest a room in a corner of another (`_nest`).
+NEST_SHARE = 0.1
 
 
 @dataclass(frozen=True)
@@ -131,7 +133,7 @@ def reshape(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
     rng = random.Random(seed)
     steps = candidates = 0
     pairs, into_rooms = _neighbour_pairs(state)
-    strips: dict[tuple[str, str], list[BaseGeometry]] = {}
+    strips: dict[tuple[str, str], list[tuple[float, float, float, float]]] = {}
     movable = sorted(needs)
     # The schedule counts steps tried, not seconds: the same layout and seed give the
     # same result, unless the deadline cuts the schedule short.
@@ -143,35 +145,46 @@ def reshape(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
             break
         # Annealing: worse steps are taken at first, ever more rarely.
         heat = TEMPERATURE * (COOLED ** (candidates / planned))
-        if rng.random() < SWAP_SHARE:
+        pick = rng.random()
+        if pick < SWAP_SHARE:
             # Two rooms trade floors: the one step that moves a room across the plan.
             a, b = rng.sample(movable, 2)
-            new_a, new_b = state[b], state[a]
+            moved = {a: state[b], b: state[a]}
+        elif pick < SWAP_SHARE + NEST_SHARE:
+            nested = _nest(state, needs, pairs, rng)
+            if nested is None:
+                continue
+            moved = nested
         else:
             # Uncovered floor is the costliest: rooms grow into it half the time.
             a, b = rng.choice(into_rooms if into_rooms and rng.random() < 0.5 else pairs)
             if (a, b) not in strips:
-                strips[a, b] = list(_strips(state[a], state[b], needs.get(a), needs.get(b)))
+                strips[a, b] = list(_strip_cuts(state[a], state[b], needs.get(a),
+                                                needs.get(b)))
             if not strips[a, b]:
                 continue
-            strip = rng.choice(strips[a, b])
+            strip = state[a].intersection(box(*rng.choice(strips[a, b])))
+            if strip.area <= JOG * JOG:
+                continue
             new_a = _clean(state[a].difference(strip), a.startswith(GAP))
             new_b = _clean(state[b].union(strip), b.startswith(GAP))
             if new_a is None or new_b is None:
                 continue
-        ca, cb = costs(a, new_a), costs(b, new_b)
-        delta = ca.total + cb.total - cost[a].total - cost[b].total
+            moved = {a: new_a, b: new_b}
+        new_cost = {r: costs(r, shape) for r, shape in moved.items()}
+        delta = sum(c.total for c in new_cost.values()) - sum(cost[r].total for r in moved)
         if delta > 0 and rng.random() >= math.exp(-delta / heat):
             continue
         if not all(r.startswith(GAP) or _shape_ok(needs[r], new, state[r])
-                   for r, new in ((a, new_a), (b, new_b))):
+                   for r, new in moved.items()):
             continue
-        trial = {**state, a: new_a, b: new_b}
-        if not _keeps_demands(adjacency, by_room, state, trial, (a, b)):
+        trial = {**state, **moved}
+        if not _keeps_demands(adjacency, by_room, state, trial, tuple(moved)):
             continue
-        state, cost[a], cost[b] = trial, ca, cb
+        state = trial
+        cost.update(new_cost)
         steps += 1
-        if a.startswith(GAP) or b.startswith(GAP):
+        if any(r.startswith(GAP) for r in moved):
             # Gaps merge and split: recount them.
             state = {r: p for r, p in state.items() if not r.startswith(GAP)}
             state.update(_gaps(domain, state))
@@ -189,6 +202,51 @@ def reshape(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
     for r in changed:
         out[r] = rectangles_of(final[r])
     return ReshapeResult(out, steps, candidates)
+
+
+def _nest(state: Mapping[str, Polygon], needs: Mapping[str, _Needs],
+          pairs: Sequence[tuple[str, str]], rng: random.Random) -> dict[str, Polygon] | None:
+    """A room moves into a corner of another, at its target size, and a neighbour takes
+    the floor it leaves: a bathroom set into the corner of a living room that thereby
+    becomes an L, where strips alone would have to pass through worse layouts. The
+    host may be that neighbour itself. None when the drawn move does not fit."""
+    a, heir = rng.choice(pairs)
+    if a.startswith(GAP) or heir.startswith(GAP):
+        return None
+    target = needs[a].room.target_size
+    if target is None:
+        return None
+    inherited = _clean(state[heir].union(state[a]))
+    if inherited is None:
+        return None
+    hosts = [r for r in needs if r != a and state[r].area > target[0] * target[1]]
+    if not hosts:
+        return None
+    host_id = rng.choice(hosts)
+    host = inherited if host_id == heir else state[host_id]
+    width, depth = target if rng.random() < 0.5 else target[::-1]
+    x0, y0, x1, y1 = host.bounds
+    # Where the host would keep a sliver thinner than an arm, the room takes it all.
+    if x1 - x0 - width < MIN_ARM:
+        width = x1 - x0
+    if y1 - y0 - depth < MIN_ARM:
+        depth = y1 - y0
+    corners = list(dict.fromkeys(host.exterior.coords))
+    vx, vy = rng.choice(corners)
+    for sx, sy in rng.sample([(1, 1), (1, -1), (-1, 1), (-1, -1)], 4):
+        corner = box(min(vx, vx + sx * width), min(vy, vy + sy * depth),
+                     max(vx, vx + sx * width), max(vy, vy + sy * depth))
+        if corner.difference(host).area <= JOG * JOG:
+            break
+    else:
+        return None
+    rest = _clean(host.difference(corner))
+    if rest is None:
+        return None
+    moved = {a: shapely.orient_polygons(corner), host_id: rest}
+    if host_id != heir:
+        moved[heir] = inherited
+    return moved
 
 
 def _gaps(domain: Domain, state: Mapping[str, Polygon]) -> dict[str, Polygon]:
@@ -276,11 +334,12 @@ def _neighbour_pairs(state: Mapping[str, Polygon]
     return pairs, [ab for ab in pairs if ab[0].startswith(GAP)]
 
 
-def _strips(a: Polygon, b: Polygon, needs_a: _Needs | None,
-            needs_b: _Needs | None) -> Iterator[BaseGeometry]:
-    """Strips of `a` along the walls it shares with `b`: across each straight stretch
-    of the shared wall, or part of it, as deep as one of `a`'s own corners, or as makes
-    the width (or depth) of `a` or `b` its target's."""
+def _strip_cuts(a: Polygon, b: Polygon, needs_a: _Needs | None,
+                needs_b: _Needs | None) -> Iterator[tuple[float, float, float, float]]:
+    """Boxes (x0, y0, x1, y1) cutting strips of `a` along the walls it shares with `b`:
+    across each straight stretch of the shared wall, or part of it, as deep as one of
+    `a`'s own corners, or as makes the width (or depth) of `a` or `b` its target's. The
+    strip is `a` within the box; only the one drawn is cut (most are never drawn)."""
     shared = a.boundary.intersection(b.boundary)
     for x0, y0, x1, y1 in _segments(shared):
         vertical = abs(x0 - x1) <= TOL
@@ -314,12 +373,9 @@ def _strips(a: Polygon, b: Polygon, needs_a: _Needs | None,
             for s, e in spans:
                 near, far = c, c + sign * t
                 if vertical:
-                    cut = box(min(near, far), s, max(near, far), e)
+                    yield min(near, far), s, max(near, far), e
                 else:
-                    cut = box(s, min(near, far), e, max(near, far))
-                strip = a.intersection(cut)
-                if strip.area > JOG * JOG:
-                    yield strip
+                    yield s, min(near, far), e, max(near, far)
 
 
 def _segments(shared: BaseGeometry) -> Iterator[tuple[float, float, float, float]]:
@@ -398,8 +454,8 @@ def _shortfall(needs: _Needs, shape: Polygon) -> float:
 
 def _keeps_demands(adjacency: Sequence[tuple[str, Sequence[str], float]],
                    by_room: Mapping[str, list[int]], before: Mapping[str, Polygon],
-                   after: Mapping[str, Polygon], moved: tuple[str, str]) -> bool:
-    """Every adjacency of the two changed rooms keeps its contact, or falls short by
+                   after: Mapping[str, Polygon], moved: tuple[str, ...]) -> bool:
+    """Every adjacency of the changed rooms keeps its contact, or falls short by
     no more than before."""
     for k in {k for r in moved for k in by_room.get(r, ())}:
         a, partners, contact = adjacency[k]

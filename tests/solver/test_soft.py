@@ -194,8 +194,11 @@ def test_prechecks_refuse_nothing_for_a_soft_constraint() -> None:
 def test_the_miqp_prices_violations_as_the_python_side_measures_them(name: str) -> None:
     problem = soft(OVER_CONSTRAINED[name])
     spec = level_one_spec(problem, make_domain(problem), window=None, soft=True)
+    # What is compared is the objective of the layout SCIP returns, optimal or not: on a
+    # loaded machine 3 s may end before the proof.
     result = run_level(build_level(spec), time_limit=3)
-    assert result.status is LevelStatus.OPTIMAL and result.rects is not None
+    assert result.status in (LevelStatus.OPTIMAL, LevelStatus.FEASIBLE)
+    assert result.rects is not None
     assert result.objective == pytest.approx(level_objective(spec, result.rects), rel=1e-3,
                                              abs=1e-3)
     assert spec_shortfall(spec, result.rects) > 0

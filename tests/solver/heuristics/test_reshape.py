@@ -6,6 +6,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
+import pytest
 import shapely
 
 from models import Problem
@@ -51,17 +52,39 @@ def test_a_stretched_room_gives_its_neighbour_the_floor_it_lacks() -> None:
 
 def test_a_room_becomes_an_l_where_its_targets_ask_for_one() -> None:
     # The bedroom (target 4 x 3) fills the east side; the living room's target is the
-    # whole outline: it takes the bedroom's south half and becomes an L.
+    # whole outline: it takes the bedroom's south half, or the bedroom moves into one of
+    # its corners, and becomes an L.
     p = brief([{"id": "living", "target_size": [9, 6]},
                {"id": "bed", "target_size": [4, 3]}],
               adjacency=[{"a": "living", "b": "bed"}])
     domain = make_domain(p)
     start = {"living": [Box(0, 0, 5, 6)], "bed": [Box(5, 0, 9, 6)]}
     after = reshaped(p, start)
-    assert after["bed"] in ([Box(5, 3, 9, 6)], [Box(5, 0, 9, 3)])
+    (bed,) = after["bed"]
+    assert (bed.width, bed.depth) == (4, 3) and bed.x0 in (0, 5) and bed.y0 in (0, 3)
     assert corners(after["living"]) == 6 and area(after["living"]) == 42
     assert layout_objective(p, domain, after) == 0.0
     assert layout_objective(p, domain, start) > 0.0
+
+
+def test_a_small_room_moves_into_a_corner_of_the_living_room_and_frees_its_place() -> None:
+    # The wc (target 2 x 3) shares the east column with the bedroom (target 3 x 6),
+    # both 3 x 3. No strip between them helps: the wc must leave. Set into a corner of
+    # the living room (target 6 x 6 on its bounding box), it makes the living room an
+    # L, and the bedroom takes the whole column: every room at its target.
+    p = brief([{"id": "living", "target_size": [6, 6]},
+               {"id": "bed", "target_size": [3, 6]},
+               {"id": "wc", "target_size": [2, 3]}])
+    domain = make_domain(p)
+    start = {"living": [Box(0, 0, 6, 6)], "bed": [Box(6, 0, 9, 3)], "wc": [Box(6, 3, 9, 6)]}
+    after = reshaped(p, start)
+    assert layout_objective(p, domain, start) == 10.0
+    assert layout_objective(p, domain, after) == pytest.approx(0.0, abs=1e-9)
+    # Where each ends up depends on the annealing (rooms may also trade places).
+    assert [(b.width, b.depth) for b in after["bed"]] == [(3, 6)]
+    assert [(b.width, b.depth) for b in after["wc"]] in ([(2, 3)], [(3, 2)])
+    assert corners(after["living"]) == 6 and area(after["living"]) == 30
+    assert check_layout(p, after).coverage == 1.0
 
 
 def test_no_step_breaks_a_constraint_the_layout_met() -> None:
