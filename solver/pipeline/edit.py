@@ -35,7 +35,13 @@ import shapely
 from models import Problem, Termination
 from solver.events import EventSink, Phase, SolveEvent, StopFlag
 from solver.geometry import Box, Domain, boundary_edges, rectangles_of
-from solver.heuristics.level_one import level_one_spec, shape_allowance, wing_names, wings_wanted
+from solver.heuristics.level_one import (
+    WING_MARK,
+    level_one_spec,
+    shape_allowance,
+    wing_names,
+    wings_wanted,
+)
 from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import Incumbent, LevelResult, LevelStatus, complete_start, run_level
 from solver.miqp.spec import ContactSpec, LevelSpec, RectSpec
@@ -237,10 +243,14 @@ def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
     leaves more floor uncovered than `allowed`."""
     run.wings = wings
     end = run.deadline
-    lm = build_level(edit_spec(demanded, sub, domain, fixed, wings))
+    rects = _start_rects(start, wings)
+    lm = build_level(_fit_start(edit_spec(demanded, sub, domain, fixed, wings), rects))
     if start:
-        complete_start(lm, _start_rects(start, wings),
-                       time_limit=(end - time.monotonic()) * START_SHARE)
+        began = complete_start(lm, rects,
+                               time_limit=(end - time.monotonic()) * START_SHARE)
+        run.emit(Phase.LEVEL, detail="edit: the start " + (
+            "holds, SCIP starts from it" if began.values is not None
+            else f"does not hold ({began.status}), SCIP starts afresh"))
     stop = EditStop(domain, frozenset(r.id for r in sub.rooms), allowed)
 
     def on_incumbent(found: Incumbent) -> None:
@@ -285,6 +295,19 @@ def _start_rects(start: Mapping[str, list[Box]], wings: Mapping[str, int]) -> di
         ordered = sorted(boxes, key=lambda b: -b.width * b.depth)
         rects.update(zip(names, ordered, strict=True))
     return rects
+
+
+def _fit_start(spec: LevelSpec, rects: Mapping[str, Box]) -> LevelSpec:
+    """`spec` with each wing's minimum size lowered to its starting rectangle's, where
+    that is smaller: the previous layout's arms stay possible (level 1 asks
+    `WING_MIN` of a new arm)."""
+    fitted = []
+    for r in spec.rects:
+        b = rects.get(r.name)
+        if b is not None and WING_MARK in r.name:
+            r = replace(r, min_size=(min(r.min_size[0], b.width), min(r.min_size[1], b.depth)))
+        fitted.append(r)
+    return replace(spec, rects=tuple(fitted))
 
 
 def _with_fixed(on_event: EventSink | None, fixed: Mapping[str, list[Box]]

@@ -79,6 +79,12 @@ def fixed_boxes(problem: Problem) -> dict[str, list[Box]]:
             for room in problem.rooms if room.fixed is not None}
 
 
+def start_boxes(problem: Problem) -> dict[str, list[Box]]:
+    """`options.start` as room id -> rectangles (empty without a start)."""
+    return {room.id: [Box(r.x, r.y, r.x + r.width, r.y + r.depth) for r in room.rectangles]
+            for room in problem.options.start or []}
+
+
 def pinned_problem(problem: Problem) -> Problem:
     """`problem` with each fixed room held at its polygon's largest rectangle (exact
     size, two opposite corners to cover, one rectangle) and the rest of the polygon
@@ -98,7 +104,7 @@ def pinned_problem(problem: Problem) -> Problem:
         }))
         obstacles += [Obstacle(x=p.x0, y=p.y0, width=p.width, depth=p.depth,
                                label=FIXED_PART_LABEL.format(room=room.id)) for p in rest]
-    options = problem.options.model_copy(update={"regions_above": 0})
+    options = problem.options.model_copy(update={"regions_above": 0, "start": None})
     # Between fixed rooms a contact is what it is: the final check judges it.
     adjacency = [a for a in problem.adjacency
                  if not all(n in boxes for n in (a.a, *a.partners))]
@@ -122,6 +128,8 @@ def solve_fixed(
     the time left. `start` warm-starts the free rooms of an edit."""
     started = time.monotonic()
     fixed = [room.id for room in problem.rooms if room.fixed is not None]
+    if start is None:
+        start = start_boxes(problem)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
     if edit_applies(problem):
         result = solve_edit(problem, fixed_boxes(problem), deadline=started + limit,

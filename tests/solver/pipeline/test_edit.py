@@ -82,3 +82,24 @@ def test_wings_are_tried_from_the_start_shapes_then_an_l_then_a_t() -> None:
     sub = Problem.model_validate({**HOUSE, "rooms": HOUSE["rooms"][:2], "adjacency": []})
     plans = wing_plans(sub, {})
     assert plans == [{}, {"foyer": 1, "living": 1}, {"foyer": 2, "living": 2}]
+
+
+def test_the_previous_layout_as_start_warm_starts_the_free_rooms() -> None:
+    # An edit, then another edit of its answer: the first answer is the start.
+    first = solve(edit())
+    start = [room.model_dump() for room in first.rooms]
+    problem = edit("kitchen", 0.85, start=start)
+    events: list[SolveEvent] = []
+    layout = solve(problem, on_event=events.append)
+    assert layout.report.valid, layout.report
+    assert offset(layout, problem) <= EXACT
+    assert "edit: the start holds, SCIP starts from it" in [e.detail for e in events]
+
+
+def test_a_start_that_no_longer_holds_is_only_a_start() -> None:
+    # Every free room stacked on one spot: SCIP starts afresh and still answers.
+    start = {room: [{"x": 10.5, "y": 4.0, "width": 1.0, "depth": 1.0}] for room in FREE}
+    events: list[SolveEvent] = []
+    layout = solve(edit(start=start), on_event=events.append)
+    assert layout.report.valid, layout.report
+    assert any(e.detail.startswith("edit: the start does not hold") for e in events)
