@@ -65,6 +65,8 @@ START_SHARE = 0.25
 STALL_SECONDS = 0.15
 #: ... or as soon as its own gap (primal - dual over |primal|, at least 1) is this small.
 EDIT_GAP = 0.02
+#: A start's rectangle narrower than this (metres) is no arm of its room: a sliver.
+START_ARM = 0.5
 #: Marks the name of a fixed room's rectangle in the edit's MIQP.
 FIXED_MARK = "~fixed"
 
@@ -130,12 +132,15 @@ def free_problem(problem: Problem) -> Problem:
 
 def start_wings(sub: Problem, start: Mapping[str, list[Box]]) -> dict[str, int]:
     """Extra level-1 rectangles per free room: as many as the room had in `start`
-    beyond one (within its allowance), or as many as it asks for up front."""
+    beyond one, counting only arms at least `START_ARM` wide and deep (slivers are
+    left to the gap absorption), within its allowance; at least as many as it asks
+    for up front."""
     wings = wings_wanted(sub)
     for room in sub.rooms:
-        if room.id in start:
-            wings[room.id] = max(wings.get(room.id, 0), min(len(start[room.id]),
-                                                             shape_allowance(room)) - 1)
+        arms = [b for b in start.get(room.id, []) if min(b.width, b.depth) >= START_ARM]
+        if arms:
+            wings[room.id] = max(wings.get(room.id, 0),
+                                 min(len(arms), shape_allowance(room)) - 1)
     return {r: n for r, n in wings.items() if n > 0}
 
 
@@ -223,13 +228,14 @@ def solve_edit(
 
 
 def wing_plans(sub: Problem, start: Mapping[str, list[Box]]) -> list[dict[str, int]]:
-    """The extra rectangles to try per free room, in turn: the start's shapes (or what
-    rooms ask for), then one more for each room that may be an L, then up to its
-    allowance (a T, U or Z)."""
-    plans = [start_wings(sub, start)]
-    for extra in (1, 2):
-        plan = {room.id: max(plans[0].get(room.id, 0), min(extra, shape_allowance(room) - 1))
-                for room in sub.rooms}
+    """The extra rectangles to try per free room, in turn: what rooms ask for (the
+    smallest MIQP, proved impossible in milliseconds when it is), the start's shapes,
+    one more for each room that may be an L, then up to its allowance (a T, U or Z)."""
+    wanted = {r: n for r, n in wings_wanted(sub).items() if n > 0}
+    plans = [wanted]
+    for plan in (start_wings(sub, start), *(
+            {room.id: max(wanted.get(room.id, 0), min(extra, shape_allowance(room) - 1))
+             for room in sub.rooms} for extra in (1, 2))):
         plan = {r: n for r, n in plan.items() if n > 0}
         if plan not in plans:
             plans.append(plan)
@@ -286,14 +292,13 @@ def _covered(domain: Domain, rooms: Mapping[str, list[Box]]) -> float:
 
 def _start_rects(start: Mapping[str, list[Box]], wings: Mapping[str, int]) -> dict[str, Box]:
     """A start's rooms as the MIQP's rectangles: the largest is the room's main one, the
-    next ones its wings; a room with more rectangles than wings starts unknown."""
+    next ones its wings; rectangles beyond those are left out (the start then holds
+    only if the room's constraints do without them)."""
     rects: dict[str, Box] = {}
     for room_id, boxes in start.items():
         names = (room_id, *wing_names(room_id, wings.get(room_id, 0)))
-        if len(boxes) != len(names):
-            continue
         ordered = sorted(boxes, key=lambda b: -b.width * b.depth)
-        rects.update(zip(names, ordered, strict=True))
+        rects.update(zip(names, ordered, strict=False))
     return rects
 
 

@@ -16,6 +16,7 @@ from shapely.geometry import Polygon
 
 from models import Layout, Problem
 from solver import SolveEvent, solve
+from solver.geometry import Box
 from solver.pipeline.edit import EDIT_SHARE, edit_applies, wing_plans
 from tests.paths import ROOT
 
@@ -78,10 +79,13 @@ def test_few_fixed_rooms_go_through_the_whole_pipeline() -> None:
     assert not edit_applies(edit(free=free))
 
 
-def test_wings_are_tried_from_the_start_shapes_then_an_l_then_a_t() -> None:
+def test_wings_are_tried_none_then_the_start_shapes_then_an_l_then_a_t() -> None:
     sub = Problem.model_validate({**HOUSE, "rooms": HOUSE["rooms"][:2], "adjacency": []})
-    plans = wing_plans(sub, {})
-    assert plans == [{}, {"foyer": 1, "living": 1}, {"foyer": 2, "living": 2}]
+    assert wing_plans(sub, {}) == [{}, {"foyer": 1, "living": 1}, {"foyer": 2, "living": 2}]
+    # The living room was an L; a sliver of the foyer is no arm.
+    start = {"living": [Box(0, 0, 4, 3), Box(0, 3, 2, 5)],
+             "foyer": [Box(4, 0, 6, 2), Box(4, 2, 4.1, 3)]}
+    assert wing_plans(sub, start)[:2] == [{}, {"living": 1}]
 
 
 def test_the_previous_layout_as_start_warm_starts_the_free_rooms() -> None:
