@@ -5,6 +5,7 @@
     python -m bench --report-only [--out DIR] [--cases DIR]
     python -m bench planted [options]   # planted briefs: bench/planted_report.py
     python -m bench batch [options]     # layouts per second of a batch: bench/batch.py
+    python -m bench edits [options]     # edits around fixed rooms: bench/edits.py
 
 Cases run one after another, and on each case the solvers run one after another
 (never two at once), repeat after repeat, so they share the machine equally.
@@ -20,6 +21,7 @@ import time
 from pathlib import Path
 
 from bench.batch import main as batch_main
+from bench.edits import main as edits_main
 from bench.evaluate import RunRecord, evaluate
 from bench.planted_report import main as planted_main
 from bench.report import build_results, machine_info, write_outputs
@@ -84,6 +86,8 @@ def main(argv: list[str] | None = None) -> int:
         return planted_main(argv[1:])
     if argv[:1] == ["batch"]:  # layouts per second of a batch (issue 23)
         return batch_main(argv[1:])
+    if argv[:1] == ["edits"]:  # edits around fixed rooms (issue 21)
+        return edits_main(argv[1:])
     args = parse_args(argv)
     if args.report_only:
         return rewrite_report(args.out, args.cases)

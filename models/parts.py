@@ -41,6 +41,10 @@ TOLERANCE = 1e-6
 MAX_VARIANTS = 12
 #: The most vertices a fixed room's polygon may have (`Room.fixed`).
 MAX_FIXED_VERTICES = 100
+#: The most rooms and the most rectangles per room a warm start may give
+#: (`Options.start`).
+MAX_START_ROOMS = 400
+MAX_START_RECTS = 16
 #: Default aisle width between regions (metres): two people pass, a wheelchair turns.
 DEFAULT_AISLE_WIDTH = 1.8
 #: Narrowest and widest aisle accepted (metres).
@@ -244,6 +248,28 @@ class Weights(_Strict):
     )
 
 
+class StartRect(_Strict):
+    """A rectangle of a warm start: bottom-left corner, width along x, depth along y."""
+
+    x: Coordinate
+    y: Coordinate
+    width: PositiveLength
+    depth: PositiveLength
+
+
+class StartRoom(_Strict):
+    """One room of a previous layout, for `Options.start`. A room of a layout
+    (`Layout.rooms[i]`) is accepted as it is: its type, polygon, area and region are
+    read past; the rectangles are the start."""
+
+    id: Annotated[str, Field(min_length=1, max_length=100)]
+    rectangles: Annotated[list[StartRect], Field(min_length=1, max_length=MAX_START_RECTS)]
+    type: str | None = None
+    polygon: list[Any] | None = None
+    area: float | None = None
+    region: str | None = None
+
+
 class Options(_Strict):
     """How to run the solve."""
 
@@ -277,6 +303,15 @@ class Options(_Strict):
         "takes up to 3x the time limit. Fewer come back when no more distinct ones are "
         "found in time",
     )
+    start: Annotated[list[StartRoom], Field(max_length=MAX_START_ROOMS)] | None = Field(
+        None, description="a previous layout as a warm start for the free rooms of an edit "
+        "(rooms with `fixed` keep their polygon; the others start where the previous layout "
+        "had them, with as many rectangles, when that still satisfies the constraints): the "
+        "`rooms` of a layout as the service returned it, or an object mapping room ids to "
+        "lists of rectangles ({x, y, width, depth}). Every id must be a room of the problem. "
+        "Only a single floor takes a start (not `floors`); it never changes what is valid, "
+        "only where the search begins",
+    )
     diverse: bool = Field(
         False, description="the seed breaks Eq. 12's near-ties: the level-1 improvement "
         "pulls each room slightly in a direction drawn from the seed, so different seeds "
@@ -289,6 +324,11 @@ class Options(_Strict):
         "instead of none; inside the outline, no overlap and obstacles stay hard. A layout "
         "meeting every constraint is always looked for first",
     )
+
+    @field_validator("start", mode="before")
+    @classmethod
+    def _start_as_rooms(cls, value: Any) -> Any:
+        return start_rooms(value)
 
 
 #: Room types that open only onto these types by default (paper Sec. 5.4: a door
@@ -303,6 +343,14 @@ DEFAULT_DOOR_POLICY: dict[str, list[str]] = {
 DEFAULT_NO_PASSAGE = ["bathroom", "wc", "closet", "storage"]
 #: Room types without windows by default.
 DEFAULT_WINDOWLESS = ["storage", "closet", "wc", "stairs", "shaft", "lift", "laundry"]
+
+
+def start_rooms(value: Any) -> Any:
+    """`Options.start` given as an object (room id -> rectangles) as the list of rooms
+    it stands for; anything else as it is."""
+    if isinstance(value, dict):
+        return [{"id": room_id, "rectangles": rects} for room_id, rects in value.items()]
+    return value
 
 
 class Openings(_Strict):

@@ -142,6 +142,12 @@ class Problem(ProblemFields):
             errors = storey_errors(
                 self, (info.context or {}).get("max_rooms", DEFAULT_MAX_ROOMS))
             errors += _storey_fixed_errors(self)
+            if self.options.start is not None:
+                errors.append(field_error(("options", "start"),
+                                          [room.id for room in self.options.start],
+                                          "start_with_floors",
+                                          "options.start is for a single floor: a building "
+                                          "of several floors takes no warm start"))
             if errors:
                 raise ValidationError.from_exception_data(type(self).__name__, errors)
             return self
@@ -154,6 +160,7 @@ class Problem(ProblemFields):
             errors += _placement_errors(self)
             errors += _fixed_errors(self)
         errors += _reference_errors(self)
+        errors += _start_errors(self)
         if errors:
             raise ValidationError.from_exception_data(type(self).__name__, errors)
         return self
@@ -277,6 +284,23 @@ def _storey_fixed_errors(problem: Problem) -> list[InitErrorDetails]:
                            f"room '{room.id}' is fixed: fixed rooms are not supported with "
                            "`floors` yet")
                for v, room in enumerate(problem.vertical) if room.fixed is not None]
+    return errors
+
+
+def _start_errors(problem: Problem) -> list[InitErrorDetails]:
+    """A warm start (`options.start`) names each room of the problem at most once."""
+    errors: list[InitErrorDetails] = []
+    ids = {room.id for room in problem.rooms}
+    seen: set[str] = set()
+    for k, room in enumerate(problem.options.start or []):
+        loc: tuple[str | int, ...] = ("options", "start", k, "id")
+        if room.id not in ids:
+            errors.append(field_error(loc, room.id, "unknown_room",
+                                      f"options.start names unknown room id '{room.id}'"))
+        elif room.id in seen:
+            errors.append(field_error(loc, room.id, "duplicate_id",
+                                      f"options.start gives room '{room.id}' twice"))
+        seen.add(room.id)
     return errors
 
 

@@ -25,7 +25,8 @@ The search takes the time limit times the share of free rooms (at least
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import time
+from collections.abc import Callable, Mapping
 
 from shapely.geometry import Polygon
 
@@ -37,14 +38,16 @@ from models import (
     Layout,
     Obstacle,
     Problem,
+    Report,
     RoomLayout,
     Termination,
 )
 from solver.budget import default_time_limit
-from solver.events import EventSink, StopFlag
+from solver.events import EventSink, Phase, SolveEvent, StopFlag
 from solver.geometry import Box, domain_lines, polygon_coords, rectangles_of, snap_rooms
 from solver.openings import add_openings, connection_demands
 from solver.pipeline.assemble import outline_of
+from solver.pipeline.edit import edit_applies, solve_edit
 from solver.pipeline.run import OUTPUT_SNAP
 from solver.pipeline.subdomains import SubdomainExecutor
 from solver.verify.checker import check_layout
@@ -58,6 +61,8 @@ FIXED_PART_LABEL = "fixed room {room}"
 #: at least this share: the fixed rooms cannot move, and the search that would try to
 #: move them (level 1's neighbourhood search) would spend the rest for nothing.
 MIN_TIME_SHARE = 0.5
+#: The pinned path after an edit that found nothing gets at least this many seconds.
+MIN_SECONDS = 1.0
 
 Solver = Callable[..., Layout]
 
@@ -72,6 +77,12 @@ def fixed_boxes(problem: Problem) -> dict[str, list[Box]]:
     return {room.id: sorted(rectangles_of(Polygon(room.fixed)),
                             key=lambda b: -b.width * b.depth)
             for room in problem.rooms if room.fixed is not None}
+
+
+def start_boxes(problem: Problem) -> dict[str, list[Box]]:
+    """`options.start` as room id -> rectangles (empty without a start)."""
+    return {room.id: [Box(r.x, r.y, r.x + r.width, r.y + r.depth) for r in room.rectangles]
+            for room in problem.options.start or []}
 
 
 def pinned_problem(problem: Problem) -> Problem:
@@ -93,7 +104,7 @@ def pinned_problem(problem: Problem) -> Problem:
         }))
         obstacles += [Obstacle(x=p.x0, y=p.y0, width=p.width, depth=p.depth,
                                label=FIXED_PART_LABEL.format(room=room.id)) for p in rest]
-    options = problem.options.model_copy(update={"regions_above": 0})
+    options = problem.options.model_copy(update={"regions_above": 0, "start": None})
     # Between fixed rooms a contact is what it is: the final check judges it.
     adjacency = [a for a in problem.adjacency
                  if not all(n in boxes for n in (a.a, *a.partners))]
@@ -108,13 +119,35 @@ def solve_fixed(
     on_event: EventSink | None = None,
     should_stop: StopFlag | None = None,
     subdomains: SubdomainExecutor | None = None,
+    start: Mapping[str, list[Box]] | None = None,
 ) -> Layout:
-    """Lay out the free rooms of `problem` around its fixed ones (with `solve`, the
-    dispatcher), then put the fixed rooms back exactly and check the whole layout."""
+    """Lay out the free rooms of `problem` around its fixed ones, then put the fixed
+    rooms back exactly and check the whole layout. With most rooms fixed, the free ones
+    are one small sub-domain first (`solver.pipeline.edit`); otherwise, or when that
+    finds no valid layout, the pinned problem goes through `solve`, the dispatcher, in
+    the time left. `start` warm-starts the free rooms of an edit."""
+    started = time.monotonic()
     fixed = [room.id for room in problem.rooms if room.fixed is not None]
+    if start is None:
+        start = start_boxes(problem)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
+    if edit_applies(problem):
+        result = solve_edit(problem, fixed_boxes(problem), deadline=started + limit,
+                            start=start, on_event=on_event, should_stop=should_stop)
+        if result.rooms is not None:
+            report = Report(coverage=0.0, uncovered_area=0.0, levels=result.levels,
+                            termination=result.termination, valid=True)
+            layout = fixed_layout(problem, result.rooms, report, started)
+            if layout.report.valid or (should_stop is not None and should_stop()):
+                _done(on_event, layout, started)
+                return layout
+        limit -= time.monotonic() - started
+        if on_event is not None:
+            on_event(SolveEvent(phase=Phase.LEVEL, level=1, elapsed=time.monotonic() - started,
+                                detail=f"edit: {result.status}, no valid layout; the whole "
+                                "pipeline around the fixed rooms"))
     share = max(1 - len(fixed) / len(problem.rooms), MIN_TIME_SHARE)
-    pinned = pinned_problem(problem).with_options(time_limit=limit * share)
+    pinned = pinned_problem(problem).with_options(time_limit=max(limit * share, MIN_SECONDS))
     layout = solve(pinned, on_event=on_event, should_stop=should_stop, subdomains=subdomains)
     if not layout.rooms:
         why = layout.report.infeasibility
@@ -126,6 +159,14 @@ def solve_fixed(
         return layout.model_copy(update={"report": layout.report.model_copy(
             update={"infeasibility": why})})
     return relaid(problem, layout)
+
+
+def _done(on_event: EventSink | None, layout: Layout, started: float) -> None:
+    if on_event is not None:
+        on_event(SolveEvent(phase=Phase.DONE, level=layout.report.levels,
+                            elapsed=time.monotonic() - started,
+                            objective=layout.report.objective,
+                            detail=f"coverage {layout.report.coverage:.1%}"))
 
 
 def fixed_conflict(problem: Problem, conflict: ConflictSet | None) -> ConflictSet | None:
@@ -156,12 +197,23 @@ def fixed_conflict(problem: Problem, conflict: ConflictSet | None) -> ConflictSe
 def relaid(problem: Problem, layout: Layout) -> Layout:
     """`layout` of `pinned_problem(problem)` with the fixed rooms put back exactly, the
     walls near theirs snapped onto them, and the report made again for `problem`."""
+    placed = {room.id: [Box.of(r) for r in room.rectangles] for room in layout.rooms}
+    out = fixed_layout(problem, placed, layout.report)
+    return layout.model_copy(update={"rooms": out.rooms, "doors": out.doors,
+                                     "windows": out.windows, "report": out.report})
+
+
+def fixed_layout(problem: Problem, placed: Mapping[str, list[Box]], report: Report,
+                 started: float | None = None) -> Layout:
+    """The layout of `problem` from the free rooms' rectangles `placed`: the fixed rooms
+    exactly at their polygons, the walls near theirs snapped onto them, openings, and
+    `report` made again for the whole problem (with the solve time since `started`)."""
     exact = fixed_boxes(problem)
     xs, ys = domain_lines(problem)
     xs = [*xs, *(v for boxes in exact.values() for b in boxes for v in (b.x0, b.x1))]
     ys = [*ys, *(v for boxes in exact.values() for b in boxes for v in (b.y0, b.y1))]
-    placed = {room.id: [Box.of(r) for r in room.rectangles] for room in layout.rooms}
-    rooms = snap_rooms(placed, xs, ys, OUTPUT_SNAP)
+    rooms = snap_rooms({r: list(b) for r, b in placed.items() if r not in exact}, xs, ys,
+                       OUTPUT_SNAP)
     rooms.update(exact)
     checked = connection_demands(problem)
     check = check_layout(checked, rooms)
@@ -184,7 +236,11 @@ def relaid(problem: Problem, layout: Layout) -> Layout:
     w = problem.weights
     violations = [c for c in constraints if c.soft and not c.satisfied]
     shortfall = sum(c.shortfall for c in violations)
-    report = layout.report.model_copy(update={
+    timed: dict[str, object] = {} if started is None else {
+        "solve_time": time.monotonic() - started}
+    before = report
+    report = report.model_copy(update={
+        **timed,
         "coverage": check.coverage, "uncovered_area": check.uncovered_area,
         "constraints": constraints, "size_error": check.size_error,
         "objective": w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
@@ -192,7 +248,7 @@ def relaid(problem: Problem, layout: Layout) -> Layout:
         "valid": valid, "circulation": openings.circulation, "violations": violations,
         "total_shortfall": round(shortfall, 6),
     })
-    if layout.report.valid and not valid:
+    if before.valid and not valid:
         broken = sorted({r for c in constraints if not c.satisfied and not c.soft
                          for r in c.rooms})
         report = report.model_copy(update={
@@ -202,6 +258,6 @@ def relaid(problem: Problem, layout: Layout) -> Layout:
                 f"report marks unsatisfied (rooms {', '.join(broken)}): a fixed room's own "
                 "constraints must hold on its fixed polygon"),
         })
-    return layout.model_copy(update={"rooms": out, "doors": openings.doors,
-                                     "windows": openings.windows, "report": report})
+    return Layout(name=problem.name, rooms=out, doors=openings.doors,
+                  windows=openings.windows, report=report)
 

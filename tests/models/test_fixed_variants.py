@@ -78,3 +78,52 @@ def test_variants_out_of_range_are_refused(count: int) -> None:
     data = brief()
     data["options"] = {"variants": count}
     assert [loc for loc, _ in errors(data)] == [("options", "variants")]
+
+
+def test_fixed_rooms_with_floors_are_refused_naming_the_room() -> None:
+    data = json.loads((ROOT / "examples" / "two-storey-house.json").read_text())
+    room = data["floors"][0]["rooms"][0]
+    room["fixed"] = SQUARE
+    found = errors(data)
+    assert (("floors", 0, "rooms", 0, "fixed"), "fixed_with_floors") in found
+
+
+#: A warm start of two rooms of apartment-5, as the layout gives its rooms.
+START = [{"id": "foyer", "type": "foyer", "polygon": SQUARE, "area": 9.0,
+          "rectangles": [{"x": 0, "y": 0, "width": 3, "depth": 3}]},
+         {"id": "kitchen", "rectangles": [{"x": 3, "y": 0, "width": 3, "depth": 3}]}]
+
+
+def test_a_start_of_layout_rooms_or_of_ids_to_rectangles_is_accepted() -> None:
+    data = brief()
+    data["options"] = {"start": START}
+    as_rooms = Problem.model_validate(data).options.start
+    data["options"] = {"start": {r["id"]: r["rectangles"] for r in START}}
+    as_mapping = Problem.model_validate(data).options.start
+    assert as_rooms is not None and as_mapping is not None
+    assert [(r.id, r.rectangles) for r in as_rooms] == [(r.id, r.rectangles)
+                                                        for r in as_mapping]
+
+
+@pytest.mark.parametrize(("start", "loc", "kind"), [
+    ([{"id": "attic", "rectangles": [{"x": 0, "y": 0, "width": 1, "depth": 1}]}],
+     ("options", "start", 0, "id"), "unknown_room"),
+    ([START[1], START[1]], ("options", "start", 1, "id"), "duplicate_id"),
+    ([{"id": "foyer", "rectangles": [{"x": 0, "y": 0, "width": 0, "depth": 1}]}],
+     ("options", "start", 0, "rectangles", 0, "width"), "greater_than"),
+    ([{"id": "foyer", "rectangles": []}], ("options", "start", 0, "rectangles"), "too_short"),
+    ([{"id": "foyer", "rects": []}], ("options", "start", 0, "rectangles"), "missing"),
+    ({"foyer": "here"}, ("options", "start", 0, "rectangles"), "list_type"),
+    ("foyer", ("options", "start"), "list_type"),
+])
+def test_a_malformed_start_is_refused_naming_the_field(
+        start: Any, loc: tuple[str | int, ...], kind: str) -> None:
+    data = brief()
+    data["options"] = {"start": start}
+    assert (loc, kind) in errors(data)
+
+
+def test_a_start_with_floors_is_refused() -> None:
+    data = json.loads((ROOT / "examples" / "two-storey-house.json").read_text())
+    data.setdefault("options", {})["start"] = {"x": [{"x": 0, "y": 0, "width": 1, "depth": 1}]}
+    assert (("options", "start"), "start_with_floors") in errors(data)

@@ -342,3 +342,57 @@ def test_a_server_with_keys_asks_for_one_and_works_with_it(
         expect(page.locator("#plan .room")).to_have_count(5)
     finally:
         keyed.stop()
+
+
+def test_variants_pick_fix_rooms_edit_a_target_resolve_compare_and_undo(
+        page: Any, server: Server) -> None:
+    page.goto(server.url)
+    pick_example(page, "apartment-5", time_limit="1")
+    page.fill("#variants", "2")
+    page.click("#submit")
+    expect(page.locator("#status")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
+    expect(page.locator("#explore")).to_be_visible()
+    thumbs = page.locator("#variants-strip .variant-thumb")
+    if thumbs.count() > 1:  # side by side, best first; a click puts one on the plan
+        expect(thumbs.first).to_have_attribute("aria-pressed", "true")
+        thumbs.nth(1).click()
+        expect(thumbs.nth(1)).to_have_attribute("aria-pressed", "true")
+        expect(page.locator("#plan")).to_have_attribute("data-source", "explore")
+    kept = ["living", "bedroom", "foyer"]
+    before = {room: page.locator(f"#plan .room[data-room='{room}'] polygon")
+              .get_attribute("points") for room in kept}
+    for room in kept:
+        page.click(f"#plan .room[data-room='{room}']")
+        expect(page.locator(f"#plan .room[data-room='{room}']")).to_have_class(
+            re.compile("locked"))
+    expect(page.locator("#locked-count")).to_have_text("3")
+    # The kitchen's target, 10 % smaller per side, in place.
+    page.select_option("#edit-room", "kitchen")
+    width = float(page.input_value("#target-width"))
+    page.fill("#target-width", f"{0.9 * width:.2f}")
+    page.click("#apply-target")
+    expect(page.locator("#edit-note")).to_contain_text("kitchen: target")
+    page.click("#resolve")
+
+    expect(page.locator("#compare")).to_be_visible(timeout=JOB_TIMEOUT_MS)
+    expect(page.locator("#status")).to_have_text("succeeded")
+    sent = json.loads(page.input_value("#problem"))
+    assert sorted(r["id"] for r in sent["rooms"] if "fixed" in r) == sorted(kept)
+    assert next(r for r in sent["rooms"] if r["id"] == "kitchen")["target_size"][0] == \
+        pytest.approx(0.9 * width, abs=0.01)
+    assert {r["id"] for r in sent["options"]["start"]} == set(APARTMENT_ROOMS)
+    for room, points in before.items():  # kept exactly, and still drawn locked
+        plan_room = page.locator(f"#plan .room[data-room='{room}']")
+        expect(plan_room).to_have_class(re.compile("locked"))
+        assert plan_room.locator("polygon").get_attribute("points") == points
+    expect(page.locator("#previous-plan .room")).to_have_count(5)
+    expect(page.locator("#changes li").first).to_be_visible()
+    expect(page.locator("#edit-note")).to_contain_text("Re-solved")
+    expect(page.locator("#summary-list dd[data-term='valid']")).to_have_text("yes")
+    screenshot(page, "web-explore.png")
+
+    page.click("#undo")  # back to the plan before the edit: nothing to compare
+    expect(page.locator("#compare")).to_be_hidden()
+    expect(page.locator("#locked-count")).to_have_text("3")
+    page.click("#undo")  # and before the target's change
+    expect(page.locator("#undo")).to_be_disabled()

@@ -3,6 +3,7 @@
 // the public API, relative to the page, so the page also works behind a path prefix.
 
 import { followEvents } from "./events.js";
+import { exploreResult, setupExplore } from "./explore.js";
 import { drawPlan } from "./plan.js";
 
 const $ = (id) => document.getElementById(id);
@@ -193,6 +194,8 @@ function problemFromForm() {
   const seed = $("seed").value;
   if (timeLimit !== "") options.time_limit = Number(timeLimit);
   if (seed !== "") options.seed = Number(seed);
+  const variants = $("variants").value;
+  if (variants !== "") options.variants = Number(variants);
   return Object.keys(options).length ? { ...problem, options } : problem;
 }
 
@@ -313,6 +316,7 @@ async function finish(job) {
     drawPlan($("plan"), ...oneFloor(job.problem, layout), "result");
   }
   if (info) showSummary(job, info, layout);
+  exploreResult(job.problem, layout);
 }
 
 /** Every room of a layout: its rooms, or those of every floor of a building. */
@@ -436,15 +440,34 @@ async function downloadFile(event) {
 async function submit(event) {
   event.preventDefault();
   clearMessage();
-  let problem;
   try {
-    problem = problemFromForm();
+    await send(problemFromForm());
+  } catch (err) {
+    showProblem(err);
+  }
+}
+
+/** Posts `problem` as a job and follows it. */
+async function send(problem) {
+  try {
     $("submit").disabled = true;
     const job = await api("v1/layouts", { method: "POST", body: JSON.stringify(problem) });
     follow({ id: job.id, problem });
   } catch (err) {
     $("submit").disabled = false;
+    throw err;
+  }
+}
+
+/** An edit of the explore panel: shown in the text box, then sent as a job. */
+async function resubmit(problem) {
+  clearMessage();
+  $("problem").value = prettyJson(problem);
+  try {
+    await send(problem);
+  } catch (err) {
     showProblem(err);
+    exploreResult(problem, null);
   }
 }
 
@@ -511,6 +534,7 @@ function start() {
   $("cancel").addEventListener("click", cancel);
   $("downloads").addEventListener("click", downloadFile);
   setInterval(showElapsed, CLOCK_MS);
+  setupExplore(resubmit);
 
   loadExamples();
   probeKey();

@@ -1,0 +1,330 @@
+"""Edits around fixed rooms (issue 21): when most rooms of a brief are fixed, only the
+free ones are laid out, as one small sub-domain.
+
+The pinned path (`solver.pipeline.fixed.pinned_problem`) keeps every fixed room a room
+of each MIQP and runs the whole pipeline (window schedule, neighbourhood search,
+hierarchy, reshaping) under the time limit: an edit of a 13-room plan with 9 rooms
+fixed then takes seconds, spent on rooms that cannot move. Here the floor the fixed
+rooms leave is the domain: its bounding box is the region, everything else in that box
+(the fixed rooms, obstacles, the outside) is blocked, and only the free rooms are
+variables. A fixed room stays in the MIQP only as constant rectangles that a free
+room's adjacency (Eq. 10/11) may name, so contacts with an L-shaped fixed room count
+along any of its rectangles.
+
+The search stops as soon as it is good enough (`EditStop`): the free rooms cover their
+floor and SCIP stopped improving for a moment, or the gap closed; the skipped stages
+(neighbourhood search, reshaping) could not move a fixed wall anyway. A layout that
+leaves gaps goes through the hierarchy's refinement and its last gap absorption,
+restricted to the free rooms. The answer is checked against the whole problem
+(`solver.pipeline.fixed.fixed_layout`); when the edit finds no valid layout, the caller
+falls back on the pinned path, which also explains an infeasible edit.
+
+A `start` (room id -> rectangles, `Options.start`) warm-starts the free rooms: a room
+that was several rectangles gets as many (up to its allowance), and the start is
+completed into a full solution of the MIQP when it is still feasible.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+
+import shapely
+
+from models import Problem, Termination
+from solver.events import EventSink, Phase, SolveEvent, StopFlag
+from solver.geometry import Box, Domain, boundary_edges, rectangles_of
+from solver.heuristics.level_one import (
+    WING_MARK,
+    level_one_spec,
+    shape_allowance,
+    wing_names,
+    wings_wanted,
+)
+from solver.miqp.formulation import build_level
+from solver.miqp.scip_run import Incumbent, LevelResult, LevelStatus, complete_start, run_level
+from solver.miqp.spec import ContactSpec, LevelSpec, RectSpec
+from solver.openings import connection_demands
+from solver.pipeline.hierarchy import GAP_AREA, absorb_gaps, room_boxes
+from solver.pipeline.refine import refine
+from solver.pipeline.run import COVER_MARGIN, Run, covered
+from solver.verify.checker import COVERAGE_GOAL
+
+#: The edit path applies when at least this share of the rooms is fixed.
+EDIT_SHARE = 0.5
+#: Seconds the edit's MIQPs may take at most, whatever the time limit: a small
+#: sub-domain either finds a layout within this or needs the full pipeline ...
+EDIT_SECONDS = 0.7
+#: ... and the edit with the hierarchy after them.
+EDIT_END_SECONDS = 1.0
+#: Share of the MIQP's time completing a start into a full solution may take.
+START_SHARE = 0.25
+#: Once the free rooms cover their floor, SCIP is stopped after this many seconds
+#: without a better incumbent ...
+STALL_SECONDS = 0.15
+#: ... or as soon as its own gap (primal - dual over |primal|, at least 1) is this small.
+EDIT_GAP = 0.02
+#: A start's rectangle narrower than this (metres) is no arm of its room: a sliver.
+START_ARM = 0.5
+#: Marks the name of a fixed room's rectangle in the edit's MIQP.
+FIXED_MARK = "~fixed"
+
+
+@dataclass
+class EditStop:
+    """When the edit's SCIP search is good enough: the free rooms cover `goal` of their
+    floor and the search stalled for `STALL_SECONDS`, or its gap closed to `EDIT_GAP`."""
+
+    domain: Domain
+    free: frozenset[str]
+    #: The floor the free rooms must cover.
+    goal: float
+    covered_at: float | None = None
+    improved_at: float = field(default_factory=time.monotonic)
+    gap: float = float("inf")
+
+    def incumbent(self, found: Incumbent) -> None:
+        now = time.monotonic()
+        self.improved_at = now
+        rooms = {n: [b] for n, b in found.rects.items() if FIXED_MARK not in n}
+        if self.covered_at is None and covered(self.domain, rooms) >= self.goal:
+            self.covered_at = now
+        self.gap = (found.objective - found.dual_bound) / max(abs(found.objective), 1.0)
+
+    def __call__(self) -> bool:
+        if self.covered_at is None:
+            return False
+        return self.gap <= EDIT_GAP or time.monotonic() - self.improved_at >= STALL_SECONDS
+
+
+def edit_applies(problem: Problem) -> bool:
+    """Whether `problem` (one floor) has most of its rooms fixed, and some free."""
+    fixed = sum(room.fixed is not None for room in problem.rooms)
+    return fixed < len(problem.rooms) and fixed >= EDIT_SHARE * len(problem.rooms)
+
+
+def edit_domain(problem: Problem, fixed: Mapping[str, list[Box]]) -> Domain | None:
+    """The floor the fixed rooms leave, as a domain whose box is that floor's bounding
+    box; None when they leave none."""
+    taken = shapely.union_all([b.to_polygon() for boxes in fixed.values() for b in boxes])
+    free = problem.free_area().difference(taken)
+    if free.area <= GAP_AREA:
+        return None
+    x0, y0, x1, y1 = free.bounds
+    bbox = Box(x0, y0, x1, y1)
+    blocked = tuple(b for b in rectangles_of(bbox.to_polygon().difference(free))
+                    if b.width * b.depth > 0)
+    return Domain(bbox=bbox, free=free, blocked=blocked,
+                  edges=boundary_edges(problem.boundary))
+
+
+def free_problem(problem: Problem) -> Problem:
+    """`problem` with its free rooms only, and the adjacencies among them; never
+    partitioned into regions. Not validated again: it is a part of a valid problem."""
+    free = {room.id for room in problem.rooms if room.fixed is None}
+    adjacency = [a for a in problem.adjacency if {a.a, *a.partners} <= free]
+    options = problem.options.model_copy(update={"regions_above": 0})
+    return problem.model_copy(update={
+        "rooms": [room for room in problem.rooms if room.id in free],
+        "adjacency": adjacency, "options": options})
+
+
+def start_wings(sub: Problem, start: Mapping[str, list[Box]]) -> dict[str, int]:
+    """Extra level-1 rectangles per free room: as many as the room had in `start`
+    beyond one, counting only arms at least `START_ARM` wide and deep (slivers are
+    left to the gap absorption), within its allowance; at least as many as it asks
+    for up front."""
+    wings = wings_wanted(sub)
+    for room in sub.rooms:
+        arms = [b for b in start.get(room.id, []) if min(b.width, b.depth) >= START_ARM]
+        if arms:
+            wings[room.id] = max(wings.get(room.id, 0),
+                                 min(len(arms), shape_allowance(room)) - 1)
+    return {r: n for r, n in wings.items() if n > 0}
+
+
+def edit_spec(problem: Problem, sub: Problem, domain: Domain, fixed: Mapping[str, list[Box]],
+              wings: Mapping[str, int]) -> LevelSpec:
+    """The edit's MIQP: level 1 of the free rooms in `domain`, plus each adjacency of
+    `problem` (its demands added) between a free room and fixed ones, against the
+    fixed rooms' rectangles held as constants."""
+    spec = level_one_spec(sub, domain, window=None, wings=wings, wrap=False)
+    free = {room.id for room in sub.rooms}
+
+    def parts(room_id: str) -> tuple[str, ...]:
+        if room_id in fixed:
+            return tuple(f"{room_id}{FIXED_MARK}{k}" for k in range(len(fixed[room_id])))
+        return (room_id, *wing_names(room_id, wings.get(room_id, 0)))
+
+    contacts, named = [], set()
+    for k, adj in enumerate(problem.adjacency):
+        members = {adj.a, *adj.partners}
+        if members <= free or not members & free:
+            continue  # among free rooms: in level 1 already; among fixed: the check's
+        contact = ContactSpec(name=f"fixed_adj{k}", a=parts(adj.a),
+                              partners=tuple(parts(p) for p in adj.partners),
+                              min_contact=adj.min_contact)
+        contacts.append(contact)
+        named |= {room for room in members if room in fixed}
+    held = [RectSpec(name=name, room=room, fixed=b)
+            for room in sorted(named) for name, b in zip(parts(room), fixed[room], strict=True)]
+    return replace(spec, name=f"{problem.name}/edit", rects=(*spec.rects, *held),
+                   contacts=(*spec.contacts, *contacts))
+
+
+@dataclass(frozen=True)
+class EditResult:
+    """The free rooms' rectangles (None: no layout) and how the search ended."""
+
+    rooms: dict[str, list[Box]] | None
+    termination: Termination
+    levels: int
+    status: str
+
+
+def solve_edit(
+    problem: Problem,
+    fixed: Mapping[str, list[Box]],
+    *,
+    deadline: float,
+    start: Mapping[str, list[Box]] | None = None,
+    on_event: EventSink | None = None,
+    should_stop: StopFlag | None = None,
+) -> EditResult:
+    """Lay out the free rooms of `problem` around the `fixed` rooms' rectangles, by
+    `deadline` (monotonic): one MIQP of the free rooms, stopped when good enough, then
+    the hierarchy's refinement and gap absorption when it leaves gaps. A room that
+    cannot be one rectangle in what the fixed rooms leave gets wings: the shapes of
+    `start`, then an L for every free room, then up to a T (`wing_plans`)."""
+    started = time.monotonic()
+    demanded = connection_demands(problem)
+    sub = free_problem(demanded)
+    domain = edit_domain(problem, fixed)
+    if domain is None:
+        return EditResult({}, Termination.OPTIMAL, 1, "nothing to lay out")
+    # The whole floor's coverage goal, met by the free rooms alone: the fixed ones
+    # cover exactly their polygons.
+    allowed = domain.area - (1 - COVERAGE_GOAL - COVER_MARGIN) * problem.free_area().area
+    start = {r: boxes for r, boxes in (start or {}).items() if r in {x.id for x in sub.rooms}}
+    end = min(deadline, started + EDIT_SECONDS)
+    run = Run(sub, end, started, _with_fixed(on_event, fixed), should_stop, asked=sub,
+              end=end)
+    run.emit(Phase.LEVEL, detail=f"edit: {len(sub.rooms)} free room(s) around "
+             f"{len(fixed)} fixed")
+    best: EditResult | None = None
+    status = "no attempt"
+    for wings in wing_plans(sub, start):
+        if time.monotonic() >= end or run.stopped():
+            break
+        result = _attempt(run, demanded, sub, domain, fixed, wings, start, allowed, deadline)
+        status = result.status
+        if result.rooms is not None and (best is None or _covered(domain, result.rooms)
+                                         > _covered(domain, best.rooms or {})):
+            best = result
+        if result.rooms is not None and _covered(domain, result.rooms) >= allowed:
+            return result
+    return best or EditResult(None, Termination.NO_SOLUTION, 1, status)
+
+
+def wing_plans(sub: Problem, start: Mapping[str, list[Box]]) -> list[dict[str, int]]:
+    """The extra rectangles to try per free room, in turn: what rooms ask for (the
+    smallest MIQP, proved impossible in milliseconds when it is), the start's shapes,
+    one more for each room that may be an L, then up to its allowance (a T, U or Z)."""
+    wanted = {r: n for r, n in wings_wanted(sub).items() if n > 0}
+    plans = [wanted]
+    for plan in (start_wings(sub, start), *(
+            {room.id: max(wanted.get(room.id, 0), min(extra, shape_allowance(room) - 1))
+             for room in sub.rooms} for extra in (1, 2))):
+        plan = {r: n for r, n in plan.items() if n > 0}
+        if plan not in plans:
+            plans.append(plan)
+    return plans
+
+
+def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
+             fixed: Mapping[str, list[Box]], wings: dict[str, int],
+             start: Mapping[str, list[Box]], allowed: float, deadline: float) -> EditResult:
+    """One MIQP of the free rooms with `wings`, and the hierarchy after it when it
+    leaves more floor uncovered than `allowed`."""
+    run.wings = wings
+    end = run.deadline
+    rects = _start_rects(start, wings)
+    lm = build_level(_fit_start(edit_spec(demanded, sub, domain, fixed, wings), rects))
+    if start:
+        began = complete_start(lm, rects,
+                               time_limit=(end - time.monotonic()) * START_SHARE)
+        run.emit(Phase.LEVEL, detail="edit: the start " + (
+            "holds, SCIP starts from it" if began.values is not None
+            else f"does not hold ({began.status}), SCIP starts afresh"))
+    stop = EditStop(domain, frozenset(r.id for r in sub.rooms), allowed)
+
+    def on_incumbent(found: Incumbent) -> None:
+        stop.incumbent(found)
+        rooms = run.by_room(domain, {n: b for n, b in found.rects.items()
+                                     if FIXED_MARK not in n})
+        run.incumbent(domain, rooms, dual_bound=found.dual_bound)
+
+    result: LevelResult = run_level(
+        lm, time_limit=end - time.monotonic(), seed=sub.options.seed,
+        on_incumbent=on_incumbent, should_stop=lambda: run.stopped() or stop())
+    if result.rects is None:
+        return EditResult(None, Termination.NO_SOLUTION, 1, str(result.status))
+    pieces = run.pieces(domain, {n: b for n, b in result.rects.items()
+                                 if FIXED_MARK not in n})
+    levels = 1
+    if _covered(domain, room_boxes(pieces)) < allowed:
+        # Gaps: the hierarchy grows the free rooms into them, then the last absorption.
+        run.deadline = min(deadline, run.started + EDIT_END_SECONDS)
+        pieces, levels = refine(run, domain, pieces)
+        pieces = absorb_gaps(sub, domain, pieces)
+        run.deadline = end
+    ended = (Termination.INTERRUPTED if run.stopped() else
+             Termination.OPTIMAL if result.status is LevelStatus.OPTIMAL else
+             Termination.STALLED if result.status is LevelStatus.INTERRUPTED else
+             Termination.TIME_LIMIT)
+    return EditResult(room_boxes(pieces), ended, levels, str(result.status))
+
+
+def _covered(domain: Domain, rooms: Mapping[str, list[Box]]) -> float:
+    return covered(domain, dict(rooms))
+
+
+def _start_rects(start: Mapping[str, list[Box]], wings: Mapping[str, int]) -> dict[str, Box]:
+    """A start's rooms as the MIQP's rectangles: the largest is the room's main one, the
+    next ones its wings; rectangles beyond those are left out (the start then holds
+    only if the room's constraints do without them)."""
+    rects: dict[str, Box] = {}
+    for room_id, boxes in start.items():
+        names = (room_id, *wing_names(room_id, wings.get(room_id, 0)))
+        ordered = sorted(boxes, key=lambda b: -b.width * b.depth)
+        rects.update(zip(names, ordered, strict=False))
+    return rects
+
+
+def _fit_start(spec: LevelSpec, rects: Mapping[str, Box]) -> LevelSpec:
+    """`spec` with each wing's minimum size lowered to its starting rectangle's, where
+    that is smaller: the previous layout's arms stay possible (level 1 asks
+    `WING_MIN` of a new arm)."""
+    fitted = []
+    for r in spec.rects:
+        b = rects.get(r.name)
+        if b is not None and WING_MARK in r.name:
+            r = replace(r, min_size=(min(r.min_size[0], b.width), min(r.min_size[1], b.depth)))
+        fitted.append(r)
+    return replace(spec, rects=tuple(fitted))
+
+
+def _with_fixed(on_event: EventSink | None, fixed: Mapping[str, list[Box]]
+                ) -> EventSink | None:
+    """`on_event` with the fixed rooms added to each incumbent's rooms, so a live plan
+    shows the whole floor."""
+    if on_event is None:
+        return None
+
+    def sink(event: SolveEvent) -> None:
+        if event.rooms is not None:
+            event = replace(event, rooms={**fixed, **event.rooms})
+        on_event(event)
+
+    return sink

@@ -1,0 +1,109 @@
+"""Edits around fixed rooms (issue 21), on the real SCIP: with most rooms fixed, only
+the free ones are laid out (solver/pipeline/edit.py), the fixed ones come back exactly,
+and the whole layout passes the checker.
+
+No wall-time bound is asserted (slow, shared machines): the edit path's own events say
+that it answered without the whole pipeline; bench/edits.py measures the time."""
+
+from __future__ import annotations
+
+import copy
+import json
+from typing import Any
+
+import shapely
+from shapely.geometry import Polygon
+
+from models import Layout, Problem
+from solver import SolveEvent, solve
+from solver.geometry import Box
+from solver.pipeline.edit import EDIT_SHARE, edit_applies, wing_plans
+from tests.paths import ROOT
+
+HOUSE: dict[str, Any] = json.loads((ROOT / "examples" / "house-13.json").read_text())
+#: The committed answer to house-13: its rooms' polygons serve as fixed rooms.
+ANSWER = Layout.model_validate_json((ROOT / "examples" / "house-13.layout.json").read_text())
+FREE = ("kitchen", "laundry", "bath1", "storage")
+#: Fixed rooms must come back to this (metres).
+EXACT = 1e-4
+
+
+def edit(shrunk: str = "kitchen", factor: float = 0.9, free: tuple[str, ...] = FREE,
+         **options: Any) -> Problem:
+    """house-13 with every room but `free` fixed where the committed answer has it,
+    and the target of `shrunk` scaled by `factor` per side."""
+    data = copy.deepcopy(HOUSE)
+    polygons = {r.id: [list(p) for p in r.polygon] for r in ANSWER.rooms}
+    for room in data["rooms"]:
+        if room["id"] not in free:
+            room["fixed"] = polygons[room["id"]]
+        if room["id"] == shrunk:
+            room["target_size"] = [t * factor for t in room["target_size"]]
+    data["options"] = {**data.get("options", {}), **options}
+    return Problem.model_validate(data)
+
+
+def offset(layout: Layout, problem: Problem) -> float:
+    """The largest Hausdorff distance between a fixed polygon and its room's answer."""
+    got = {r.id: Polygon(r.polygon) for r in layout.rooms}
+    return max(float(shapely.hausdorff_distance(Polygon(room.fixed), got[room.id]))
+               for room in problem.rooms if room.fixed is not None)
+
+
+def test_nine_of_thirteen_rooms_fixed_is_an_edit_of_the_free_four() -> None:
+    problem = edit()
+    assert edit_applies(problem)
+    events: list[SolveEvent] = []
+    layout = solve(problem, on_event=events.append)
+    assert layout.report.valid, layout.report
+    assert layout.report.coverage >= 0.99
+    assert offset(layout, problem) <= EXACT
+    details = [e.detail for e in events]
+    assert details[0].startswith("edit: 4 free room(s) around 9 fixed")
+    assert not any("whole pipeline" in d for d in details), details
+    # A live plan shows the whole floor, the fixed rooms too.
+    incumbents = [e for e in events if e.rooms is not None]
+    assert incumbents and all(len(e.rooms or {}) == 13 for e in incumbents)
+
+
+def test_a_grown_target_is_an_edit_too_and_every_room_comes_back() -> None:
+    problem = edit("bath1", 1.1)
+    layout = solve(problem)
+    assert layout.report.valid, layout.report
+    assert {r.id for r in layout.rooms} == {r["id"] for r in HOUSE["rooms"]}
+    assert offset(layout, problem) <= EXACT
+
+
+def test_few_fixed_rooms_go_through_the_whole_pipeline() -> None:
+    free = tuple(r["id"] for r in HOUSE["rooms"])[: int(13 * (1 - EDIT_SHARE)) + 2]
+    assert not edit_applies(edit(free=free))
+
+
+def test_wings_are_tried_none_then_the_start_shapes_then_an_l_then_a_t() -> None:
+    sub = Problem.model_validate({**HOUSE, "rooms": HOUSE["rooms"][:2], "adjacency": []})
+    assert wing_plans(sub, {}) == [{}, {"foyer": 1, "living": 1}, {"foyer": 2, "living": 2}]
+    # The living room was an L; a sliver of the foyer is no arm.
+    start = {"living": [Box(0, 0, 4, 3), Box(0, 3, 2, 5)],
+             "foyer": [Box(4, 0, 6, 2), Box(4, 2, 4.1, 3)]}
+    assert wing_plans(sub, start)[:2] == [{}, {"living": 1}]
+
+
+def test_the_previous_layout_as_start_warm_starts_the_free_rooms() -> None:
+    # An edit, then another edit of its answer: the first answer is the start.
+    first = solve(edit())
+    start = [room.model_dump() for room in first.rooms]
+    problem = edit("kitchen", 0.85, start=start)
+    events: list[SolveEvent] = []
+    layout = solve(problem, on_event=events.append)
+    assert layout.report.valid, layout.report
+    assert offset(layout, problem) <= EXACT
+    assert "edit: the start holds, SCIP starts from it" in [e.detail for e in events]
+
+
+def test_a_start_that_no_longer_holds_is_only_a_start() -> None:
+    # Every free room stacked on one spot: SCIP starts afresh and still answers.
+    start = {room: [{"x": 10.5, "y": 4.0, "width": 1.0, "depth": 1.0}] for room in FREE}
+    events: list[SolveEvent] = []
+    layout = solve(edit(start=start), on_event=events.append)
+    assert layout.report.valid, layout.report
+    assert any(e.detail.startswith("edit: the start does not hold") for e in events)
