@@ -143,7 +143,10 @@ def watch(
     watched = _Watch(job, child, store, grace, lease, notify,
                      interrupt_at=interrupt_at, kill_at=interrupt_at + grace)
     process = child.process
-    if job.cancel_requested:
+    # Read again: a cancel that came after the claim, before the runner knew the job as
+    # active, is only in the store (a job cancelled 20 ms after its POST ran on to the end).
+    current = store.get(job.id)
+    if job.cancel_requested or (current is not None and current.cancel_requested):
         child.stop.set()
     while watched.outcome is None:
         watched.receive()

@@ -138,6 +138,10 @@ def test_the_time_limit_ceiling_holds_for_a_whole_building(tmp_path: Path) -> No
             client.post(f"/v1/layouts/{job['id']}/cancel")
             assert client.get(f"/v1/layouts/{job['id']}").json()["time_limit"] == 30
             wait(client, job["id"])
+            # The cancel, sent while the job was being claimed, stopped it: it did not
+            # solve its 100 floors to the end (it did, in 25 s, before the fix).
+            ended = client.get(f"/v1/layouts/{job['id']}").json()
+            assert (ended["status"], ended["termination"]) == ("canceled", "interrupted")
             # A limit the user states above the ceiling is still refused, by name.
             refused = client.post("/v1/layouts", json=building(100, time_limit=31))
             assert refused.status_code == 422
