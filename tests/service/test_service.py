@@ -299,7 +299,7 @@ def test_thirty_concurrent_submissions_all_finish(client: httpx.Client) -> None:
 
     def post(k: int) -> None:
         with httpx.Client(base_url=str(client.base_url), timeout=30) as own:
-            job = submit(own, {**SMALL, "name": f"burst-{k}", "options": {"time_limit": 1}})
+            job = submit(own, {**SMALL, "name": f"burst-{k}", "options": {"time_limit": 0.3}})
         with lock:
             ids.append(job["id"])
 
