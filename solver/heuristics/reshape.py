@@ -25,7 +25,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 import shapely
-from shapely.geometry import LineString, MultiLineString, Point, Polygon, box
+from shapely.geometry import LineString, Point, Polygon, box
 from shapely.geometry.base import BaseGeometry
 
 from models import Problem, Room
@@ -39,6 +39,7 @@ from solver.geometry import (
     rectangles_of,
     room_polygon,
     shared_wall_length,
+    straight_stretches,
 )
 from solver.heuristics.level_one import shape_allowance
 from solver.soft import ratio_shortfall, size_shortfall
@@ -407,29 +408,11 @@ def _strip_cuts(a: Polygon, b: Polygon, needs_a: _Needs | None,
 
 
 def _segments(shared: BaseGeometry) -> Iterator[tuple[float, float, float, float]]:
-    """The straight stretches of a shared wall."""
-    if shared.is_empty:
-        return
-    merged = shapely.line_merge(shared) if not isinstance(shared, LineString) else shared
-    lines = (merged.geoms if isinstance(merged, MultiLineString)
-             else [g for g in getattr(merged, "geoms", [merged]) if isinstance(g, LineString)])
-    for line in lines:
-        if not isinstance(line, LineString):
-            continue
-        pts = list(line.coords)
-        start = 0
-        for k in range(1, len(pts)):
-            turn = k + 1 < len(pts) and not _collinear(pts[start], pts[k], pts[k + 1])
-            if turn or k == len(pts) - 1:
-                (x0, y0), (x1, y1) = pts[start], pts[k]
-                if abs(x0 - x1) <= TOL or abs(y0 - y1) <= TOL:
-                    yield x0, y0, x1, y1
-                start = k
-
-
-def _collinear(p: tuple[float, ...], q: tuple[float, ...], r: tuple[float, ...]) -> bool:
-    return (abs(p[0] - q[0]) <= TOL and abs(q[0] - r[0]) <= TOL) or (
-        abs(p[1] - q[1]) <= TOL and abs(q[1] - r[1]) <= TOL)
+    """The axis-aligned straight stretches of a shared wall, as (x0, y0, x1, y1)."""
+    for stretch in straight_stretches(shared):
+        (x0, y0), (x1, y1) = stretch.coords[0], stretch.coords[-1]
+        if abs(x0 - x1) <= TOL or abs(y0 - y1) <= TOL:
+            yield x0, y0, x1, y1
 
 
 def _extent(shape: Polygon, axis: int) -> tuple[float, float]:
