@@ -134,13 +134,27 @@ def solve_fixed(
     if edit_applies(problem):
         result = solve_edit(problem, fixed_boxes(problem), deadline=started + limit,
                             start=start, on_event=on_event, should_stop=should_stop)
+        kept = start_layout(problem, start, started)
         if result.rooms is not None:
             report = Report(coverage=0.0, uncovered_area=0.0, levels=result.levels,
                             termination=result.termination, valid=True)
             layout = fixed_layout(problem, result.rooms, report, started)
+            if kept is not None and layout.report.objective > kept.report.objective:
+                layout = kept  # an edit never answers worse than the start it was given
             if layout.report.valid or (should_stop is not None and should_stop()):
                 _done(on_event, layout, started)
                 return layout
+        if kept is not None:
+            # The start still holds every constraint: it is the answer rather than seconds
+            # more of the whole pipeline, which may end with nothing (or, its fixed L
+            # rooms held by their largest rectangles, call a feasible edit infeasible).
+            if on_event is not None:
+                on_event(SolveEvent(phase=Phase.LEVEL, level=1,
+                                    elapsed=time.monotonic() - started,
+                                    detail=f"edit: {result.status}, nothing better in the "
+                                    "edit's time; the start still holds and is kept"))
+            _done(on_event, kept, started)
+            return kept
         limit -= time.monotonic() - started
         if on_event is not None:
             on_event(SolveEvent(phase=Phase.LEVEL, level=1, elapsed=time.monotonic() - started,
@@ -151,14 +165,36 @@ def solve_fixed(
     layout = solve(pinned, on_event=on_event, should_stop=should_stop, subdomains=subdomains)
     if not layout.rooms:
         why = layout.report.infeasibility
+        termination = layout.report.termination
         if why is not None:
             why = why.model_copy(update={
                 "reason": f"{why.reason} (rooms fixed: {', '.join(fixed)}; each is held "
                 "at its fixed polygon, by its size and two opposite corners)",
                 "conflict": fixed_conflict(problem, why.conflict)})
+        shaped = [r for r, boxes in fixed_boxes(problem).items() if len(boxes) > 1]
+        if termination is Termination.INFEASIBLE and shaped and why is not None and not (
+                why.findings):
+            # Held by its largest rectangle, an L-shaped fixed room offers its neighbours
+            # less wall than it has: SCIP's proof holds for the pinned problem only.
+            termination = Termination.NO_SOLUTION
+            why = why.model_copy(update={"reason": f"{why.reason}; not proved for the "
+                                 f"fixed rooms' own shapes ({', '.join(shaped)})"})
         return layout.model_copy(update={"report": layout.report.model_copy(
-            update={"infeasibility": why})})
+            update={"infeasibility": why, "termination": termination})})
     return relaid(problem, layout)
+
+
+def start_layout(problem: Problem, start: Mapping[str, list[Box]],
+                 started: float) -> Layout | None:
+    """The start's free rooms around the fixed ones, when every free room has a place in
+    it and the whole layout passes the checker; else None."""
+    free = [room.id for room in problem.rooms if room.fixed is None]
+    if not free or not all(start.get(room_id) for room_id in free):
+        return None
+    report = Report(coverage=0.0, uncovered_area=0.0, termination=Termination.STALLED,
+                    valid=True)
+    layout = fixed_layout(problem, {r: start[r] for r in free}, report, started)
+    return layout if layout.report.valid else None
 
 
 def _done(on_event: EventSink | None, layout: Layout, started: float) -> None:

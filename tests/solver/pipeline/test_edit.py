@@ -107,3 +107,20 @@ def test_a_start_that_no_longer_holds_is_only_a_start() -> None:
     layout = solve(edit(start=start), on_event=events.append)
     assert layout.report.valid, layout.report
     assert any(e.detail.startswith("edit: the start does not hold") for e in events)
+
+
+def test_an_edit_with_nothing_better_in_its_time_keeps_its_start() -> None:
+    # The committed answer still holds with the kitchen's target shrunk. With no time to
+    # search, it comes back as it was: not the whole pipeline's seconds, and never a
+    # verdict of infeasible on an edit whose start holds.
+    start = [room.model_dump() for room in ANSWER.rooms]
+    problem = edit(start=start, time_limit=0.001)
+    events: list[SolveEvent] = []
+    layout = solve(problem, on_event=events.append)
+    assert layout.report.valid, layout.report
+    assert offset(layout, problem) <= EXACT
+    assert any("the start still holds and is kept" in e.detail for e in events)
+    assert not any("whole pipeline" in e.detail for e in events)
+    answer = {r.id: Polygon(r.polygon) for r in ANSWER.rooms}
+    assert all(shapely.hausdorff_distance(Polygon(r.polygon), answer[r.id]) <= EXACT
+               for r in layout.rooms)
