@@ -278,9 +278,11 @@ class Options(_Strict):
         "found in time",
     )
     diverse: bool = Field(
-        False, description="the seed breaks Eq. 12's near-ties: the level-1 improvement "
-        "pulls each room slightly in a direction drawn from the seed, so different seeds "
-        "give different plans where the brief leaves room (batches turn it on; issue 23)",
+        False, description="different seeds give different plans: the search aims at "
+        "target sizes drawn from the seed within each room's min_size..max_size, and the "
+        "level-1 improvement pulls each room slightly in a direction drawn from the seed; "
+        "the report measures Eq. 12 against the brief's own targets (batches turn it on; "
+        "issue 23)",
     )
     strict: bool = Field(
         True, description="false: every constraint that can be relaxed (sizes, aspect "

@@ -98,3 +98,41 @@ def test_drawn_sizes_stay_within_each_rooms_bounds() -> None:
             assert room.target_size is not None
             assert all(room.min_size[a] <= room.target_size[a] <= room.max_size[a]
                        for a in (0, 1))
+
+
+def test_drawn_targets_lie_within_each_rooms_bounds_and_spread() -> None:
+    from solver.heuristics.variety import drawn_targets
+
+    problem = Problem.model_validate(APARTMENT)
+    drawn = [drawn_targets(problem, seed) for seed in range(16)]
+    assert drawn[3] == drawn_targets(problem, 3)  # a seed always draws the same
+    for p in drawn:
+        for room in p.rooms:
+            assert room.min_size is not None and room.max_size is not None
+            assert room.target_size is not None
+            assert all(room.min_size[a] <= room.target_size[a] <= room.max_size[a]
+                       for a in (0, 1))
+    # Consecutive seeds (a batch's) cover the living room's range of widths, low and high.
+    widths = sorted(p.room("living").target_size[0] for p in drawn)  # type: ignore[index]
+    lo, hi = problem.room("living").min_size[0], problem.room("living").max_size[0]  # type: ignore[index]
+    assert widths[0] < lo + 0.25 * (hi - lo) and widths[-1] > hi - 0.25 * (hi - lo)
+
+
+def test_diverse_seeds_give_distinct_valid_plans_reported_against_the_brief() -> None:
+    from service.batch import LayoutTask, lay_out  # a batch's layout: redrawn when not good
+
+    problem = Problem.model_validate(APARTMENT)
+    layouts = [lay_out(LayoutTask(APARTMENT, seed, 2.0, good_enough=float("inf")))[1]
+               for seed in range(6)]
+    assert all(lay.report.valid and lay.report.coverage >= 0.99 for lay in layouts)
+    plans, _ = count_distinct(layouts)  # more than 5 % of the floor differs
+    assert plans >= 4
+    for layout in layouts:  # Eq. 12 against the brief's targets, not the drawn ones
+        boxes = {r.id: r.rectangles for r in layout.rooms}
+        for room in problem.rooms:
+            xs = [x for b in boxes[room.id] for x in (b.x, b.x + b.width)]
+            ys = [y for b in boxes[room.id] for y in (b.y, b.y + b.depth)]
+            assert room.target_size is not None
+            wanted = ((max(xs) - min(xs) - room.target_size[0]) ** 2
+                      + (max(ys) - min(ys) - room.target_size[1]) ** 2)
+            assert abs(layout.report.size_error[room.id] - wanted) < 1e-3
