@@ -18,6 +18,8 @@ from solver.verify.checker import check_layout
 
 #: Share of the floor a layout must cover to be good enough, by default.
 DEFAULT_COVERAGE = 0.99
+#: m² of slack in the quick test of an incumbent's area before it is checked.
+AREA_TOL = 1e-3
 
 
 class GoodEnough:
@@ -29,6 +31,7 @@ class GoodEnough:
         self.bound = bound
         self.coverage = coverage
         self.reached = False
+        self._free_area = float(problem.free_area().area)
 
     def is_reached(self) -> bool:
         """The solve's `should_stop`."""
@@ -41,6 +44,9 @@ class GoodEnough:
         if not self.problem.options.diverse and (
                 event.objective is None or event.objective > self.bound):
             return  # the event's Eq. 12 is the problem's: no check needed to refuse it
+        area = sum(b.width * b.depth for boxes in event.rooms.values() for b in boxes)
+        if area < self.coverage * self._free_area - AREA_TOL:
+            return  # the rooms do not overlap: too little floor in them to cover enough
         check = check_layout(self.problem, event.rooms)
         w = self.problem.weights
         objective = w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
