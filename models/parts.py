@@ -279,8 +279,10 @@ class Options(_Strict):
     )
     diverse: bool = Field(
         False, description="different seeds give different plans: the search aims at "
-        "target sizes drawn from the seed within each room's min_size..max_size, and the "
-        "level-1 improvement pulls each room slightly in a direction drawn from the seed; "
+        "target sizes drawn from the seed within each room's min_size..max_size, the first "
+        "layout leans toward points the seed draws, in half the seeds one room starts as "
+        "an L, and the level-1 improvement pulls each room slightly in a direction drawn "
+        "from the seed; "
         "the report measures Eq. 12 against the brief's own targets (batches turn it on; "
         "issue 23)",
     )

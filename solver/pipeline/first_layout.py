@@ -30,6 +30,7 @@ from solver.heuristics.slicing import (
     slicing_known_to_fail,
     slicing_layout,
 )
+from solver.heuristics.variety import pull_to_anchors
 from solver.miqp.formulation import active_families, build_level
 from solver.miqp.objective import e_band_shortfall
 from solver.miqp.scip_run import LevelResult, LevelStatus
@@ -203,6 +204,8 @@ def _level_one(
         lm.aggressive = attempt > 0
         if window is None:  # no window held: the user's bounds, sizes pulled to the targets
             e_band_shortfall(lm, target_bands(problem, domain, FIRST_BAND))
+        if problem.options.diverse:  # the seed's arrangement (issue 23)
+            pull_to_anchors(lm, problem.options.seed)
         share = left * (ATTEMPT_SHARE if window is not None or may_widen else 1.0)
         result = run.run(lm, share)
         label = "user bounds" if window is None else f"target ±{window:.0%}"

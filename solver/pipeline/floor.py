@@ -15,7 +15,7 @@ from models import Infeasibility, Layout, Problem, Termination
 from solver.budget import default_time_limit
 from solver.events import EventSink, Phase, StopFlag
 from solver.geometry import make_domain
-from solver.heuristics.variety import drawn_targets
+from solver.heuristics.variety import diverse_problem
 from solver.openings import connection_demands
 from solver.pipeline.assemble import explained, final_layout, no_layout
 from solver.pipeline.first_layout import better_start, first_level, second_start
@@ -49,8 +49,9 @@ def solve_floor(
     started = time.monotonic()
     asked = problem
     if problem.options.diverse:
-        # Issue 23: the seed's own sizes to aim at, within the brief's bounds.
-        problem = drawn_targets(problem, problem.options.seed)
+        # Issue 23: the seed's own sizes to aim at, within the brief's bounds, and
+        # perhaps a room starting as an L.
+        problem = diverse_problem(problem, problem.options.seed)
     # The doors every room needs, as adjacencies the MIQP must honour.
     problem = connection_demands(problem)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
