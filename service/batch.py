@@ -3,9 +3,11 @@ command and the service's batches share: the task of one layout (`LayoutTask`, r
 `lay_out` in whatever process), the row a finished layout leaves in the summary
 (`LayoutRow`), and the summary itself (`BatchSummary`: counts, rate, distinct plans).
 
-Every layout of a batch is solved with ``options.diverse`` (the seed breaks Eq. 12's
-near-ties) and ``options.seed`` = the batch's seed + its index; with `vary_program`
-the seed also draws the programme from a templated brief (`models.programme`)."""
+Every layout of a batch is solved with ``options.diverse`` (the seed draws the sizes
+aimed at and the arrangement leaned to: solver/heuristics/variety.py) and
+``options.seed`` = the batch's seed + its index; with `vary_program` the seed also draws
+the programme from a templated brief (`models.programme`). A layout that is not good is
+laid out again under another draw (`REDRAWS`)."""
 
 from __future__ import annotations
 
