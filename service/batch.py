@@ -92,7 +92,8 @@ class LayoutTask:
     seed: int
     time_limit: float | None = None
     vary_program: bool = False
-    #: Draw each room's target within 20 % of its own, inside its bounds.
+    #: Draw each room's target within 20 % of its own, inside its bounds (before the
+    #: search draws its own within the whole bounds, options.diverse: no effect left).
     vary_sizes: bool = False
     #: Stop the solve at the first incumbent that passes the checker, covers
     #: `GOOD_COVERAGE` of the floor and has an Eq. 12 at most this (None: solve on).
@@ -119,19 +120,21 @@ class LayoutRow(BaseModel):
         return self.error is None and self.valid and self.coverage >= GOOD_COVERAGE
 
 
-def task_problem(task: LayoutTask) -> Problem:
-    """The problem `task` solves: its programme (drawn or the brief's), its options."""
+def task_problem(task: LayoutTask, seed: int | None = None) -> Problem:
+    """The problem `task` solves: its programme (drawn or the brief's), its options;
+    with `seed`, a redraw of it under that seed instead of the task's."""
+    seed = task.seed if seed is None else seed
     if task.vary_program:
         from models.programme import vary_programme
 
-        problem = vary_programme(task.brief, task.seed)
+        problem = vary_programme(task.brief, seed)
     else:
         problem = Problem.model_validate(task.brief)
     if task.vary_sizes and not task.vary_program:  # a drawn programme has drawn sizes
         from models.programme import vary_sizes
 
-        problem = vary_sizes(problem, task.seed)
-    changes: dict[str, Any] = {"seed": task.seed, "diverse": True}
+        problem = vary_sizes(problem, seed)
+    changes: dict[str, Any] = {"seed": seed, "diverse": True}
     if task.time_limit is not None:
         changes["time_limit"] = task.time_limit
     elif problem.options.time_limit is None:
@@ -140,31 +143,29 @@ def task_problem(task: LayoutTask) -> Problem:
 
 
 def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
-    """Solve one layout of a batch (in the calling process); the last value says whether
-    the solve stopped at a good-enough incumbent (`GoodEnough`)."""
+    """Solve one layout of a batch (in the calling process): the problem solved, its
+    layout, and whether the solve stopped at a good-enough incumbent (`GoodEnough`). A
+    layout that is not good is laid out again under a redrawn seed (the sizes aimed at
+    and, with `vary_program`, the programme: a drawn programme the outline cannot take
+    well is drawn anew), `REDRAWS` times at most; the best of the tries is kept."""
     from solver import solve
     from solver.stopping import GoodEnough
 
-    problem = task_problem(task)
-    best: tuple[Layout, bool] | None = None
+    best: tuple[Problem, Layout, bool] | None = None
     for attempt in range(REDRAWS + 1):
-        if attempt:  # the same programme, other sizes aimed at (options.diverse)
-            seed = (task.seed + attempt * REDRAW_SEED_STEP) % 2**31
-            tried = problem.with_options(seed=seed)
-        else:
-            tried = problem
+        problem = task_problem(task, (task.seed + attempt * REDRAW_SEED_STEP) % 2**31)
         if task.good_enough is None or problem.floors is not None:
-            layout, stopped = solve(tried), False
+            layout, stopped = solve(problem), False
         else:
-            good = GoodEnough(tried, task.good_enough, coverage=GOOD_COVERAGE)
-            layout = solve(tried, on_event=good, should_stop=good.is_reached)
+            good = GoodEnough(problem, task.good_enough, coverage=GOOD_COVERAGE)
+            layout = solve(problem, on_event=good, should_stop=good.is_reached)
             stopped = good.reached
-        if best is None or _rank(layout) > _rank(best[0]):
-            best = (layout, stopped)
+        if best is None or _rank(layout) > _rank(best[1]):
+            best = (problem, layout, stopped)
         if _rank(layout)[0]:
             break
     assert best is not None
-    return problem, best[0], best[1]
+    return best
 
 
 def _rank(layout: Layout) -> tuple[bool, bool, float]:

@@ -76,8 +76,8 @@ def add_batch(commands: Any) -> None:
                    "0.4 s per room, at least 1 s)")
     p.add_argument("--vary", choices=["program", "sizes"], action="append", default=[],
                    help="'program': draw room counts and sizes from a templated brief's "
-                   "template, per seed; 'sizes': draw each room's target size within 20 %% "
-                   "of its own, inside its bounds (repeatable)")
+                   "template, per seed; 'sizes': accepted, changes nothing (every batch "
+                   "draws the sizes it aims at within the rooms' bounds) (repeatable)")
     p.add_argument("--tolerance", type=float, default=None, metavar="T",
                    help="stop each solve at its first good layout (valid, covering 99 %%) "
                    "(the default), or with T, once a brief has 4 good layouts, at its first "

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from models import Problem
 from models.programme import vary_programme
 from solver import solve
@@ -26,18 +28,6 @@ def test_diverse_seeds_break_ties_differently() -> None:
     for layout in layouts:
         exact.add(layout)
     assert exact.plans >= 3
-
-
-def test_drawn_sizes_give_distinct_valid_plans() -> None:
-    from models.programme import vary_sizes
-
-    problem = Problem.model_validate(APARTMENT)
-    layouts = [solve(vary_sizes(problem, seed).with_options(seed=seed, time_limit=3,
-                                                            diverse=True))
-               for seed in range(6)]
-    assert all(layout.report.valid for layout in layouts)
-    plans, _ = count_distinct(layouts)  # at most 5 % of the floor alike
-    assert plans >= 3, [layout.report.objective for layout in layouts]
 
 
 def test_the_pull_is_drawn_from_the_seed() -> None:
@@ -119,6 +109,7 @@ def test_drawn_targets_lie_within_each_rooms_bounds_and_spread() -> None:
     assert widths[0] < lo + 0.25 * (hi - lo) and widths[-1] > hi - 0.25 * (hi - lo)
 
 
+@pytest.mark.slow
 def test_diverse_seeds_give_distinct_valid_plans_reported_against_the_brief() -> None:
     from service.batch import LayoutTask, lay_out  # a batch's layout: redrawn when not good
 
@@ -154,3 +145,19 @@ def test_some_seeds_start_one_room_as_an_l() -> None:
         r.model_copy(update={"max_rects": 1}) for r in problem.rooms]})
     assert all(r.shape == "rectangle" for seed in range(40)
                for r in drawn_shape(pinned, seed).rooms)
+
+
+@pytest.mark.slow
+def test_drawn_programmes_of_a_batch_are_all_laid_out_well() -> None:
+    from service.batch import GOOD_COVERAGE, LayoutTask, lay_out
+
+    # A batch's layout of a drawn programme (first good layout, redrawn when not good):
+    # before the redraws, 14 of 20 seeds of flat-7 came back valid.
+    rooms = set()
+    for seed in (4, 12, 14, 16):
+        problem, layout, _ = lay_out(LayoutTask(FLAT_7, seed, vary_program=True,
+                                                good_enough=float("inf")))
+        assert layout.report.valid and layout.report.coverage >= GOOD_COVERAGE
+        assert {r.id for r in layout.rooms} == {r.id for r in problem.rooms}
+        rooms.add(len(problem.rooms))
+    assert len(rooms) >= 2
