@@ -5,7 +5,7 @@
 Each brief (default: apartment-5 and house-13 of the shared cases, and the templated
 7-room flat of examples/) is laid out `--count` times on a warm pool of `--processes`
 processes, by our solver as `floorplan batch` runs it (``options.diverse``, the batch's
-per-layout time limit, each solve stopped at its first good layout, solver.stopping,
+per-layout time limit, each solve stopped at its first good layout, options.stop_when_good,
 and laid out again under another draw when it is not good, `REDRAWS` times at most)
 and by the annealing baseline (bench/anneal.py) given the same time per layout, in the
 same run. Reported per brief and solver: layouts per second (wall clock), the share
@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import statistics
 import sys
 import time
@@ -53,16 +52,14 @@ def _warm() -> None:
 
 def _ours(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None, str]:
     from solver import solve
-    from solver.stopping import GoodEnough
 
     brief, seed, limit = args
     best: tuple[tuple[bool, bool, float], Layout] | None = None
     for attempt in range(REDRAWS + 1):
         drawn = (seed + attempt * REDRAW_SEED_STEP) % 2**31
-        problem = Problem.model_validate(brief).with_options(seed=drawn, time_limit=limit,
-                                                             diverse=True)
-        good = GoodEnough(problem, math.inf, coverage=GOOD_COVERAGE)
-        layout = solve(problem, on_event=good, should_stop=good.is_reached)
+        problem = Problem.model_validate(brief).with_options(
+            seed=drawn, time_limit=limit, diverse=True, stop_when_good=True)
+        layout = solve(problem)
         r = layout.report
         rank = (r.valid and r.coverage >= GOOD_COVERAGE, r.valid, r.coverage)
         if best is None or rank > best[0]:

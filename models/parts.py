@@ -286,6 +286,12 @@ class Options(_Strict):
         "the report measures Eq. 12 against the brief's own targets (batches turn it on; "
         "issue 23)",
     )
+    stop_when_good: bool = Field(
+        False, description="stop at the first layout that passes every hard constraint "
+        "and covers 99 % of the floor, instead of improving Eq. 12 to the time limit (a "
+        "batch wants many good plans, not each one's best; batches turn it on, issue 23); "
+        "the report's termination is then interrupted. Single-floor problems only",
+    )
     strict: bool = Field(
         True, description="false: every constraint that can be relaxed (sizes, aspect "
         "ratios, positions, boundary walls, adjacencies, and what require_connected adds) "

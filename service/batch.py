@@ -18,7 +18,7 @@ from typing import Any
 
 from pydantic import BaseModel, Field
 
-from models import Layout, Problem
+from models import Layout, Problem, Termination
 from models.formats import FormatName
 
 #: A batch's layouts get this per-layout time limit by default, seconds per room (and at
@@ -134,7 +134,9 @@ def task_problem(task: LayoutTask, seed: int | None = None) -> Problem:
         from models.programme import vary_sizes
 
         problem = vary_sizes(problem, seed)
-    changes: dict[str, Any] = {"seed": seed, "diverse": True}
+    changes: dict[str, Any] = {"seed": seed, "diverse": True,
+                               # The first good layout, whatever its Eq. 12: the solver's own.
+                               "stop_when_good": task.good_enough == math.inf}
     if task.time_limit is not None:
         changes["time_limit"] = task.time_limit
     elif problem.options.time_limit is None:
@@ -156,6 +158,9 @@ def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
         problem = task_problem(task, (task.seed + attempt * REDRAW_SEED_STEP) % 2**31)
         if task.good_enough is None or problem.floors is not None:
             layout, stopped = solve(problem), False
+        elif problem.options.stop_when_good:
+            layout = solve(problem)
+            stopped = layout.report.termination is Termination.INTERRUPTED
         else:
             good = GoodEnough(problem, task.good_enough, coverage=GOOD_COVERAGE)
             layout = solve(problem, on_event=good, should_stop=good.is_reached)

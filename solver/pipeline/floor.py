@@ -9,11 +9,12 @@ the rest. A search that finds no first layout may go on to the end.
 
 from __future__ import annotations
 
+import math
 import time
 
 from models import Infeasibility, Layout, Problem, Termination
 from solver.budget import default_time_limit
-from solver.events import EventSink, Phase, StopFlag
+from solver.events import EventSink, Phase, SolveEvent, StopFlag
 from solver.geometry import make_domain
 from solver.heuristics.variety import diverse_problem
 from solver.openings import connection_demands
@@ -23,6 +24,7 @@ from solver.pipeline.hierarchy import absorb_gaps
 from solver.pipeline.refine import refine, reshaped
 from solver.pipeline.run import Run
 from solver.pipeline.subdomains import SubdomainExecutor
+from solver.stopping import GoodEnough
 from solver.verify.precheck import find_impossibilities
 
 #: Share of the time limit level 1 may use.
@@ -54,6 +56,8 @@ def solve_floor(
         problem = diverse_problem(problem, problem.options.seed)
     # The doors every room needs, as adjacencies the MIQP must honour.
     problem = connection_demands(problem)
+    if problem.options.stop_when_good:
+        on_event, should_stop = _stop_when_good(problem, on_event, should_stop)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
     # The last gaps and the check run after the search: keep time for them.
     reserve = min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
@@ -86,3 +90,20 @@ def solve_floor(
     run.deadline = end
     pieces = reshaped(run, domain, pieces, min(end, time.monotonic() + reshaping))
     return final_layout(run, domain, pieces, levels)
+
+
+def _stop_when_good(problem: Problem, on_event: EventSink | None,
+                    should_stop: StopFlag | None) -> tuple[EventSink, StopFlag]:
+    """`options.stop_when_good`: the event sink and stop flag of a solve that also ends
+    at its first incumbent passing the checker and covering `DEFAULT_COVERAGE`."""
+    good = GoodEnough(problem, math.inf)
+
+    def sink(event: SolveEvent) -> None:
+        good(event)
+        if on_event is not None:
+            on_event(event)
+
+    def stop() -> bool:
+        return good.reached or (should_stop is not None and should_stop())
+
+    return sink, stop

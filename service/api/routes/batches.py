@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import re
 import zipfile
 from collections.abc import Iterator
@@ -56,8 +57,8 @@ def submit_batch(
     settings: SettingsDep, owner: OwnerDep,
 ) -> BatchPublic:
     """Queue `count` layouts of the brief, seeds `seed`, `seed` + 1, ..., each solved with
-    options.diverse (and with `vary_program` its own programme). Follow it with
-    GET /v1/batches/{id} and its results."""
+    options.diverse and options.stop_when_good (and with `vary_program` its own
+    programme). Follow it with GET /v1/batches/{id} and its results."""
     # The brief gets the checks of any job's body (issue 20): its sizes, the model (a
     # 422 naming the field), the outline's extent and the time-limit ceiling.
     parse_problem(json.dumps(body.problem).encode(), settings)
@@ -75,7 +76,8 @@ def submit_batch(
                        "later", kind="queue-full", headers={"Retry-After": str(RETRY_AFTER)})
     problems = []
     for index in range(body.count):
-        task = LayoutTask(body.problem, body.seed + index, body.time_limit, body.vary_program)
+        task = LayoutTask(body.problem, body.seed + index, body.time_limit, body.vary_program,
+                          good_enough=math.inf)  # each job ends at its first good layout
         problem, time_limit = effective_time_limit(task_problem(task), settings.max_time_limit)
         problems.append((problem.model_dump_json(), time_limit))
     name = body.name or str(body.problem.get("name") or "batch")

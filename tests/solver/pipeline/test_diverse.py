@@ -161,3 +161,12 @@ def test_drawn_programmes_of_a_batch_are_all_laid_out_well() -> None:
         assert {r.id for r in layout.rooms} == {r.id for r in problem.rooms}
         rooms.add(len(problem.rooms))
     assert len(rooms) >= 2
+
+
+def test_stop_when_good_ends_the_solve_at_its_first_good_layout() -> None:
+    problem = Problem.model_validate(APARTMENT).with_options(
+        seed=5, time_limit=4, diverse=True, stop_when_good=True)
+    layout = solve(problem)
+    assert layout.report.valid and layout.report.coverage >= 0.99
+    assert layout.report.termination.value == "interrupted"
+    assert layout.report.solve_time < 2  # of its 4 s
