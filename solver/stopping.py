@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from models import Problem
 from solver.events import Phase, SolveEvent
+from solver.geometry import Box
 from solver.verify.checker import check_layout
 
 #: Share of the floor a layout must cover to be good enough, by default.
@@ -31,6 +32,8 @@ class GoodEnough:
         self.bound = bound
         self.coverage = coverage
         self.reached = False
+        #: The good incumbent's rooms, once `reached`: what the solve should return.
+        self.rooms: dict[str, list[Box]] | None = None
         self._free_area = float(problem.free_area().area)
 
     def is_reached(self) -> bool:
@@ -52,3 +55,6 @@ class GoodEnough:
         objective = w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
         self.reached = (check.valid and check.coverage >= self.coverage
                         and objective <= self.bound)
+        if self.reached:
+            # SCIP may report one more incumbent before it stops, not necessarily good.
+            self.rooms = event.rooms

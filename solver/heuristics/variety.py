@@ -62,6 +62,15 @@ L_START_CHANCE = 0.5
 #: of a room's centre (the first layout's models have no other objective but the
 #: shortfall of the size bands, m, which this must not outweigh).
 ANCHOR_WEIGHT = 0.1
+#: A diverse solve that stops when good (options.stop_when_good) gives its first draw
+#: this share of level 1's time; when level 1 ends without a good layout it runs level 1
+#: again under another draw, `REDRAWS` times at most, while `REDRAW_MIN_SHARE` of level
+#: 1's time is left (solver/pipeline/floor.py); a redraw's seed is the solve's plus
+#: `REDRAW_SEED_STEP` times the attempt.
+FIRST_DRAW_SHARE = 0.5
+REDRAWS = 2
+REDRAW_MIN_SHARE = 0.15
+REDRAW_SEED_STEP = 104_729
 #: Bases of the Halton sequence, one per coordinate (two per room); beyond them the
 #: coordinates are drawn from the seed alone.
 _PRIMES = (2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53, 59, 61, 67, 71,
