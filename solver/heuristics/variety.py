@@ -62,12 +62,11 @@ L_START_CHANCE = 0.5
 #: of a room's centre (the first layout's models have no other objective but the
 #: shortfall of the size bands, m, which this must not outweigh).
 ANCHOR_WEIGHT = 0.1
-#: A diverse solve that stops when good (options.stop_when_good) gives its first draw
-#: this share of level 1's time; when level 1 ends without a good layout it runs level 1
-#: again under another draw, `REDRAWS` times at most, while `REDRAW_MIN_SHARE` of level
-#: 1's time is left (solver/pipeline/floor.py); a redraw's seed is the solve's plus
-#: `REDRAW_SEED_STEP` times the attempt.
-FIRST_DRAW_SHARE = 0.5
+#: A diverse solve that stops when good (options.stop_when_good) and whose level 1
+#: ended early without a good layout runs level 1 again under another draw, `REDRAWS`
+#: times at most, while `REDRAW_MIN_SHARE` of level 1's time is left
+#: (solver/pipeline/floor.py); a redraw's seed is the solve's plus `REDRAW_SEED_STEP`
+#: times the attempt.
 REDRAWS = 2
 REDRAW_MIN_SHARE = 0.15
 REDRAW_SEED_STEP = 104_729

@@ -17,7 +17,6 @@ from solver.budget import default_time_limit
 from solver.events import EventSink, Phase, SolveEvent, StopFlag
 from solver.geometry import Domain, make_domain
 from solver.heuristics.variety import (
-    FIRST_DRAW_SHARE,
     REDRAW_MIN_SHARE,
     REDRAW_SEED_STEP,
     REDRAWS,
@@ -82,18 +81,14 @@ def solve_floor(
             reason="the problem is infeasible before any solving", findings=findings)))
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
     level_one_end = started + (run.deadline - started) * LEVEL_ONE_SHARE
-    first_end = level_one_end
-    if good is not None and problem.options.diverse:
-        # Time for other draws if this one gives no good layout (`_redrawn`).
-        first_end = started + (level_one_end - started) * FIRST_DRAW_SHARE
-    second = second_start(problem, subdomains, first_end)
-    pieces, failure = first_level(run, domain, first_end)
+    second = second_start(problem, subdomains, level_one_end)
+    pieces, failure = first_level(run, domain, level_one_end)
     if second is not None:
         proven = failure is not None and failure.report.termination is Termination.INFEASIBLE
         if proven or run.stopped():  # nothing the second search finds can be used
             second.cancel()
         else:
-            pieces = better_start(run, domain, pieces, second, first_end)
+            pieces = better_start(run, domain, pieces, second, level_one_end)
     if good is not None and problem.options.diverse:
         run, pieces, failure = _redrawn(run, domain, pieces, failure, good, level_one_end)
         problem = run.problem
@@ -134,14 +129,15 @@ def _redrawn(
     good: GoodEnough, level_one_end: float,
 ) -> tuple[Run, list[Piece] | None, Layout | None]:
     """A diverse solve that stops when good (a batch's layout, issue 23) whose level 1
-    ended without a good layout by `FIRST_DRAW_SHARE` of level 1's time: level 1 again,
-    under sizes and an arrangement drawn from another seed (`REDRAW_SEED_STEP`),
-    `REDRAWS` times at most while `REDRAW_MIN_SHARE` of level 1's time is left, each draw
-    but the last with an equal share of what is left. Level 1 usually ends so because
-    the optimum of the seed's sizes leaves floor bare; the refinement levels and the
-    reshaping rarely cover it, and another draw usually is good at once. Returns the run,
-    pieces and failure to go on with: the last attempt's when it is good, else the
-    attempt whose pieces cover the most floor."""
+    ended early without a good layout: level 1 again, under sizes and an arrangement
+    drawn from another seed (`REDRAW_SEED_STEP`), `REDRAWS` times at most while
+    `REDRAW_MIN_SHARE` of level 1's time is left, each draw but the last with an equal
+    share of what is left. Level 1 usually ends so because the optimum of the seed's
+    sizes leaves floor bare; the refinement levels and the reshaping rarely cover it,
+    and another draw usually is good at once. (Cutting the first draw short to make room
+    for others cost house-13 half its good layouts in bench batch: 8 of 20 against
+    16-18.) Returns the run, pieces and failure to go on with: the last attempt's when it
+    is good, else the attempt whose pieces cover the most floor."""
     asked = run.asked or run.problem
     share = level_one_end - run.started
     covered_by = _covered_floor(run, domain, pieces)
