@@ -207,9 +207,12 @@ FLAT_7 = json.loads((Path(__file__).resolve().parents[2] / "examples/flat-7-temp
 
 
 def test_results_come_as_a_zip_of_layouts_paged_and_programmes_vary(
-        client: httpx.Client) -> None:
+        client: httpx.Client, backend: str) -> None:
     import io
     import zipfile
+
+    if backend == "celery":
+        pytest.skip("the zip is made by the API node from the store, as in the embedded mode")
 
     made = client.post("/v1/batches", json={"problem": FLAT_7, "count": 2, "seed": 0,
                                             "time_limit": 2, "vary_program": True})
