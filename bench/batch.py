@@ -1,22 +1,24 @@
 """Layouts per second of a batch (issue 23): ``python -m bench batch``.
 
-    python -m bench batch [--count N] [--processes P] [--out FILE] [BRIEF ...]
+    python -m bench batch [--count N] [--processes P] [--out FILE] [--table FILE] [BRIEF ...]
 
 Each brief (default: apartment-5 and house-13 of the shared cases, and the templated
 7-room flat of examples/) is laid out `--count` times on a warm pool of `--processes`
 processes, by our solver as `floorplan batch` runs it (``options.diverse``, the batch's
-per-layout time limit; the first `REFERENCE_LAYOUTS` layouts solved to the end, the
-others stopped at their first good layout within `TOLERANCE` of the best Eq. 12 of
-those, solver.stopping) and by the annealing baseline (bench/anneal.py) given the same
-time per layout, in the same run. Reported per brief and solver: layouts per second
-(wall clock), the share valid with coverage >= 0.99, and the share of distinct plans
-(solver.distinct). The pool is the standard library's: bench may not import service.
+per-layout time limit, each solve stopped at its first good layout, options.stop_when_good,
+and laid out again under another draw when it is not good, `REDRAWS` times at most)
+and by the annealing baseline (bench/anneal.py) given the same time per layout, in the
+same run. Reported per brief and solver: layouts per second (wall clock), the share
+valid with coverage >= 0.99, the share of distinct plans (solver.distinct), the
+adjacency graphs, and the median Eq. 12 against the brief's own targets. The pool is
+the standard library's: bench may not import service.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import statistics
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -34,8 +36,10 @@ DEFAULT_BRIEFS = (CASES / "apartment-5.json", CASES / "house-13.json",
 SECONDS_PER_ROOM = 0.4
 MIN_SECONDS = 1.0
 GOOD_COVERAGE = 0.99
-REFERENCE_LAYOUTS = 4
-TOLERANCE = 0.5
+#: As service.batch: a layout that is not good is laid out again this many times at
+#: most, the redraw's seed the layout's plus `REDRAW_SEED_STEP` times the attempt.
+REDRAWS = 2
+REDRAW_SEED_STEP = 1_000_003
 
 
 def per_layout_limit(problem: Problem) -> float:
@@ -46,27 +50,33 @@ def _warm() -> None:
     import solver.pipeline.dispatch  # noqa: F401  (SCIP, once per process)
 
 
-def _ours(args: tuple[dict[str, Any], int, float, float | None]
-          ) -> tuple[bool, float | None, str]:
+def _ours(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None, str]:
     from solver import solve
-    from solver.stopping import GoodEnough
 
-    brief, seed, limit, bound = args
-    problem = Problem.model_validate(brief).with_options(seed=seed, time_limit=limit,
-                                                         diverse=True)
-    good = GoodEnough(problem, bound if bound is not None else -1.0)
-    layout = solve(problem, on_event=good, should_stop=lambda: good.reached)
-    ok = layout.report.valid and layout.report.coverage >= GOOD_COVERAGE
+    brief, seed, limit = args
+    best: tuple[tuple[bool, bool, float], Layout] | None = None
+    for attempt in range(REDRAWS + 1):
+        drawn = (seed + attempt * REDRAW_SEED_STEP) % 2**31
+        problem = Problem.model_validate(brief).with_options(
+            seed=drawn, time_limit=limit, diverse=True, stop_when_good=True)
+        layout = solve(problem)
+        r = layout.report
+        rank = (r.valid and r.coverage >= GOOD_COVERAGE, r.valid, r.coverage)
+        if best is None or rank > best[0]:
+            best = (rank, layout)
+        if rank[0]:
+            break
+    assert best is not None
+    (ok, _, _), layout = best
     return ok, layout.report.objective, layout.model_dump_json()
 
 
-def _anneal(args: tuple[dict[str, Any], int, float, float | None]
-            ) -> tuple[bool, float | None, str]:
+def _anneal(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None, str]:
     from bench.anneal import anneal
     from solver.geometry import make_domain, room_polygon
     from solver.verify.checker import check_layout
 
-    brief, seed, limit, _ = args
+    brief, seed, limit = args
     problem = Problem.model_validate(brief)
     result = anneal(problem, make_domain(problem), time_limit=limit, seed=seed)
     check = check_layout(problem, result.rooms)
@@ -76,30 +86,57 @@ def _anneal(args: tuple[dict[str, Any], int, float, float | None]
         rooms.append(RoomLayout(id=room_id, type="room",
                                 polygon=list(polygon.exterior.coords)[:-1],
                                 rectangles=[b.to_rect() for b in boxes], area=polygon.area))
+    w = problem.weights
+    objective = w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
     layout = Layout(rooms=rooms, report=Report(coverage=check.coverage,
-                                               uncovered_area=check.uncovered_area))
-    return check.valid and check.coverage >= GOOD_COVERAGE, None, layout.model_dump_json()
+                                               uncovered_area=check.uncovered_area,
+                                               objective=objective))
+    return (check.valid and check.coverage >= GOOD_COVERAGE, objective,
+            layout.model_dump_json())
 
 
 def measure(pool: ProcessPoolExecutor, solver: str, brief: dict[str, Any], count: int,
             limit: float) -> dict[str, Any]:
     function = _ours if solver == "ours" else _anneal
     started = time.monotonic()
-    first = min(REFERENCE_LAYOUTS, count)
-    outcomes = list(pool.map(function, [(brief, seed, limit, None) for seed in range(first)]))
-    found = [objective for ok, objective, _ in outcomes if ok and objective is not None]
-    bound = min(found) * (1 + TOLERANCE) if found else None
-    outcomes += pool.map(function, [(brief, seed, limit, bound)
-                                    for seed in range(first, count)])
+    outcomes = list(pool.map(function, [(brief, seed, limit) for seed in range(count)]))
     seconds = time.monotonic() - started
     plans = DistinctPlans()
     for _, _, layout_json in outcomes:
         plans.add(Layout.model_validate_json(layout_json))
+    objectives = [objective for _, objective, _ in outcomes if objective is not None]
     return {"solver": solver, "layouts": count, "seconds": round(seconds, 2),
             "per_second": round(count / seconds, 2),
             "good": round(sum(g for g, _, _ in outcomes) / count, 3),
             "distinct": round(plans.plans / count, 3), "graphs": plans.graphs,
+            "eq12_median": round(statistics.median(objectives), 2) if objectives else None,
             "time_limit": limit}
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The rows as a markdown table, ours and the annealer side by side per brief."""
+    lines = ["| brief | rooms | s per layout | ours layouts/s | good | distinct | graphs | "
+             "Eq. 12 median | anneal layouts/s | good | distinct | Eq. 12 median | "
+             "rate ours / anneal |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    briefs = dict.fromkeys(r["brief"] for r in rows)
+    for brief in briefs:
+        by = {r["solver"]: r for r in rows if r["brief"] == brief}
+        ours, anneal = by.get("ours"), by.get("anneal")
+        if ours is None or anneal is None:
+            continue
+        ratio = ours["per_second"] / anneal["per_second"] if anneal["per_second"] else None
+        lines.append(
+            f"| {brief} | {ours['rooms']} | {ours['time_limit']:g} | {ours['per_second']:.2f} "
+            f"| {ours['good']:.0%} | {ours['distinct']:.0%} | {ours['graphs']} "
+            f"| {_num(ours['eq12_median'])} | {anneal['per_second']:.2f} "
+            f"| {anneal['good']:.0%} | {anneal['distinct']:.0%} "
+            f"| {_num(anneal['eq12_median'])} | {_num(ratio)} |")
+    return "\n".join(lines) + "\n"
+
+
+def _num(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2f}"
 
 
 def main(argv: list[str]) -> int:
@@ -108,6 +145,7 @@ def main(argv: list[str]) -> int:
     p.add_argument("--count", type=int, default=50, help="layouts per brief and solver")
     p.add_argument("--processes", type=int, default=2)
     p.add_argument("--out", type=Path, help="also write the rows as JSON here")
+    p.add_argument("--table", type=Path, help="also write the rows as a markdown table here")
     args = p.parse_args(argv)
     rows = []
     with ProcessPoolExecutor(args.processes, initializer=_warm) as pool:
@@ -122,8 +160,11 @@ def main(argv: list[str]) -> int:
                 rows.append(row)
                 print(f"{row['brief']:18} {solver:6} {row['per_second']:6.2f} layouts/s  "
                       f"good {row['good']:.0%}  distinct {row['distinct']:.0%}  "
-                      f"graphs {row['graphs']}  ({row['time_limit']:g} s each)",
+                      f"graphs {row['graphs']}  Eq. 12 {_num(row['eq12_median'])}  "
+                      f"({row['time_limit']:g} s each)",
                       file=sys.stderr, flush=True)
     if args.out is not None:
         args.out.write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")
+    if args.table is not None:
+        args.table.write_text(table(rows), encoding="utf-8")
     return 0

@@ -313,9 +313,19 @@ class Options(_Strict):
         "only where the search begins",
     )
     diverse: bool = Field(
-        False, description="the seed breaks Eq. 12's near-ties: the level-1 improvement "
-        "pulls each room slightly in a direction drawn from the seed, so different seeds "
-        "give different plans where the brief leaves room (batches turn it on; issue 23)",
+        False, description="different seeds give different plans: the search aims at "
+        "target sizes drawn from the seed within each room's min_size..max_size, the first "
+        "layout leans toward points the seed draws, in half the seeds one room starts as "
+        "an L, and the level-1 improvement pulls each room slightly in a direction drawn "
+        "from the seed; "
+        "the report measures Eq. 12 against the brief's own targets (batches turn it on; "
+        "issue 23)",
+    )
+    stop_when_good: bool = Field(
+        False, description="stop at the first layout that passes every hard constraint "
+        "and covers 99 % of the floor, instead of improving Eq. 12 to the time limit (a "
+        "batch wants many good plans, not each one's best; batches turn it on, issue 23); "
+        "the report's termination is then interrupted. Single-floor problems only",
     )
     strict: bool = Field(
         True, description="false: every constraint that can be relaxed (sizes, aspect "

@@ -395,14 +395,15 @@ def shared_wall_length(a: BaseGeometry, b: BaseGeometry) -> float:
     return float(a.boundary.intersection(b.boundary).length)
 
 
-def longest_shared_wall(a: Polygon, b: Polygon) -> LineString | None:
-    """The longest straight stretch of wall two rooms share.
+def longest_shared_wall(a: BaseGeometry, b: BaseGeometry) -> LineString | None:
+    """The longest straight stretch of wall two rooms share (a room in pieces, a
+    MultiPolygon as a checked layout may hold, has the walls of all its pieces).
 
     >>> from shapely.geometry import box
     >>> longest_shared_wall(box(0, 0, 3, 3), box(3, 1, 5, 4)).length
     2.0
     """
-    shared = a.exterior.intersection(b.exterior)
+    shared = a.boundary.intersection(b.boundary)
     segments = [s for s in straight_stretches(shared) if s.length > EPS]
     return max(segments, key=lambda s: s.length, default=None)
 

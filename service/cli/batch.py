@@ -76,12 +76,12 @@ def add_batch(commands: Any) -> None:
                    "0.4 s per room, at least 1 s)")
     p.add_argument("--vary", choices=["program", "sizes"], action="append", default=[],
                    help="'program': draw room counts and sizes from a templated brief's "
-                   "template, per seed; 'sizes': draw each room's target size within 20 %% "
-                   "of its own, inside its bounds (repeatable)")
+                   "template, per seed; 'sizes': accepted, changes nothing (every batch "
+                   "draws the sizes it aims at within the rooms' bounds) (repeatable)")
     p.add_argument("--tolerance", type=float, default=None, metavar="T",
-                   help="once a brief has 4 good layouts (valid, covering 99 %%), stop each "
-                   "next solve at its first good layout whose Eq. 12 is within T (relative, "
-                   "default 0.5) of the brief's best so far; not with --vary program")
+                   help="stop each solve at its first good layout (valid, covering 99 %%) "
+                   "(the default), or with T, once a brief has 4 good layouts, at its first "
+                   "good layout whose Eq. 12 is within T (relative) of the brief's best so far")
     p.add_argument("--full", action="store_true",
                    help="never stop a solve early: each layout gets its whole time limit")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
@@ -175,7 +175,7 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     extension = next(f.extension for f in FORMATS if f.name == args.format)
     tally = Tally()
     done = _journal(out, tally)
-    tolerance = None if args.full or args.vary else (
+    tolerance = None if args.full else (
         DEFAULT_TOLERANCE if args.tolerance is None else args.tolerance)
     best = BestSoFar(tolerance)
     for row in tally.rows:

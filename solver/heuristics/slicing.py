@@ -53,6 +53,46 @@ KICK_SHARE = 4
 MIN_ROW_AREA = 1e-9
 
 
+#: With `options.diverse` (a batch's worker lays out one brief many times, issue 23):
+#: after row slicing found nothing this many times in this process for a brief's
+#: structure, and never anything, it is not tried again for that structure.
+SKIP_AFTER_FAILURES = 2
+
+#: Per process: structure of a brief (`structure_key`) -> times slicing found nothing
+#: for it, or -1 once it found something.
+_SLICING_FAILURES: dict[str, int] = {}
+
+
+def structure_key(problem: Problem) -> str:
+    """What decides whether rows can hold a brief, whatever sizes it aims at: the
+    outline, obstacles, the rooms' bounds and demands, the adjacencies (targets, seed
+    and time limit left out)."""
+    rooms = [room.model_dump(mode="json", exclude={"target_size"}) for room in problem.rooms]
+    return problem.model_copy(update={"rooms": []}).model_dump_json(
+        exclude={"options", "name"}) + repr(rooms)
+
+
+def slicing_known_to_fail(problem: Problem) -> bool:
+    """Whether a diverse solve should skip slicing: it found nothing for this brief's
+    structure `SKIP_AFTER_FAILURES` times in this process, and never anything."""
+    if not problem.options.diverse:
+        return False
+    return _SLICING_FAILURES.get(structure_key(problem), 0) >= SKIP_AFTER_FAILURES
+
+
+def note_slicing(problem: Problem, found: bool) -> None:
+    """Record how slicing fared on a diverse solve of `problem` (`slicing_known_to_fail`)."""
+    if not problem.options.diverse:
+        return
+    key = structure_key(problem)
+    if len(_SLICING_FAILURES) > 1024:  # a long-lived worker of many briefs
+        _SLICING_FAILURES.clear()
+    if found:
+        _SLICING_FAILURES[key] = -1
+    elif _SLICING_FAILURES.get(key, 0) >= 0:
+        _SLICING_FAILURES[key] = _SLICING_FAILURES.get(key, 0) + 1
+
+
 @dataclass
 class _Row:
     region: Box  # the rectangle of free floor the row is a band of

@@ -38,6 +38,9 @@ class LevelModel:
     #: SCIP's primal heuristics run aggressively: for a first layout that the default
     #: settings did not find (`solver.pipeline.first_layout`).
     aggressive: bool = False
+    #: The relative gap at which SCIP may stop (None: `scip_run.GAP_LIMIT`): a model
+    #: whose objective only leans the layout one way need not be solved closely.
+    gap: float | None = None
 
     @property
     def big_m_x(self) -> float:

@@ -116,7 +116,7 @@ def run_level(
     m = lm.model
     m.setParam("limits/time", max(time_limit, 0.05))
     m.setParam("limits/memory", MEMORY_LIMIT_MB)
-    m.setParam("limits/gap", GAP_LIMIT)
+    m.setParam("limits/gap", GAP_LIMIT if lm.gap is None else lm.gap)
     m.setParam("randomization/randomseedshift", seed)
     m.setParam("timing/clocktype", 2)  # wall clock: the user's time limit is wall time
     tune(m, aggressive=lm.aggressive)

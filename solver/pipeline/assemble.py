@@ -30,7 +30,7 @@ from solver.openings import add_openings
 from solver.pipeline.hierarchy import Piece, room_boxes
 from solver.pipeline.run import OUTPUT_SNAP, Run
 from solver.soft import hard_part
-from solver.verify.checker import check_layout
+from solver.verify.checker import DEFAULT_TOL, check_layout, place_rooms, size_error
 from solver.verify.conflicts import find_conflict
 
 
@@ -86,14 +86,20 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
             "limit; the rooms given are the best one found, which breaks the constraints "
             "the report marks unsatisfied, as a diagnostic",
             relaxations_tried=run.relaxations)
-    w = problem.weights
+    size_errors, w = check.size_error, problem.weights
+    if run.asked is not None and problem.options.diverse:
+        # The search aimed at sizes the seed drew, under its own weights
+        # (solver/heuristics/variety.py); the layout is the brief's, measured against the
+        # brief's own targets and weights.
+        size_errors = size_error(run.asked, place_rooms(run.asked, rooms, DEFAULT_TOL))
+        w = run.asked.weights
     violations = [c for c in constraints if c.soft and not c.satisfied]
     shortfall = sum(c.shortfall for c in violations)
-    objective = (w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
+    objective = (w.cover * check.uncovered_area + w.size * sum(size_errors.values())
                  + w.violation * shortfall)
     report = Report(
         coverage=check.coverage, uncovered_area=check.uncovered_area,
-        constraints=constraints, size_error=check.size_error,
+        constraints=constraints, size_error=size_errors,
         objective=objective, levels=levels, solve_time=run.elapsed(),
         termination=ended, valid=valid, infeasibility=why, circulation=openings.circulation,
         relaxation=run.window, extra_rectangles=run.extra,

@@ -23,7 +23,14 @@ from solver.heuristics.level_one import (
     windows_to_try,
     wings_wanted,
 )
-from solver.heuristics.slicing import slicing_applies, slicing_has_demands, slicing_layout
+from solver.heuristics.slicing import (
+    note_slicing,
+    slicing_applies,
+    slicing_has_demands,
+    slicing_known_to_fail,
+    slicing_layout,
+)
+from solver.heuristics.variety import pull_to_anchors
 from solver.miqp.formulation import active_families, build_level
 from solver.miqp.objective import e_band_shortfall
 from solver.miqp.scip_run import LevelResult, LevelStatus
@@ -178,7 +185,7 @@ def _level_one(
     may_widen = any(shape_allowance(r) > 1 + run.wings.get(r.id, 0) for r in problem.rooms)
     single_by = deadline
     refuted = 0
-    if slicing_applies(problem) and not run.wings:
+    if slicing_applies(problem) and not run.wings and not slicing_known_to_fail(problem):
         # Rows always exist for sizes alone; with demands they may not, so the MIQP
         # keeps most of the time.
         share = SLICE_DEMANDS_SHARE if slicing_has_demands(problem) else 0.5
@@ -197,6 +204,8 @@ def _level_one(
         lm.aggressive = attempt > 0
         if window is None:  # no window held: the user's bounds, sizes pulled to the targets
             e_band_shortfall(lm, target_bands(problem, domain, FIRST_BAND))
+        if problem.options.diverse:  # the seed's arrangement (issue 23)
+            pull_to_anchors(lm, problem.options.seed)
         share = left * (ATTEMPT_SHARE if window is not None or may_widen else 1.0)
         result = run.run(lm, share)
         label = "user bounds" if window is None else f"target ±{window:.0%}"
@@ -359,6 +368,7 @@ def _slice(run: Run, domain: Domain, deadline: float) -> LevelResult | None:
     started = time.monotonic()
     rects = slicing_layout(run.problem, domain, deadline=deadline,
                            seed=run.problem.options.seed)
+    note_slicing(run.problem, rects is not None)
     outcome = "found" if rects is not None else "nothing found"
     run.relaxations.append(f"user bounds, sliced into rows: {outcome}")
     run.emit(Phase.RELAXATION, detail=f"size bounds user bounds, sliced into rows: {outcome}")

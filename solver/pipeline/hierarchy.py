@@ -427,8 +427,12 @@ def _deepest_strip(
             "east": Box(part.x1 - t, part.y0, part.x1, part.y1),
         }[side]
 
+    now = bounding_box(own)
+    # The room's bounds as they stand now: the same for every depth tried.
+    max_size, aspect_ratio = relaxed_bounds(problem, room_id, now, (math.inf, math.inf))
+
     def fits(t: float) -> bool:
-        return _within_bounds(problem, room_id, [*own, strip(t)], bounding_box(own))
+        return _box_within(bounding_box((now, strip(t))), max_size, aspect_ratio)
 
     full = part.depth if side in ("south", "north") else part.width
     if fits(full):
@@ -468,9 +472,9 @@ def _cuts_along(pieces: Sequence[Piece], cell: Box, side: str) -> list[tuple[str
     return cuts or None
 
 
-def _within_bounds(problem: Problem, room_id: str, boxes: list[Box], now: Box) -> bool:
-    b = bounding_box(boxes)
-    max_size, aspect_ratio = relaxed_bounds(problem, room_id, now, (math.inf, math.inf))
+def _box_within(b: Box, max_size: tuple[float, float],
+                aspect_ratio: tuple[float, float] | None) -> bool:
+    """Whether a room's bounding box `b` keeps to `max_size` and `aspect_ratio`."""
     if b.width > max_size[0] + 1e-9 or b.depth > max_size[1] + 1e-9:
         return False
     if aspect_ratio:

@@ -81,8 +81,12 @@ class PlacedRoom:
 Placed = Mapping[str, PlacedRoom]
 
 
+#: Metres within which the checker counts coordinates as equal, by default.
+DEFAULT_TOL = 1e-4
+
+
 def check_layout(
-    problem: Problem, rooms: Mapping[str, Sequence[Box]], *, tol: float = 1e-4,
+    problem: Problem, rooms: Mapping[str, Sequence[Box]], *, tol: float = DEFAULT_TOL,
     aisles: Sequence[BaseGeometry] = (),
 ) -> CheckResult:
     """Check every constraint of `problem` on `rooms` (room id -> its rectangles).

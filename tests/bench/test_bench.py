@@ -154,3 +154,7 @@ def test_bench_batch_measures_ours_and_the_annealer_on_the_same_brief(tmp_path: 
     assert [r["solver"] for r in rows] == ["ours", "anneal"]
     assert all(r["layouts"] == 5 and r["per_second"] > 0 for r in rows)
     assert rows[0]["good"] == 1.0 and 0 < rows[0]["distinct"] <= 1
+    assert rows[0]["eq12_median"] is not None and rows[1]["eq12_median"] is not None
+    from bench.batch import table
+
+    assert table(rows).splitlines()[2].startswith("| tiny | 2 | 1 |")

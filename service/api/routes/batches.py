@@ -5,10 +5,14 @@ with the batch's row."""
 
 from __future__ import annotations
 
+import io
 import json
+import math
+import re
+import zipfile
 from collections.abc import Iterator
 from datetime import UTC, datetime
-from typing import Annotated
+from typing import Annotated, Literal
 
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
@@ -21,8 +25,15 @@ from service.api.errors import STORE_RETRY_AFTER, ApiError
 from service.api.limits import too_many
 from service.api.routes.layouts import RETRY_AFTER, effective_time_limit
 from service.batch import GOOD_COVERAGE, LayoutTask, task_problem
-from service.records import Batch
+from service.records import Batch, BatchLayout
 from service.store import JobStore
+
+NDJSON = "application/x-ndjson"
+ZIP = "application/zip"
+#: The zip's list of the page's lines (NDJSON, without layouts).
+ZIP_INDEX = "results.ndjson"
+#: What a layout's file name in a zip keeps of the batch's name.
+_SAFE_NAME = re.compile(r"[^A-Za-z0-9._-]+")
 
 #: Most lines one page of results holds.
 MAX_PAGE = 500
@@ -46,8 +57,8 @@ def submit_batch(
     settings: SettingsDep, owner: OwnerDep,
 ) -> BatchPublic:
     """Queue `count` layouts of the brief, seeds `seed`, `seed` + 1, ..., each solved with
-    options.diverse (and with `vary_program` its own programme). Follow it with
-    GET /v1/batches/{id} and its results."""
+    options.diverse and options.stop_when_good (and with `vary_program` its own
+    programme). Follow it with GET /v1/batches/{id} and its results."""
     # The brief gets the checks of any job's body (issue 20): its sizes, the model (a
     # 422 naming the field), the outline's extent and the time-limit ceiling.
     parse_problem(json.dumps(body.problem).encode(), settings)
@@ -65,7 +76,8 @@ def submit_batch(
                        "later", kind="queue-full", headers={"Retry-After": str(RETRY_AFTER)})
     problems = []
     for index in range(body.count):
-        task = LayoutTask(body.problem, body.seed + index, body.time_limit, body.vary_program)
+        task = LayoutTask(body.problem, body.seed + index, body.time_limit, body.vary_program,
+                          good_enough=math.inf)  # each job ends at its first good layout
         problem, time_limit = effective_time_limit(task_problem(task), settings.max_time_limit)
         problems.append((problem.model_dump_json(), time_limit))
     name = body.name or str(body.problem.get("name") or "batch")
@@ -89,40 +101,79 @@ def get_batch(
 
 
 @router.get("/{batch_id}/results", responses={
-    200: {"content": {"application/x-ndjson": {}},
-          "description": "one BatchLayoutLine per line; a `Link: <...>; rel=\"next\"` header "
-                         "while more finished layouts follow"},
+    200: {"content": {NDJSON: {}, ZIP: {}},
+          "description": "one BatchLayoutLine per line (NDJSON), or with ?format=zip or "
+                         "Accept: application/zip a zip of the page's layouts (one "
+                         "NAME-SEED.json each) and its lines without layouts "
+                         "(results.ndjson); a `Link: <...>; rel=\"next\"` header while more "
+                         "finished layouts follow"},
     404: {"description": "unknown"}})
 def get_results(
     batch_id: str, request: Request, store: StoreDep, owner: OwnerDep,
     after: Annotated[int, Query(ge=-1, description="the last index already read")] = -1,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = DEFAULT_PAGE,
-    layouts: Annotated[bool, Query(description="false: the lines without their layouts")] = True,
-) -> StreamingResponse:
-    """The finished layouts, in index order, a page at a time (NDJSON)."""
+    layouts: Annotated[bool, Query(description="false: the lines without their layouts "
+                                   "(NDJSON only)")] = True,
+    fmt: Annotated[Literal["ndjson", "zip"] | None, Query(
+        alias="format", description="ndjson or zip; without it, zip when the Accept "
+        "header asks for application/zip")] = None,
+) -> Response:
+    """The finished layouts, in index order, a page at a time: NDJSON lines, or a zip."""
     batch = batch_or_404(batch_id, store, owner)
     found = store.batch_layouts(batch.id, after=after, limit=limit)
     headers = {}
     if len(found) == limit:
         url = request.url.include_query_params(after=found[-1].index, limit=limit)
         headers["Link"] = f'<{url}>; rel="next"'
+    if fmt is None:
+        fmt = "zip" if _accepts_zip(request.headers.get("accept", "")) else "ndjson"
+    if fmt == "zip":
+        name = f"batch-{batch.id}-after-{after}.zip"
+        headers["Content-Disposition"] = f'attachment; filename="{name}"'
+        return Response(_zip_page(batch, found), media_type=ZIP, headers=headers)
 
     def lines() -> Iterator[str]:
         for item in found:
-            layout = Layout.model_validate_json(item.result) if item.result else None
-            report = layout.report if layout is not None else None
-            line = BatchLayoutLine(
-                index=item.index, seed=batch.seed + item.index, job_id=item.job_id,
-                status=item.status, termination=item.termination,
-                valid=None if report is None else report.valid,
-                coverage=None if report is None else report.coverage,
-                objective=None if report is None else report.objective,
-                solve_time=None if report is None else report.solve_time,
-                layout=layout if layouts else None,
-                error=JobError(**item.error) if item.error else None)
+            line = _line(batch, item, with_layout=layouts)
             yield line.model_dump_json(exclude_none=True) + "\n"
 
-    return StreamingResponse(lines(), media_type="application/x-ndjson", headers=headers)
+    return StreamingResponse(lines(), media_type=NDJSON, headers=headers)
+
+
+def _accepts_zip(accept: str) -> bool:
+    """Whether an Accept header names application/zip (with any parameters)."""
+    return any(part.split(";")[0].strip().lower() == ZIP for part in accept.split(","))
+
+
+def _line(batch: Batch, item: BatchLayout, *, with_layout: bool) -> BatchLayoutLine:
+    layout = Layout.model_validate_json(item.result) if item.result else None
+    report = layout.report if layout is not None else None
+    return BatchLayoutLine(
+        index=item.index, seed=batch.seed + item.index, job_id=item.job_id,
+        status=item.status, termination=item.termination,
+        valid=None if report is None else report.valid,
+        coverage=None if report is None else report.coverage,
+        objective=None if report is None else report.objective,
+        solve_time=None if report is None else report.solve_time,
+        layout=layout if with_layout else None,
+        error=JobError(**item.error) if item.error else None)
+
+
+def _zip_page(batch: Batch, found: list[BatchLayout]) -> bytes:
+    """A page of results as a zip: each layout's JSON as the job stored it, named as
+    `floorplan batch` names its files (NAME-SEED.json), and every line of the page
+    without its layout, failed and canceled ones too, in results.ndjson."""
+    stem = _SAFE_NAME.sub("_", batch.name).strip("._") or "batch"
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        index_lines = []
+        for item in found:
+            line = _line(batch, item, with_layout=False)
+            index_lines.append(line.model_dump_json(exclude_none=True) + "\n")
+            if item.result:
+                archive.writestr(f"{stem}-{line.seed:06d}.json", item.result)
+        archive.writestr(ZIP_INDEX, "".join(index_lines))
+    return buffer.getvalue()
 
 
 @router.post("/{batch_id}/cancel", response_model=BatchPublic,
