@@ -38,17 +38,21 @@ def test_the_pull_is_drawn_from_the_seed() -> None:
     assert one.report.valid and again.report.valid
 
 
+def assert_targets_within_bounds(problem: Problem) -> None:
+    for room in problem.rooms:
+        assert room.min_size is not None and room.max_size is not None
+        assert room.target_size is not None
+        assert all(room.min_size[a] <= room.target_size[a] <= room.max_size[a]
+                   for a in (0, 1))
+
+
 def test_drawn_programmes_differ_in_rooms_and_sizes_within_the_template() -> None:
     plain = Problem.model_validate(FLAT_7)
     drawn = [vary_programme(FLAT_7, seed) for seed in range(12)]
     assert len({len(p.rooms) for p in drawn}) >= 2
     assert len({tuple(r.target_size for r in p.rooms) for p in drawn}) == 12
     for p in drawn:
-        for room in p.rooms:
-            assert room.min_size is not None and room.max_size is not None
-            assert room.target_size is not None
-            assert all(room.min_size[a] <= room.target_size[a] <= room.max_size[a]
-                       for a in (0, 1))
+        assert_targets_within_bounds(p)
         assert {r.type for r in plain.rooms} >= {r.type for r in p.rooms} - {"bathroom"}
 
 
@@ -84,11 +88,7 @@ def test_drawn_sizes_stay_within_each_rooms_bounds() -> None:
     assert len({tuple(r.target_size for r in p.rooms) for p in drawn}) == 10
     for p in drawn:
         assert [r.id for r in p.rooms] == [r.id for r in problem.rooms]
-        for room in p.rooms:
-            assert room.min_size is not None and room.max_size is not None
-            assert room.target_size is not None
-            assert all(room.min_size[a] <= room.target_size[a] <= room.max_size[a]
-                       for a in (0, 1))
+        assert_targets_within_bounds(p)
 
 
 def test_drawn_targets_lie_within_each_rooms_bounds_and_spread() -> None:
@@ -98,11 +98,7 @@ def test_drawn_targets_lie_within_each_rooms_bounds_and_spread() -> None:
     drawn = [drawn_targets(problem, seed) for seed in range(16)]
     assert drawn[3] == drawn_targets(problem, 3)  # a seed always draws the same
     for p in drawn:
-        for room in p.rooms:
-            assert room.min_size is not None and room.max_size is not None
-            assert room.target_size is not None
-            assert all(room.min_size[a] <= room.target_size[a] <= room.max_size[a]
-                       for a in (0, 1))
+        assert_targets_within_bounds(p)
     # Consecutive seeds (a batch's) cover the living room's range of widths, low and high.
     widths = sorted(p.room("living").target_size[0] for p in drawn)  # type: ignore[index]
     lo, hi = problem.room("living").min_size[0], problem.room("living").max_size[0]  # type: ignore[index]
