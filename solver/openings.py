@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from shapely.geometry import LineString, Point, Polygon
+from shapely.geometry.polygon import orient
 
 from models import OUTSIDE, Adjacency, Circulation, Door, Problem, Window
 from models.problem import inside_entrance
@@ -33,6 +34,10 @@ WALL_TOLERANCE = 1e-4
 ENTRANCE_TYPES = ("foyer", "hall", "lobby", "corridor", "living")
 #: How far inside the outline the front-door room's position point sits (metres).
 ENTRANCE_INSET = 0.05
+#: The facade's thickness (metres; the exports build it outside the outline). At an
+#: inner corner of the outline the other facade wall's end stands this deep into the
+#: wall beside it, so no window or front door goes there.
+FACADE_THICKNESS = 0.25
 #: Windows on one straight exterior wall at most: a facade of 64 windows (some 190 m at
 #: the default spacing) is already more than any room of a building has.
 MAX_WINDOWS_PER_WALL = 64
@@ -178,7 +183,9 @@ def front_door(problem: Problem, rooms: Mapping[str, Polygon]) -> Door | None:
         if walls.is_empty or walls.distance(entrance) > 1e-3:
             continue
         wall = min(straight_stretches(walls), key=lambda s: s.distance(entrance))
-        segment = door_segment(wall, problem.openings.door_width, centre=entrance)
+        clear = clear_of_corners(wall, inner_corners(problem.outline()))
+        segment = None if clear is None else door_segment(
+            clear, problem.openings.door_width, centre=entrance)
         if segment is not None:
             return Door(between=(OUTSIDE, room_id), segment=segment, opens_into=room_id)
     return None
@@ -226,13 +233,17 @@ def place_windows(
     made 266,663 windows of a 276-byte brief), none where a door is."""
     openings = problem.openings
     outline = problem.outline().exterior
+    inner = inner_corners(problem.outline())
     door_lines = [LineString(d.segment) for d in doors]
     windows = []
     for room_id, polygon in rooms.items():
         if problem.room(room_id).type in openings.windowless:
             continue
         walls = polygon.exterior.intersection(outline)
-        for wall in straight_stretches(walls):
+        for stretch in straight_stretches(walls):
+            wall = clear_of_corners(stretch, inner)
+            if wall is None:
+                continue
             count = min(int(wall.length // openings.window_spacing), MAX_WINDOWS_PER_WALL)
             if count == 0 and wall.length >= openings.window_width + 2 * CORNER_CLEARANCE:
                 count = 1
@@ -245,6 +256,41 @@ def place_windows(
                     continue
                 windows.append(Window(room=room_id, segment=segment))
     return windows
+
+
+def inner_corners(outline: Polygon) -> list[Point]:
+    """The reflex corners of an outline (turning inwards), where two facade walls meet
+    inside the building's bounding box.
+
+    >>> [p.coords[0] for p in inner_corners(Polygon([(0, 0), (4, 0), (4, 2), (2, 2),
+    ...                                              (2, 4), (0, 4)]))]
+    [(2.0, 2.0)]
+    """
+    ring = list(orient(outline, 1.0).exterior.coords)[:-1]
+    corners = []
+    for k, (x, y) in enumerate(ring):
+        (ax, ay), (bx, by) = ring[k - 1], ring[(k + 1) % len(ring)]
+        if (x - ax) * (by - y) - (y - ay) * (bx - x) < -1e-12:  # a right turn on a CCW ring
+            corners.append(Point(x, y))
+    return corners
+
+
+def clear_of_corners(wall: LineString, corners: list[Point]) -> LineString | None:
+    """`wall` shortened by `FACADE_THICKNESS` at each end that is an inner corner of the
+    outline; None when nothing is left."""
+    (x0, y0), (x1, y1) = wall.coords[0], wall.coords[-1]
+    length = wall.length
+    start, end = 0.0, length
+    for corner in corners:
+        if corner.distance(Point(x0, y0)) < 1e-6:
+            start = FACADE_THICKNESS
+        if corner.distance(Point(x1, y1)) < 1e-6:
+            end = length - FACADE_THICKNESS
+    if end - start <= 1e-6:
+        return None
+    if (start, end) == (0.0, length):
+        return wall
+    return LineString([wall.interpolate(start).coords[0], wall.interpolate(end).coords[0]])
 
 
 def walk(problem: Problem, doors: list[Door]) -> Circulation:

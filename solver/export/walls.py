@@ -33,12 +33,12 @@ from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.polygon import orient
 
 from solver.geometry import GRID
+from solver.openings import FACADE_THICKNESS
 
 Coord = tuple[float, float]
 
 #: Wall thicknesses, metres: a load-bearing facade and a light partition (as the SVG
 #: plan draws them).
-FACADE_THICKNESS = 0.25
 PARTITION_THICKNESS = 0.10
 #: Two points closer than this (metres) are one; a point this near a line is on it.
 TOLERANCE = 1e-4

@@ -5,10 +5,11 @@ from __future__ import annotations
 from typing import Any
 
 import pytest
-from shapely.geometry import LineString, Polygon, box
+from shapely.geometry import LineString, Point, Polygon, box
 
 from models import OUTSIDE, Problem
 from solver.openings import (
+    FACADE_THICKNESS,
     MAX_WINDOWS_PER_WALL,
     add_openings,
     connection_demands,
@@ -173,3 +174,21 @@ def test_a_wall_kilometres_long_gets_a_bounded_number_of_windows() -> None:
     # Each room has three exterior walls.
     assert 0 < len(windows) <= 2 * 3 * MAX_WINDOWS_PER_WALL
     assert all(w.room in rooms for w in windows)
+
+
+def test_windows_keep_the_facades_thickness_from_an_inner_corner() -> None:
+    # An L outline, inner corner (4, 4). The dining room's wall y = 4 runs from the
+    # corner to x = 5.5: 1.5 m, a window's 1.2 m and clearance, but its first 0.25 m is
+    # the end of the facade wall x = 4 (the exports build it outside the outline).
+    p = Problem.model_validate({
+        "boundary": [[0, 0], [8, 0], [8, 4], [4, 4], [4, 8], [0, 8]],
+        "rooms": [{"id": "dining", "type": "dining"}, {"id": "bed", "type": "bedroom"},
+                  {"id": "west", "type": "living"}]})
+    rooms = {"dining": box(4, 0, 5.5, 4), "bed": box(5.5, 0, 8, 4), "west": box(0, 0, 4, 8)}
+    windows = place_windows(p, rooms, [])
+    corner = Point(4, 4)
+    assert all(LineString(w.segment).distance(corner) >= FACADE_THICKNESS - 1e-9
+               for w in windows)
+    # The wall beside it keeps its window: only the corner's end is cut.
+    assert any(w.room == "bed" and w.segment[0][1] == 4 for w in windows)
+    assert not any(w.room == "dining" and w.segment[0][1] == 4 for w in windows)
