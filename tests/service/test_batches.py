@@ -4,8 +4,10 @@ progress, results paging, cancel, limits, and a restart midway."""
 
 from __future__ import annotations
 
+import io
 import json
 import time
+import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -171,6 +173,11 @@ def test_the_client_and_floorplan_submit_make_and_read_batches(server: AnyServer
         assert [line.seed for line in lines] == [5, 6, 7]
         assert all(isinstance(line, BatchLine) and line.layout is not None for line in lines)
         assert fp.get_batch(batch.id, summary=True).valid == 3
+        # The same page as a zip: a file per layout and the page's lines.
+        archive = zipfile.ZipFile(io.BytesIO(fp.batch_zip(batch.id, page_size=2)))
+        names = archive.namelist()
+        assert "results.ndjson" in names and len(names) == 3, names
+        assert len(archive.read("results.ndjson").decode().splitlines()) == 2
     brief = tmp_path / "tiny.json"
     brief.write_text(json.dumps(TINY))
     done = subprocess.run(
@@ -208,9 +215,6 @@ FLAT_7 = json.loads((Path(__file__).resolve().parents[2] / "examples/flat-7-temp
 
 def test_results_come_as_a_zip_of_layouts_paged_and_programmes_vary(
         client: httpx.Client, backend: str) -> None:
-    import io
-    import zipfile
-
     if backend == "celery":
         pytest.skip("the zip is made by the API node from the store, as in the embedded mode")
 

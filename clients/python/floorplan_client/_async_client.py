@@ -138,6 +138,17 @@ class AsyncClient(BaseClient):
                 return
             after = lines[-1].index
 
+    async def batch_zip(self, batch_id: str, *, after: int = -1,
+                        page_size: int = C.DEFAULT_PAGE_SIZE,
+                        timeout: Timeout | NotGiven = NOT_GIVEN) -> bytes:
+        """One page of the batch's layouts as a zip; see `Client.batch_zip`."""
+        options = RequestOptions("GET", f"/v1/batches/{batch_id}/results", timeout=timeout,
+                                 params={"after": after, "limit": page_size, "format": "zip"})
+        response = await self._send(options)
+        if response.is_error:
+            raise self._status_error(response)
+        return response.content
+
     async def cancel_batch(self, batch_id: str, *,
                            timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
         """Cancel the batch's layouts not yet finished; see `Client.cancel_batch`."""

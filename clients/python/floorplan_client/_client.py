@@ -167,6 +167,18 @@ class Client(BaseClient):
                 return
             after = lines[-1].index
 
+    def batch_zip(self, batch_id: str, *, after: int = -1,
+                  page_size: int = C.DEFAULT_PAGE_SIZE,
+                  timeout: Timeout | NotGiven = NOT_GIVEN) -> bytes:
+        """One page of the batch's finished layouts as a zip (those with index above
+        `after`, at most `page_size`): a JSON file per layout and `results.ndjson`."""
+        options = RequestOptions("GET", f"/v1/batches/{batch_id}/results", timeout=timeout,
+                                 params={"after": after, "limit": page_size, "format": "zip"})
+        response = self._send(options)
+        if response.is_error:
+            raise self._status_error(response)
+        return response.content
+
     def cancel_batch(self, batch_id: str, *,
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
         """Cancel the batch's layouts not yet finished; finished ones stay."""
