@@ -5,8 +5,9 @@ may become an L or a T on the way, as rooms of real plans do.
 
 The refinement levels only grow rooms (C_refine, Eq. 13), so a room the first layout
 made too large stays too large. Here a step moves one strip of floor between two rooms
-(or a room and a gap), or swaps two rooms' floors, and is kept when the annealing says
-so: it may not break a constraint of the brief more than before, and the layout
+(or a room and a gap), swaps two rooms' floors, or sets a room into a corner of another
+while a neighbour takes its floor (`_nest`), and is kept when the annealing says so
+(three runs from the same layout, the best kept): it may not break a constraint of the brief more than before, and the layout
 returned is the best one seen that covers the floor and has no higher Eq. 12 than the
 one given. What the annealing lowers is E_size (Eq. 6, on bounding boxes) plus the
 relative area error (`AREA_WEIGHT`: a room's bounding box at its target says nothing of
