@@ -408,6 +408,17 @@ def longest_shared_wall(a: BaseGeometry, b: BaseGeometry) -> LineString | None:
     return max(segments, key=lambda s: s.length, default=None)
 
 
+def contact_length(a: BaseGeometry, b: BaseGeometry) -> float:
+    """The length of `longest_shared_wall` (0 when the rooms share none): an adjacency's
+    contact (Eq. 10), one stretch that a door fits in, never the sum of several.
+
+    >>> contact_length(box(0, 0, 3, 3), box(3, 1, 5, 4))
+    2.0
+    """
+    wall = longest_shared_wall(a, b)
+    return 0.0 if wall is None else float(wall.length)
+
+
 def straight_stretches(geometry: BaseGeometry) -> list[LineString]:
     """The straight pieces of a linear geometry, collinear neighbours merged."""
     lines = [g for g in getattr(geometry, "geoms", [geometry])

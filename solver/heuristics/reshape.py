@@ -35,8 +35,8 @@ from solver.geometry import (
     Box,
     Domain,
     GeometryError,
+    contact_length,
     edges_named,
-    longest_shared_wall,
     rectangles_of,
     room_polygon,
     shared_wall_length,
@@ -482,6 +482,6 @@ def _contact_miss(state: Mapping[str, Polygon], a: str, partners: Sequence[str],
     if a not in state:
         return math.inf
     # The longest straight stretch: the checker's contact, and where the door goes.
-    walls = [longest_shared_wall(state[a], state[p]) for p in partners if p in state]
-    best = max((w.length for w in walls if w is not None), default=0.0)
+    best = max((contact_length(state[a], state[p]) for p in partners if p in state),
+               default=0.0)
     return max(0.0, contact - best)

@@ -28,9 +28,9 @@ from solver.geometry import (
     Box,
     GeometryError,
     boundary_edges,
+    contact_length,
     domain_lines,
     edges_named,
-    longest_shared_wall,
     room_polygon,
     shared_wall_length,
     snap_rooms,
@@ -366,7 +366,7 @@ def _adjacency(adj: Adjacency, placed: Placed, tol: float) -> ConstraintCheck:
     a = placed[adj.a].snapped
     # One straight stretch, as Eq. 10 makes it and a door needs: an L wrapping its
     # partner's corner shares two short walls whose sum would pass.
-    contact = {b: _contact(a, placed[b].snapped) for b in partners if b in placed}
+    contact = {b: contact_length(a, placed[b].snapped) for b in partners if b in placed}
     if not contact:
         return ConstraintCheck(kind="adjacency", rooms=rooms, satisfied=False,
                                detail="no partner placed")
@@ -377,11 +377,6 @@ def _adjacency(adj: Adjacency, placed: Placed, tol: float) -> ConstraintCheck:
     if adj.any_of is not None:
         detail = f"best contact {contact[best]:.2f} m with '{best}' {needs}"
     return ConstraintCheck(kind="adjacency", rooms=rooms, satisfied=ok, detail=detail)
-
-
-def _contact(a: BaseGeometry, b: BaseGeometry) -> float:
-    wall = longest_shared_wall(a, b)
-    return 0.0 if wall is None else float(wall.length)
 
 
 def check_coverage(
