@@ -212,19 +212,21 @@ def solve_edit(
               end=end)
     run.emit(Phase.LEVEL, detail=f"edit: {len(sub.rooms)} free room(s) around "
              f"{len(fixed)} fixed")
-    best: EditResult | None = None
+    best: tuple[float, EditResult] | None = None  # the most floor covered, and by what
     status = "no attempt"
     for wings in wing_plans(sub, start):
         if time.monotonic() >= end or run.stopped():
             break
         result = _attempt(run, demanded, sub, domain, fixed, wings, start, allowed, deadline)
         status = result.status
-        if result.rooms is not None and (best is None or _covered(domain, result.rooms)
-                                         > _covered(domain, best.rooms or {})):
-            best = result
-        if result.rooms is not None and _covered(domain, result.rooms) >= allowed:
+        if result.rooms is None:
+            continue
+        area = covered(domain, result.rooms)
+        if area >= allowed:
             return result
-    return best or EditResult(None, Termination.NO_SOLUTION, 1, status)
+        if best is None or area > best[0]:
+            best = (area, result)
+    return best[1] if best else EditResult(None, Termination.NO_SOLUTION, 1, status)
 
 
 def wing_plans(sub: Problem, start: Mapping[str, list[Box]]) -> list[dict[str, int]]:
@@ -273,7 +275,7 @@ def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
     pieces = run.pieces(domain, {n: b for n, b in result.rects.items()
                                  if FIXED_MARK not in n})
     levels = 1
-    if _covered(domain, room_boxes(pieces)) < allowed:
+    if covered(domain, room_boxes(pieces)) < allowed:
         # Gaps: the hierarchy grows the free rooms into them, then the last absorption.
         run.deadline = min(deadline, run.started + EDIT_END_SECONDS)
         pieces, levels = refine(run, domain, pieces)
@@ -284,10 +286,6 @@ def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
              Termination.STALLED if result.status is LevelStatus.INTERRUPTED else
              Termination.TIME_LIMIT)
     return EditResult(room_boxes(pieces), ended, levels, str(result.status))
-
-
-def _covered(domain: Domain, rooms: Mapping[str, list[Box]]) -> float:
-    return covered(domain, dict(rooms))
 
 
 def _start_rects(start: Mapping[str, list[Box]], wings: Mapping[str, int]) -> dict[str, Box]:

@@ -4,7 +4,7 @@ covering incumbent) and Eq. 12 on a layout, shared by every step of the pipeline
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import shapely
@@ -190,7 +190,8 @@ def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box
     return problem.weights.cover * uncovered + problem.weights.size * size + penalty
 
 
-def covered(domain: Domain, rooms: dict[str, list[Box]]) -> float:
+def covered(domain: Domain, rooms: Mapping[str, Sequence[Box]]) -> float:
+    """The floor of `domain` that `rooms` (room id -> rectangles) cover, m²."""
     boxes = {f"{k}#{i}": b for k, bs in rooms.items() for i, b in enumerate(bs)}
     return covered_area(domain, boxes)
 
