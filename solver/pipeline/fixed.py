@@ -148,18 +148,13 @@ def solve_fixed(
             # The start still holds every constraint: it is the answer rather than seconds
             # more of the whole pipeline, which may end with nothing (or, its fixed L
             # rooms held by their largest rectangles, call a feasible edit infeasible).
-            if on_event is not None:
-                on_event(SolveEvent(phase=Phase.LEVEL, level=1,
-                                    elapsed=time.monotonic() - started,
-                                    detail=f"edit: {result.status}, nothing better in the "
-                                    "edit's time; the start still holds and is kept"))
+            _told(on_event, started, f"edit: {result.status}, nothing better in the edit's "
+                  "time; the start still holds and is kept")
             _done(on_event, kept, started)
             return kept
         limit -= time.monotonic() - started
-        if on_event is not None:
-            on_event(SolveEvent(phase=Phase.LEVEL, level=1, elapsed=time.monotonic() - started,
-                                detail=f"edit: {result.status}, no valid layout; the whole "
-                                "pipeline around the fixed rooms"))
+        _told(on_event, started, f"edit: {result.status}, no valid layout; the whole "
+              "pipeline around the fixed rooms")
     share = max(1 - len(fixed) / len(problem.rooms), MIN_TIME_SHARE)
     pinned = pinned_problem(problem).with_options(time_limit=max(limit * share, MIN_SECONDS))
     layout = solve(pinned, on_event=on_event, should_stop=should_stop, subdomains=subdomains)
@@ -195,6 +190,13 @@ def start_layout(problem: Problem, start: Mapping[str, list[Box]],
                     valid=True)
     layout = fixed_layout(problem, {r: start[r] for r in free}, report, started)
     return layout if layout.report.valid else None
+
+
+def _told(on_event: EventSink | None, started: float, detail: str) -> None:
+    """Say which way an edit went, as a level-1 event."""
+    if on_event is not None:
+        on_event(SolveEvent(phase=Phase.LEVEL, level=1, elapsed=time.monotonic() - started,
+                            detail=detail))
 
 
 def _done(on_event: EventSink | None, layout: Layout, started: float) -> None:
