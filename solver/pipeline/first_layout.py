@@ -6,13 +6,16 @@ from __future__ import annotations
 
 import random
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from concurrent.futures import Future, wait
+from dataclasses import replace
 
 from models import ExtraRectangles, Infeasibility, Layout, Problem, Termination
 from solver.events import Phase
 from solver.geometry import Box, Domain, make_domain
 from solver.heuristics.construct import construct
+from solver.heuristics.guillotine import applies as guillotine_applies
+from solver.heuristics.guillotine import guillotine_layout
 from solver.heuristics.level_one import (
     FIRST_BAND,
     demand_order,
@@ -35,7 +38,7 @@ from solver.miqp.formulation import active_families, build_level
 from solver.miqp.objective import e_band_shortfall
 from solver.miqp.scip_run import LevelResult, LevelStatus
 from solver.pipeline.assemble import explained, no_layout
-from solver.pipeline.hierarchy import Piece, absorbed, room_boxes
+from solver.pipeline.hierarchy import Piece, absorbed, as_pieces, room_boxes
 from solver.pipeline.improve import improve_level_one
 from solver.pipeline.run import Run, covers, layout_objective
 from solver.pipeline.subdomains import (
@@ -49,6 +52,8 @@ from solver.verify.precheck import find_impossibilities
 
 #: The second level-1 search of a portfolio runs under the seed plus this.
 SECOND_SEED_STEP = 1_000_003
+#: Share of level 1's time the guillotine search takes when it cannot run alongside.
+INLINE_GUILLOTINE_SHARE = 0.4
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
 #: After this many size windows proved infeasible, `WINGS_SHARE` of the first layout's
@@ -90,22 +95,53 @@ def first_level(
 
 
 def second_start(
-    problem: Problem, subdomains: SubdomainExecutor | None, deadline: float
+    problem: Problem, subdomains: SubdomainExecutor | None, deadline: float,
+    should_stop: Callable[[], bool] | None = None,
 ) -> Future[LevelOneOutcome] | None:
-    """With an executor of two slots or more, a second level-1 search under another
-    seed, alongside this one (`level_one_alone`): level 1's neighbourhood search is a
-    local search, and two independent ones end in a better layout more often than one
-    (measured in bench/NOTES.md). None when there is no such executor, or it runs
-    only sub-domains (a remote one)."""
-    if subdomains is None or subdomains.slots < 2:
-        return None
+    """A second search for the first layout besides level 1: the guillotine search
+    (`guillotine_alone`) where it applies, else a level-1 search under another seed
+    (`level_one_alone`). Level 1 is a local search whose first layout fixes which room
+    lies next to which; a second one that starts elsewhere ends better often enough to
+    pay (bench/NOTES.md). It runs alongside on an executor of two slots or more; without
+    one (or with one that runs only sub-domains) the guillotine search runs here first,
+    in `INLINE_GUILLOTINE_SHARE` of level 1's time, and the level-1 search not at all."""
     seed = (problem.options.seed + SECOND_SEED_STEP) % 2**31
     task = LevelOneTask(problem.with_options(seed=seed),
                         deadline=time.time() + (deadline - time.monotonic()))
-    try:
-        return subdomains.executor.submit(level_one_alone, task)
-    except (ValueError, RuntimeError):  # an executor for sub-domains only, or shut down
+    guillotine = guillotine_applies(problem, make_domain(problem))
+    if subdomains is not None and subdomains.slots >= 2:
+        try:
+            return subdomains.executor.submit(
+                guillotine_alone if guillotine else level_one_alone, task)
+        except (ValueError, RuntimeError):  # an executor for sub-domains only, or shut down
+            pass
+    if not guillotine:
         return None
+    share = INLINE_GUILLOTINE_SHARE * (deadline - time.monotonic())
+    done: Future[LevelOneOutcome] = Future()
+    done.set_result(guillotine_alone(replace(task, deadline=time.time() + share),
+                                     should_stop=should_stop))
+    return done
+
+
+def guillotine_alone(
+    task: LevelOneTask, should_stop: Callable[[], bool] | None = None,
+) -> LevelOneOutcome:
+    """The guillotine search (solver/heuristics/guillotine.py) on `task.problem` in
+    whatever process the executor uses: a whole layout, its L and T rooms chosen by the
+    search, ending by `task.deadline` (epoch)."""
+    deadline = time.monotonic() + (task.deadline - time.time())
+    problem = task.problem
+    found = guillotine_layout(problem, make_domain(problem), seed=problem.options.seed,
+                              deadline=deadline, should_stop=should_stop)
+    if found is None:
+        return LevelOneOutcome(None, {}, [], None, False, [])
+    extra = [ExtraRectangles(room=room_id, rectangles=len(boxes),
+                             reason="the guillotine search made it an L or a T")
+             for room_id, boxes in found.rooms.items() if len(boxes) > 1]
+    return LevelOneOutcome(as_pieces(found.rooms), {}, extra, None, False, [],
+                           found_by="a guillotine search (rooms as the parts of a slicing "
+                                    "tree, L and T rooms among them)")
 
 
 def level_one_alone(task: LevelOneTask) -> LevelOneOutcome:
@@ -148,8 +184,8 @@ def better_start(
         return pieces
     run.wings, run.extra, run.window, run.soft = (other.wings, other.extra, other.window,
                                                   other.soft)
-    run.relaxations.append("a second level-1 search, under another seed, ended better")
-    run.emit(Phase.LEVEL, detail="level 1: the second search (another seed) ended better")
+    run.relaxations.append(f"{other.found_by} ended better")
+    run.emit(Phase.LEVEL, detail="level 1: the second search ended better")
     run.incumbent(domain, room_boxes(other.pieces))
     return other.pieces
 

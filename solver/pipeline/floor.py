@@ -81,7 +81,7 @@ def solve_floor(
             reason="the problem is infeasible before any solving", findings=findings)))
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
     level_one_end = started + (run.deadline - started) * LEVEL_ONE_SHARE
-    second = second_start(problem, subdomains, level_one_end)
+    second = second_start(problem, subdomains, level_one_end, run.should_stop)
     pieces, failure = first_level(run, domain, level_one_end)
     if second is not None:
         proven = failure is not None and failure.report.termination is Termination.INFEASIBLE

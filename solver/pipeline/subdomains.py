@@ -89,6 +89,8 @@ class LevelOneOutcome:
     window: float | None
     soft: bool
     relaxations: list[str]
+    #: Which search it was, as the report's relaxations name it.
+    found_by: str = "a second level-1 search, under another seed"
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,676 @@
+"""Whole-floor layouts by guillotine cuts, with L- and T-shaped rooms (issue 19).
+
+Real plans are drawn wall by wall: the floor is cut in two, each part again, until
+every room has its part, and a room that is an L or a T owns two neighbouring parts.
+This search works in that space. A layout is a slicing tree (a Polish expression, as
+in Wong and Liu's floorplanning) whose leaves are the rooms, plus a second leaf for each
+room that is an L or a T. Every cut divides its region in proportion to the areas asked
+of its two sides, so each room gets the area asked of it and the floor is covered by
+construction; what the annealing chooses is the order of the cuts, their directions,
+which rooms have a second leaf, how such a room shares its area between its two parts,
+and how much area each room asks for.
+
+The score is E_size (Eq. 6) on bounding boxes, the relative area error and a small
+price per extra rectangle, plus every hard constraint a room
+can break (C_size Eq. 5, C_ratio Eq. 7, C_pos Eq. 8, C_boundary Eq. 9, C_adj Eq. 10, a
+connected shape within its rectangle cap and arms wide enough) priced by its shortfall.
+Only layouts that break none are kept, and the checker has the last word.
+
+Why: the MIQP's first layout fixes which room lies next to which, and everything after
+it (the hierarchy, the reshaping) moves walls locally; an annealing over slicing trees
+changes that topology globally, and a plan drawn as real ones are is one of its states.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import random
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from models import Problem
+from solver.geometry import Box, Domain, edges_named, rectangles_of
+from solver.heuristics.level_one import shape_allowance
+from solver.verify.checker import check_layout
+
+#: (x0, y0, x1, y1): the search's own rectangles, plain tuples for speed.
+Rect = tuple[float, float, float, float]
+
+#: The operators of the Polish expression: a vertical cut (left part | right part) and
+#: a horizontal one (lower part / upper part). Leaves are numbers >= 0.
+VERTICAL, HORIZONTAL = -1, -2
+
+#: Lengths closer than this (m) are equal.
+EPS = 1e-7
+#: Weight of a room's relative area error. Linear, not squared as in the reshaping: an
+#: L's area always falls short of its bounding box's target, and a squared error would
+#: have its neighbours shrink to share that shortfall, where the mean error rises.
+AREA_WEIGHT = 10.0
+#: Price per rectangle beyond a room's first: of two shapes equally near, the simpler.
+RECT_PRICE = 0.1
+#: Price per metre (or unit of ratio) of a hard constraint's shortfall, and per broken
+#: constraint: far above any size error, so the search leaves them first.
+SHORTFALL_PRICE = 40.0
+BROKEN_PRICE = 10.0
+#: An arm of an L narrower than this (m) is a broken shape, as the reshaping has it.
+MIN_ARM = 0.9
+#: Annealing steps per room, split between `RESTARTS` independent runs (the best kept).
+STEPS_PER_ROOM = 2500
+RESTARTS = 3
+#: The temperature falls from the typical first move's change to this share of it.
+COOLING = 1e-3
+#: The temperature never starts above this.
+HOTTEST = 1e9
+#: At most this share of the rooms (and at least one) may be Ls at once.
+L_SHARE = 0.34
+#: The L and T rooms take the floor the rectangles leave while it is at least this share
+#: of their targets' area.
+L_LEAST = 0.4
+#: The annealing's moves and how often each is drawn.
+_MOVES = ("swap", "neighbours", "turn", "shift", "regraft", "block", "shape", "area")
+MOVE_WEIGHTS = (0.1, 0.1, 0.1, 0.1, 0.2, 0.1, 0.12, 0.18)
+#: Cuts placed by the parts' sides at their targets (else by their areas).
+BY_SIDES = False
+#: Rooms up to which the search is tried: beyond, it finds a valid layout too rarely in
+#: the time it takes from level 1 (measured on the planted briefs, bench/NOTES.md).
+MAX_ROOMS = 10
+
+
+@dataclass(frozen=True)
+class _Needs:
+    """What one room asks for, in the search's plain numbers."""
+
+    target: tuple[float, float]
+    area: float
+    lo: tuple[float, float]
+    hi: tuple[float, float]
+    ratio: tuple[float, float] | None
+    points: tuple[tuple[float, float], ...]
+    #: The outline edges the room must run along (C_boundary): (facing, line, lo, hi).
+    edges: tuple[tuple[str, float, float, float], ...]
+    cap: int
+    arm: float
+
+
+@dataclass(frozen=True)
+class _Brief:
+    ids: tuple[str, ...]
+    needs: tuple[_Needs, ...]
+    #: (room, partners, min_contact) per adjacency (C_adj).
+    adjacency: tuple[tuple[int, tuple[int, ...], float], ...]
+    floor: tuple[Rect, ...]
+    area: float
+
+
+@dataclass
+class _State:
+    """One slicing tree. Leaf r < n is room r's part; leaf n + r its second part, present
+    while room r is an L or a T."""
+
+    tokens: list[int]
+    #: Each room's area relative to its target's.
+    share: list[float]
+    #: An L room's first part's share of its area.
+    split: list[float]
+    #: An L room's arm: its length as a share of the bounding box's side.
+    arm: list[float]
+    #: An L room's bar runs north-south (else east-west).
+    turned: list[bool]
+
+    def copy(self) -> _State:
+        return _State(self.tokens[:], self.share[:], self.split[:], self.arm[:],
+                      self.turned[:])
+
+
+@dataclass(frozen=True)
+class GuillotineResult:
+    """The best layout found that breaks nothing: room id -> rectangles, its score."""
+
+    rooms: dict[str, list[Box]]
+    energy: float
+    steps: int
+
+
+def applies(problem: Problem, domain: Domain) -> bool:
+    """Whether the search can lay this floor out: rooms with targets, no obstacles,
+    regions or fixed rooms, and not too many rooms."""
+    return (0 < len(problem.rooms) <= MAX_ROOMS and not problem.obstacles
+            and not problem.regions and not domain.notches
+            and all(r.target_size is not None and r.fixed is None for r in problem.rooms))
+
+
+def guillotine_layout(
+    problem: Problem, domain: Domain, *, seed: int, deadline: float | None = None,
+    should_stop: Callable[[], bool] | None = None, steps: int | None = None,
+) -> GuillotineResult | None:
+    """The best layout of `problem` the annealing over slicing trees finds that breaks
+    no hard constraint and passes the checker, or None. Counts steps, not seconds, so a
+    seed gives one result; `deadline` (monotonic) and `should_stop` cut it short."""
+    if not applies(problem, domain):
+        return None
+    brief = _brief(problem, domain)
+    n = len(brief.ids)
+    total = steps if steps is not None else STEPS_PER_ROOM * n
+    rng = random.Random(seed)
+    kept: list[tuple[float, _State]] = []
+    done = 0
+    for restart in range(RESTARTS):
+        run_steps = total // RESTARTS
+        state, energy, broken, used = _anneal(brief, _initial(brief, rng), rng, run_steps,
+                                              deadline, should_stop)
+        done += used
+        if broken == 0:
+            kept.append((energy, state))
+        if used < run_steps:
+            break
+        del restart
+    for energy, state in sorted(kept, key=lambda k: k[0]):
+        rooms = _output(brief, state)
+        if check_layout(problem, rooms).valid:
+            return GuillotineResult(rooms, energy, done)
+    return None
+
+
+def _brief(problem: Problem, domain: Domain) -> _Brief:
+    index = {r.id: k for k, r in enumerate(problem.rooms)}
+    needs = []
+    for room in problem.rooms:
+        assert room.target_size is not None
+        tw, td = room.target_size
+        edges = tuple((e.facing, e.line, *e.span)
+                      for e in edges_named(problem, domain.edges, room.boundary))
+        lo = room.min_size or (0.0, 0.0)
+        hi = room.max_size or (math.inf, math.inf)
+        needs.append(_Needs((tw, td), tw * td, (lo[0], lo[1]), (hi[0], hi[1]),
+                            room.aspect_ratio, tuple(room.positions), edges,
+                            shape_allowance(room), min(MIN_ARM, min(lo) or MIN_ARM)))
+    adjacency = tuple((index[a.a], tuple(index[b] for b in a.partners if b in index),
+                       a.min_contact) for a in problem.adjacency if a.a in index)
+    floor = tuple((b.x0, b.y0, b.x1, b.y1) for b in rectangles_of(domain.free))
+    return _Brief(tuple(index), tuple(needs), adjacency, floor, float(domain.free.area))
+
+
+# --- the slicing tree -------------------------------------------------------------
+
+
+def _initial(brief: _Brief, rng: random.Random) -> _State:
+    """A random balanced tree over the rooms, each a rectangle asking its target area."""
+    n = len(brief.ids)
+    order = list(range(n))
+    rng.shuffle(order)
+
+    def build(rooms: list[int]) -> list[int]:
+        if len(rooms) == 1:
+            return rooms
+        half = len(rooms) // 2
+        return build(rooms[:half]) + build(rooms[half:]) + [rng.choice((VERTICAL, HORIZONTAL))]
+
+    return _State(build(order), [1.0] * n, [0.5] * n, [0.5] * n, [False] * n)
+
+
+def cut_region(
+    region: Sequence[Rect], vertical: bool, share: float,
+) -> tuple[list[Rect], list[Rect]]:
+    """`region` cut by one straight line into a first part (left or below) holding
+    `share` of its area, and the rest."""
+    if len(region) == 1:
+        x0, y0, x1, y1 = region[0]
+        if vertical:
+            x = x0 + (x1 - x0) * share
+            return [(x0, y0, x, y1)], [(x, y0, x1, y1)]
+        y = y0 + (y1 - y0) * share
+        return [(x0, y0, x1, y)], [(x0, y, x1, y1)]
+    lo, hi, a, b = (0, 2, 1, 3) if vertical else (1, 3, 0, 2)
+    want = share * sum((r[2] - r[0]) * (r[3] - r[1]) for r in region)
+    stops = sorted({r[lo] for r in region} | {r[hi] for r in region})
+    line, reached = stops[-1], 0.0
+    for s, t in itertools.pairwise(stops):
+        height = sum(r[b] - r[a] for r in region if r[lo] <= s and r[hi] >= t)
+        if reached + height * (t - s) >= want:
+            line = s + (want - reached) / height if height > 0 else s
+            break
+        reached += height * (t - s)
+    first: list[Rect] = []
+    second: list[Rect] = []
+    for r in region:
+        if r[lo] < line - EPS:
+            first.append((r[0], r[1], min(r[2], line), r[3]) if vertical
+                         else (r[0], r[1], r[2], min(r[3], line)))
+        if r[hi] > line + EPS:
+            second.append((max(r[0], line), r[1], r[2], r[3]) if vertical
+                          else (r[0], max(r[1], line), r[2], r[3]))
+    return first, second
+
+
+def _asked(brief: _Brief, state: _State) -> list[float]:
+    """The area each room asks of the tree. A rectangle asks its target's area (times
+    its share); the L and T rooms share what the rectangles leave, as in a real plan,
+    where an L's area falls short of its bounding box by whatever its neighbours need.
+    When the rectangles leave too little for that, every room is scaled alike."""
+    n = len(brief.ids)
+    asked = [needs.area * share for needs, share in zip(brief.needs, state.share, strict=True)]
+    shaped = [t - n for t in state.tokens if t >= n]
+    if shaped:
+        rest = brief.area - sum(asked) + sum(asked[r] for r in shaped)
+        wanted = sum(asked[r] for r in shaped)
+        if rest > L_LEAST * wanted:
+            for r in shaped:
+                asked[r] *= rest / wanted
+    return asked
+
+
+def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
+    """Each room's rectangles under the tree."""
+    if BY_SIDES:
+        return _rooms_by_sides(brief, state)
+    n = len(brief.ids)
+    tokens = state.tokens
+    weight = [0.0] * len(tokens)
+    left = [0] * len(tokens)
+    right = [0] * len(tokens)
+    stack: list[int] = []
+    asked = _asked(brief, state)
+    present = {t - n for t in tokens if t >= n}
+    for p, t in enumerate(tokens):
+        if t >= 0:
+            room = t % n
+            part = 1.0
+            if room in present:
+                part = state.split[room] if t < n else 1.0 - state.split[room]
+            weight[p] = asked[room] * part
+        else:
+            right[p] = stack.pop()
+            left[p] = stack.pop()
+            weight[p] = weight[left[p]] + weight[right[p]]
+        stack.append(p)
+    rooms: list[list[Rect]] = [[] for _ in range(n)]
+    todo: list[tuple[int, Sequence[Rect]]] = [(len(tokens) - 1, brief.floor)]
+    while todo:
+        p, region = todo.pop()
+        t = tokens[p]
+        if t >= 0:
+            rooms[t % n].extend(region)
+            continue
+        first, second = cut_region(region, t == VERTICAL, weight[left[p]] / weight[p])
+        todo.append((left[p], first))
+        todo.append((right[p], second))
+    return rooms
+
+
+def _rooms_by_sides(brief: _Brief, state: _State) -> list[list[Rect]]:
+    """Each room's rectangles under the tree, each cut placed by the sides its two parts
+    would have at their targets: a block of rooms that fit together keeps its shape
+    wherever it moves, and only the floor's own misfit stretches it."""
+    n = len(brief.ids)
+    tokens = state.tokens
+    size = len(tokens)
+    width = [0.0] * size
+    depth = [0.0] * size
+    weight = [0.0] * size
+    left = [0] * size
+    right = [0] * size
+    stack: list[int] = []
+    present = {t - n for t in tokens if t >= n}
+    for p, t in enumerate(tokens):
+        if t >= 0:
+            room = t % n
+            tw, td = brief.needs[room].target
+            if room not in present:
+                scale = math.sqrt(state.share[room])
+                w, d = tw * scale, td * scale
+            else:
+                bar, arm = state.split[room], state.arm[room]
+                if state.turned[room]:
+                    w, d = (tw * bar, td) if t < n else (tw * (1 - bar), td * arm)
+                else:
+                    w, d = (tw, td * bar) if t < n else (tw * arm, td * (1 - bar))
+            width[p], depth[p], weight[p] = w, d, w * d
+        else:
+            right[p] = b = stack.pop()
+            left[p] = a = stack.pop()
+            if t == VERTICAL:
+                width[p], depth[p] = width[a] + width[b], max(depth[a], depth[b])
+            else:
+                width[p], depth[p] = max(width[a], width[b]), depth[a] + depth[b]
+            weight[p] = weight[a] + weight[b]
+        stack.append(p)
+    rooms: list[list[Rect]] = [[] for _ in range(n)]
+    todo: list[tuple[int, Sequence[Rect]]] = [(size - 1, brief.floor)]
+    while todo:
+        p, region = todo.pop()
+        t = tokens[p]
+        if t >= 0:
+            rooms[t % n].extend(region)
+            continue
+        a, b = left[p], right[p]
+        if len(region) > 1:
+            share = weight[a] / weight[p]
+        elif t == VERTICAL:
+            share = width[a] / (width[a] + width[b])
+        else:
+            share = depth[a] / (depth[a] + depth[b])
+        first, second = cut_region(region, t == VERTICAL, share)
+        todo.append((a, first))
+        todo.append((b, second))
+    return rooms
+
+
+# --- the score ----------------------------------------------------------------------
+
+
+def _merged(rects: list[Rect]) -> list[Rect]:
+    """Rectangles sharing a whole side made one (the parts of an outline's piece)."""
+    rects = [r for r in rects if r[2] - r[0] > EPS and r[3] - r[1] > EPS]
+    merging = True
+    while merging and len(rects) > 1:
+        merging = False
+        for i in range(len(rects)):
+            for j in range(i + 1, len(rects)):
+                a, b = rects[i], rects[j]
+                if abs(a[0] - b[0]) < EPS and abs(a[2] - b[2]) < EPS and (
+                        abs(a[3] - b[1]) < EPS or abs(b[3] - a[1]) < EPS):
+                    rects[i] = (a[0], min(a[1], b[1]), a[2], max(a[3], b[3]))
+                elif abs(a[1] - b[1]) < EPS and abs(a[3] - b[3]) < EPS and (
+                        abs(a[2] - b[0]) < EPS or abs(b[2] - a[0]) < EPS):
+                    rects[i] = (min(a[0], b[0]), a[1], max(a[2], b[2]), a[3])
+                else:
+                    continue
+                del rects[j]
+                merging = True
+                break
+            if merging:
+                break
+    return rects
+
+
+def _walls(a: Rect, b: Rect) -> tuple[int, float, float, float] | None:
+    """The wall rectangles a and b share: (axis, line, lo, hi), or None."""
+    if abs(a[2] - b[0]) < EPS or abs(b[2] - a[0]) < EPS:
+        lo, hi = max(a[1], b[1]), min(a[3], b[3])
+        if hi - lo > EPS:
+            return 0, a[2] if abs(a[2] - b[0]) < EPS else a[0], lo, hi
+    if abs(a[3] - b[1]) < EPS or abs(b[3] - a[1]) < EPS:
+        lo, hi = max(a[0], b[0]), min(a[2], b[2])
+        if hi - lo > EPS:
+            return 1, a[3] if abs(a[3] - b[1]) < EPS else a[1], lo, hi
+    return None
+
+
+def _connected(rects: list[Rect], wall: float) -> bool:
+    """Whether the rectangles make one shape, each joined to the next by a wall at least
+    `wall` long (an L's arms meet over their width, not at a point)."""
+    reached = {0}
+    todo = [0]
+    while todo:
+        i = todo.pop()
+        for j in range(len(rects)):
+            shared = _walls(rects[i], rects[j]) if j not in reached else None
+            if shared is not None and shared[3] - shared[2] >= wall - EPS:
+                reached.add(j)
+                todo.append(j)
+    return len(reached) == len(rects)
+
+
+def contact(a: list[Rect], b: list[Rect]) -> float:
+    """The longest straight wall rooms a and b share (as the checker measures C_adj)."""
+    if len(a) == 1 and len(b) == 1:
+        wall = _walls(a[0], b[0])
+        return 0.0 if wall is None else wall[3] - wall[2]
+    lines: dict[tuple[int, float], list[tuple[float, float]]] = {}
+    for ra in a:
+        for rb in b:
+            wall = _walls(ra, rb)
+            if wall is not None:
+                lines.setdefault((wall[0], round(wall[1], 6)), []).append((wall[2], wall[3]))
+    best = 0.0
+    for spans in lines.values():
+        spans.sort()
+        lo, hi = spans[0]
+        for s, t in spans[1:]:
+            if s <= hi + EPS:
+                hi = max(hi, t)
+            else:
+                best, lo, hi = max(best, hi - lo), s, t
+        best = max(best, hi - lo)
+    return best
+
+
+def _edge_gap(rects: list[Rect], edges: tuple[tuple[str, float, float, float], ...]) -> float:
+    """How far the room is from running along one of its named outline edges (0: it
+    does)."""
+    best = math.inf
+    for facing, line, lo, hi in edges:
+        for x0, y0, x1, y1 in rects:
+            if facing in ("north", "south"):
+                gap, span = abs(line - (y1 if facing == "north" else y0)), min(x1, hi) - max(x0, lo)
+            else:
+                gap, span = abs(line - (x1 if facing == "east" else x0)), min(y1, hi) - max(y0, lo)
+            if gap < EPS and span > EPS:
+                return 0.0
+            best = min(best, gap + max(0.0, -span) + 0.1)
+    return best
+
+
+def _point_gap(rects: list[Rect], x: float, y: float) -> float:
+    return min(math.hypot(max(r[0] - x, 0.0, x - r[2]), max(r[1] - y, 0.0, y - r[3]))
+               for r in rects)
+
+
+def _score(brief: _Brief, rooms: list[list[Rect]]) -> tuple[float, int]:
+    """The energy the annealing lowers, and how many hard constraints are broken."""
+    energy = shortfall = 0.0
+    broken = 0
+    shapes: list[list[Rect]] = []
+    for needs, rects in zip(brief.needs, rooms, strict=True):
+        rects = _merged(rects) if len(rects) > 1 else rects
+        shapes.append(rects)
+        if not rects:
+            broken += 1
+            shortfall += 10.0
+            continue
+        if len(rects) == 1:
+            x0, y0, x1, y1 = rects[0]
+            w, d = x1 - x0, y1 - y0
+            area = w * d
+        else:
+            x0 = min(r[0] for r in rects)
+            y0 = min(r[1] for r in rects)
+            w = max(r[2] for r in rects) - x0
+            d = max(r[3] for r in rects) - y0
+            area = sum((r[2] - r[0]) * (r[3] - r[1]) for r in rects)
+        tw, td = needs.target
+        error = (area - needs.area) / needs.area
+        energy += (w - tw) ** 2 + (d - td) ** 2 + AREA_WEIGHT * abs(error)
+        energy += RECT_PRICE * (len(rects) - 1)
+        miss = (max(0.0, needs.lo[0] - w) + max(0.0, w - needs.hi[0])
+                + max(0.0, needs.lo[1] - d) + max(0.0, d - needs.hi[1]))
+        if needs.ratio is not None:
+            long, short = max(w, d), min(w, d)
+            miss += (max(0.0, needs.ratio[0] * short - long)
+                     + max(0.0, long - needs.ratio[1] * short))
+        if len(rects) > 1:
+            miss += max(0, len(rects) - needs.cap) * 2.0
+            miss += sum(max(0.0, needs.arm - min(r[2] - r[0], r[3] - r[1])) for r in rects)
+            if not _connected(rects, needs.arm):
+                miss += 5.0
+        for x, y in needs.points:
+            miss += _point_gap(rects, x, y)
+        if needs.edges:
+            miss += _edge_gap(rects, needs.edges)
+        if miss > EPS:
+            broken += 1
+            shortfall += miss
+    for a, partners, wanted in brief.adjacency:
+        if len(partners) == 1:
+            best = contact(shapes[a], shapes[partners[0]])
+        else:
+            best = max((contact(shapes[a], shapes[b]) for b in partners), default=0.0)
+        if best < wanted - EPS or best <= EPS:
+            broken += 1
+            shortfall += wanted - best + (0.5 if best <= EPS else 0.0)
+    return energy + SHORTFALL_PRICE * shortfall + BROKEN_PRICE * broken, broken
+
+
+# --- the annealing ------------------------------------------------------------------
+
+
+def _valid_postfix(tokens: list[int]) -> bool:
+    depth = 0
+    for t in tokens:
+        depth += 1 if t >= 0 else -1
+        if depth < 1:
+            return False
+    return depth == 1
+
+
+def _moved(brief: _Brief, state: _State, rng: random.Random) -> _State | None:
+    """One random change of the tree, or None when the drawn change cannot be made."""
+    n = len(brief.ids)
+    new = state.copy()
+    tokens = new.tokens
+    kind = rng.choices(_MOVES, MOVE_WEIGHTS)[0]
+    if kind == "swap":  # two parts change places
+        p, q = rng.sample([p for p, t in enumerate(tokens) if t >= 0], 2)
+        tokens[p], tokens[q] = tokens[q], tokens[p]
+    elif kind == "neighbours":  # two parts next to each other in the tree change places
+        leaves = [p for p, t in enumerate(tokens) if t >= 0]
+        k = rng.randrange(len(leaves) - 1)
+        p, q = leaves[k], leaves[k + 1]
+        tokens[p], tokens[q] = tokens[q], tokens[p]
+    elif kind == "turn":  # a cut turns
+        p = rng.choice([p for p, t in enumerate(tokens) if t < 0])
+        tokens[p] = VERTICAL if tokens[p] == HORIZONTAL else HORIZONTAL
+    elif kind == "shift":  # a part moves past a cut (changes the tree's shape)
+        p = rng.randrange(len(tokens) - 1)
+        if (tokens[p] >= 0) == (tokens[p + 1] >= 0):
+            return None
+        tokens[p], tokens[p + 1] = tokens[p + 1], tokens[p]
+        if not _valid_postfix(tokens):
+            return None
+    elif kind == "regraft":  # a group of rooms moves elsewhere, whole
+        if not _regrafted(tokens, rng):
+            return None
+    elif kind == "block":  # a group of rooms turns a quarter, or its two halves swap sides
+        if len(tokens) < 3:
+            return None
+        starts = _starts(tokens)
+        p = rng.choice([p for p, t in enumerate(tokens) if t < 0])
+        if rng.random() < 0.5:
+            tokens[starts[p]:p] = [t if t >= 0 else VERTICAL + HORIZONTAL - t
+                                   for t in tokens[starts[p]:p]]
+            tokens[p] = VERTICAL + HORIZONTAL - tokens[p]
+        else:
+            right = starts[p - 1]
+            tokens[starts[p]:p] = tokens[right:p] + tokens[starts[p]:right]
+    elif kind == "shape":  # a room becomes an L or a rectangle again
+        present = [t for t in tokens if t >= n]
+        if present and (rng.random() < 0.5 or len(present) >= max(1, round(L_SHARE * n))):
+            _drop_leaf(tokens, tokens.index(rng.choice(present)))
+        else:
+            room = rng.randrange(n)
+            if n + room in tokens or brief.needs[room].cap < 2:
+                return None
+            at = (tokens.index(room) if rng.random() < 0.5
+                  else rng.choice([p for p, t in enumerate(tokens) if t >= 0]))
+            pair = [tokens[at], n + room] if rng.random() < 0.5 else [n + room, tokens[at]]
+            tokens[at:at + 1] = [*pair, rng.choice((VERTICAL, HORIZONTAL))]
+            new.split[room] = rng.uniform(0.35, 0.75)
+            new.share[room] = min(new.share[room], rng.uniform(0.65, 0.9))
+            new.arm[room] = rng.uniform(0.3, 0.7)
+            new.turned[room] = rng.random() < 0.5
+    else:  # a room asks for more or less area, or an L shares it otherwise
+        room = rng.randrange(n)
+        if n + room in tokens and rng.random() < 0.7:
+            pick = rng.random()
+            if pick < 0.4:
+                new.split[room] = min(0.9, max(0.1, new.split[room] + rng.gauss(0.0, 0.1)))
+            elif pick < 0.8:
+                new.arm[room] = min(0.9, max(0.1, new.arm[room] + rng.gauss(0.0, 0.1)))
+            else:
+                new.turned[room] = not new.turned[room]
+        else:
+            new.share[room] = min(1.3, max(0.4, new.share[room] * math.exp(rng.gauss(0.0, 0.06))))
+    return new
+
+
+def _starts(tokens: list[int]) -> list[int]:
+    """Where each node's subtree starts: node p's subtree is tokens[starts[p]:p + 1]."""
+    starts: list[int] = []
+    stack: list[int] = []
+    for p, t in enumerate(tokens):
+        if t >= 0:
+            starts.append(p)
+        else:
+            stack.pop()
+            starts.append(starts[stack.pop()])
+        stack.append(p)
+    return starts
+
+
+def _regrafted(tokens: list[int], rng: random.Random) -> bool:
+    """Cut a random subtree out (its sibling takes its parent's place) and join it to a
+    random node of the rest under a new cut: a group of rooms moves as it is."""
+    if len(tokens) < 5:
+        return False
+    starts = _starts(tokens)
+    top = len(tokens) - 1
+    node = rng.randrange(top)  # any node but the root
+    first = starts[node]
+    parent = next(q for q in range(node + 1, len(tokens)) if tokens[q] < 0 and starts[q] <= first)
+    group = tokens[first:node + 1]
+    rest = tokens[:first] + tokens[node + 1:parent] + tokens[parent + 1:]
+    starts = _starts(rest)
+    anchor = rng.randrange(len(rest))
+    joined = (rest[starts[anchor]:anchor + 1] + group if rng.random() < 0.5
+              else group + rest[starts[anchor]:anchor + 1])
+    tokens[:] = (rest[:starts[anchor]] + joined + [rng.choice((VERTICAL, HORIZONTAL))]
+                 + rest[anchor + 1:])
+    return True
+
+
+def _drop_leaf(tokens: list[int], at: int) -> None:
+    """Remove the leaf at `at` and the cut that joined it to its sibling."""
+    starts = _starts(tokens)
+    parent = next(q for q in range(at + 1, len(tokens)) if tokens[q] < 0 and starts[q] <= at)
+    del tokens[parent]
+    del tokens[at]
+
+
+def _anneal(
+    brief: _Brief, state: _State, rng: random.Random, steps: int, deadline: float | None,
+    should_stop: Callable[[], bool] | None,
+) -> tuple[_State, float, int, int]:
+    """Anneal from `state` for `steps` steps; the best state that breaks nothing (or,
+    if none, the lowest), its energy, its broken count and the steps taken."""
+    energy, broken = _score(brief, _rooms(brief, state))
+    best = (state, energy, broken)
+    deltas = []
+    for _ in range(20):
+        other = _moved(brief, state, rng)
+        if other is not None:
+            deltas.append(abs(_score(brief, _rooms(brief, other))[0] - energy))
+    hot = min(HOTTEST, max(1.0, sorted(deltas)[len(deltas) // 2] if deltas else 1.0))
+    cold = hot * COOLING
+    step = 0
+    for step in range(1, steps + 1):
+        if step % 256 == 0 and ((deadline is not None and time.monotonic() > deadline)
+                                or (should_stop is not None and should_stop())):
+            break
+        other = _moved(brief, state, rng)
+        if other is None:
+            continue
+        temperature = hot * (cold / hot) ** (step / steps)
+        e, b = _score(brief, _rooms(brief, other))
+        if e <= energy or rng.random() < math.exp((energy - e) / temperature):
+            state, energy, broken = other, e, b
+            if (broken, energy) < (best[2], best[1]):
+                best = (state, energy, broken)
+    return best[0], best[1], best[2], step
+
+
+def _output(brief: _Brief, state: _State) -> dict[str, list[Box]]:
+    rooms = _rooms(brief, state)
+    return {room_id: [Box(*r) for r in _merged(rects)]
+            for room_id, rects in zip(brief.ids, rooms, strict=True)}

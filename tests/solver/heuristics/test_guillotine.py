@@ -1,0 +1,110 @@
+"""The guillotine search (issue 19): whole layouts as slicing trees, with L and T rooms
+where the floor needs them, valid by the checker and repeatable for a seed."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from bench.planted import draw
+from models import Problem
+from solver.geometry import make_domain
+from solver.heuristics import guillotine
+from solver.heuristics.guillotine import (
+    HORIZONTAL,
+    VERTICAL,
+    applies,
+    cut_region,
+    guillotine_layout,
+)
+from solver.openings import connection_demands
+from solver.pipeline.run import covers, layout_objective
+from solver.verify.checker import check_layout
+
+
+def l_living_brief() -> Problem:
+    """A 10 x 8 m flat whose only answer at the targets has the living room as an L
+    (10 x 8 bounding box) around a 6 x 4 m bedroom in the north-east corner."""
+    return Problem.model_validate({
+        "boundary": [[0, 0], [10, 0], [10, 8], [0, 8]],
+        "rooms": [
+            {"id": "living", "type": "living", "target_size": [10, 8], "min_size": [3, 3],
+             "max_size": [10, 8], "positions": [[5, 0.5]]},
+            {"id": "bed", "type": "bedroom", "target_size": [6, 4], "min_size": [3, 3],
+             "max_size": [7, 5], "boundary": ["north", "east"]},
+        ],
+        "adjacency": [{"a": "living", "b": "bed", "min_contact": 0.9}],
+    })
+
+
+def test_an_l_shaped_living_room_around_a_bedroom_at_its_target() -> None:
+    problem = l_living_brief()
+    found = guillotine_layout(problem, make_domain(problem), seed=1, steps=3000)
+    assert found is not None
+    living, bed = found.rooms["living"], found.rooms["bed"]
+    assert len(living) == 2  # an L
+    assert sum(b.area for b in bed) == pytest.approx(24, rel=0.02)
+    xs = [v for b in living for v in (b.x0, b.x1)]
+    ys = [v for b in living for v in (b.y0, b.y1)]
+    assert max(xs) - min(xs) == pytest.approx(10, abs=0.05)
+    assert max(ys) - min(ys) == pytest.approx(8, abs=0.05)
+    assert check_layout(problem, found.rooms).valid
+    assert layout_objective(problem, make_domain(problem), found.rooms) < 0.01
+
+
+@pytest.mark.parametrize("seed", [2001, 2006])
+def test_a_planted_brief_gets_a_valid_covering_layout_and_a_seed_gives_one(seed: int) -> None:
+    problem, _ = draw(seed, rooms=7)
+    problem = connection_demands(problem)
+    domain = make_domain(problem)
+    found = guillotine_layout(problem, domain, seed=3, steps=8000)
+    assert found is not None
+    assert check_layout(problem, found.rooms).valid
+    assert covers(domain, found.rooms)
+    again = guillotine_layout(problem, domain, seed=3, steps=8000)
+    assert again is not None and again.rooms == found.rooms
+
+
+def test_a_cut_shares_an_l_shaped_region_by_area() -> None:
+    region = [(0.0, 0.0, 10.0, 4.0), (0.0, 4.0, 4.0, 8.0)]  # 40 + 16 m²
+    left, right = cut_region(region, True, 0.5)  # 28 m² each side
+    area = sum((r[2] - r[0]) * (r[3] - r[1]) for r in left)
+    assert area == pytest.approx(28)
+    assert sum((r[2] - r[0]) * (r[3] - r[1]) for r in right) == pytest.approx(28)
+    # The line runs at x = 3.5: 3.5 x 8 on the left is 28.
+    assert max(r[2] for r in left) == pytest.approx(3.5)
+    below, above = cut_region(region, False, 0.25)  # 14 m² below: y = 1.4
+    assert below == [(0.0, 0.0, 10.0, pytest.approx(1.4))]
+    assert len(above) == 2
+
+
+def test_a_leaf_dropped_with_its_cut_leaves_a_tree() -> None:
+    rng = random.Random(0)
+    for _ in range(200):
+        n = rng.randint(2, 8)
+        state = guillotine._initial(
+            guillotine._Brief(tuple(map(str, range(n))), (), (), (), 0.0), rng)
+        tokens = state.tokens
+        leaf = rng.choice([p for p, t in enumerate(tokens) if t >= 0])
+        dropped = tokens[leaf]
+        guillotine._drop_leaf(tokens, leaf)
+        assert guillotine._valid_postfix(tokens)
+        assert dropped not in tokens
+        assert sum(t >= 0 for t in tokens) == n - 1
+        assert set(tokens) - {VERTICAL, HORIZONTAL} == set(range(n)) - {dropped}
+
+
+def test_left_to_the_other_searches_where_it_does_not_apply() -> None:
+    problem = l_living_brief()
+    assert applies(problem, make_domain(problem))
+    with_obstacle = problem.model_copy(update={"obstacles": [
+        {"x": 4.5, "y": 3.5, "width": 1, "depth": 1}]})
+    with_obstacle = Problem.model_validate(with_obstacle.model_dump())
+    assert not applies(with_obstacle, make_domain(with_obstacle))
+    many = Problem.model_validate({
+        "boundary": [[0, 0], [40, 0], [40, 10], [0, 10]],
+        "rooms": [{"id": f"r{k}", "target_size": [3, 3]}
+                  for k in range(guillotine.MAX_ROOMS + 1)]})
+    assert not applies(many, make_domain(many))
+    assert guillotine_layout(many, make_domain(many), seed=0) is None
