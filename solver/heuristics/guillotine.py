@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from models import Problem
 from solver.geometry import Box, Domain, edges_named, rectangles_of
 from solver.heuristics.level_one import shape_allowance
+from solver.heuristics.tiling import Tiling, tilings
 from solver.verify.checker import check_layout
 
 #: (x0, y0, x1, y1): the search's own rectangles, plain tuples for speed.
@@ -61,21 +62,29 @@ STEPS_PER_ROOM = 2500
 RESTARTS = 3
 #: The temperature falls from the typical first move's change to this share of it.
 COOLING = 1e-3
-#: The temperature never starts above this.
-HOTTEST = 1e9
+#: Exact tilings the annealing starts from, when there are any, and the temperature
+#: it starts at from one: cool, so that what fits stays.
+TILINGS = 6
+SEEDED_HEAT = 1.0
 #: At most this share of the rooms (and at least one) may be Ls at once.
 L_SHARE = 0.34
 #: The L and T rooms take the floor the rectangles leave while it is at least this share
 #: of their targets' area.
 L_LEAST = 0.4
 #: The annealing's moves and how often each is drawn.
-_MOVES = ("swap", "neighbours", "turn", "shift", "regraft", "block", "shape", "area")
-MOVE_WEIGHTS = (0.1, 0.1, 0.1, 0.1, 0.2, 0.1, 0.12, 0.18)
-#: Cuts placed by the parts' sides at their targets (else by their areas).
-BY_SIDES = False
-#: Rooms up to which the search is tried: beyond, it finds a valid layout too rarely in
-#: the time it takes from level 1 (measured on the planted briefs, bench/NOTES.md).
+_MOVES = ("swap", "neighbours", "turn", "shift", "regraft", "transpose", "mirror", "twins",
+          "shape", "area")
+MOVE_WEIGHTS = (0.1, 0.1, 0.1, 0.1, 0.2, 0.05, 0.05, 0.0, 0.12, 0.18)
+#: From an exact tiling, mostly the moves that keep it: a group mirrored, two rooms
+#: of one size swapped.
+KEEPING_WEIGHTS = (0.02, 0.02, 0.02, 0.02, 0.04, 0.02, 0.6, 0.2, 0.02, 0.04)
+#: Rooms up to which the annealing starts from random trees: beyond, it finds a valid
+#: layout too rarely in the time it has (measured on the planted briefs,
+#: bench/NOTES.md). Up to `MAX_TILED_ROOMS`, it starts only from exact tilings.
 MAX_ROOMS = 10
+MAX_TILED_ROOMS = 16
+#: Share of the search's time the exact tilings may take.
+TILING_SHARE = 0.4
 
 
 @dataclass(frozen=True)
@@ -114,14 +123,8 @@ class _State:
     share: list[float]
     #: An L room's first part's share of its area.
     split: list[float]
-    #: An L room's arm: its length as a share of the bounding box's side.
-    arm: list[float]
-    #: An L room's bar runs north-south (else east-west).
-    turned: list[bool]
-
     def copy(self) -> _State:
-        return _State(self.tokens[:], self.share[:], self.split[:], self.arm[:],
-                      self.turned[:])
+        return _State(self.tokens[:], self.share[:], self.split[:])
 
 
 @dataclass(frozen=True)
@@ -136,7 +139,7 @@ class GuillotineResult:
 def applies(problem: Problem, domain: Domain) -> bool:
     """Whether the search can lay this floor out: rooms with targets, no obstacles,
     regions or fixed rooms, and not too many rooms."""
-    return (0 < len(problem.rooms) <= MAX_ROOMS and not problem.obstacles
+    return (0 < len(problem.rooms) <= MAX_TILED_ROOMS and not problem.obstacles
             and not problem.regions and not domain.notches
             and all(r.target_size is not None and r.fixed is None for r in problem.rooms))
 
@@ -154,18 +157,30 @@ def guillotine_layout(
     n = len(brief.ids)
     total = steps if steps is not None else STEPS_PER_ROOM * n
     rng = random.Random(seed)
+    # Exact tilings by the targets first, if there are any: the annealing then starts
+    # from each, cool, to meet the doors, walls and guide points keeping the fit.
+    tiling_end = (math.inf if deadline is None
+                  else time.monotonic() + TILING_SHARE * max(0.0, deadline - time.monotonic()))
+    fits = tilings([needs.target for needs in brief.needs], brief.floor, limit=TILINGS,
+                   deadline=tiling_end,
+                   allowed=[needs.cap >= 2 for needs in brief.needs])
+    starts: list[tuple[_State | None, float | None]] = [
+        (_from_tiling(brief, fit), SEEDED_HEAT) for fit in fits]
+    if not starts and n > MAX_ROOMS:
+        return None  # from a random tree, the annealing seldom ends valid at this size
+    starts += [(None, None)] * (RESTARTS if not starts else 0)
     kept: list[tuple[float, _State]] = []
     done = 0
-    for restart in range(RESTARTS):
-        run_steps = total // RESTARTS
-        state, energy, broken, used = _anneal(brief, _initial(brief, rng), rng, run_steps,
-                                              deadline, should_stop)
+    for start, heat in starts:
+        run_steps = total // len(starts)
+        state, energy, broken, used = _anneal(
+            brief, start if start is not None else _initial(brief, rng), rng, run_steps,
+            deadline, should_stop, heat=heat)
         done += used
         if broken == 0:
             kept.append((energy, state))
         if used < run_steps:
             break
-        del restart
     for energy, state in sorted(kept, key=lambda k: k[0]):
         rooms = _output(brief, state)
         if check_layout(problem, rooms).valid:
@@ -207,7 +222,7 @@ def _initial(brief: _Brief, rng: random.Random) -> _State:
         half = len(rooms) // 2
         return build(rooms[:half]) + build(rooms[half:]) + [rng.choice((VERTICAL, HORIZONTAL))]
 
-    return _State(build(order), [1.0] * n, [0.5] * n, [0.5] * n, [False] * n)
+    return _State(build(order), [1.0] * n, [0.5] * n)
 
 
 def cut_region(
@@ -263,8 +278,6 @@ def _asked(brief: _Brief, state: _State) -> list[float]:
 
 def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
     """Each room's rectangles under the tree."""
-    if BY_SIDES:
-        return _rooms_by_sides(brief, state)
     n = len(brief.ids)
     tokens = state.tokens
     weight = [0.0] * len(tokens)
@@ -296,64 +309,6 @@ def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
         first, second = cut_region(region, t == VERTICAL, weight[left[p]] / weight[p])
         todo.append((left[p], first))
         todo.append((right[p], second))
-    return rooms
-
-
-def _rooms_by_sides(brief: _Brief, state: _State) -> list[list[Rect]]:
-    """Each room's rectangles under the tree, each cut placed by the sides its two parts
-    would have at their targets: a block of rooms that fit together keeps its shape
-    wherever it moves, and only the floor's own misfit stretches it."""
-    n = len(brief.ids)
-    tokens = state.tokens
-    size = len(tokens)
-    width = [0.0] * size
-    depth = [0.0] * size
-    weight = [0.0] * size
-    left = [0] * size
-    right = [0] * size
-    stack: list[int] = []
-    present = {t - n for t in tokens if t >= n}
-    for p, t in enumerate(tokens):
-        if t >= 0:
-            room = t % n
-            tw, td = brief.needs[room].target
-            if room not in present:
-                scale = math.sqrt(state.share[room])
-                w, d = tw * scale, td * scale
-            else:
-                bar, arm = state.split[room], state.arm[room]
-                if state.turned[room]:
-                    w, d = (tw * bar, td) if t < n else (tw * (1 - bar), td * arm)
-                else:
-                    w, d = (tw, td * bar) if t < n else (tw * arm, td * (1 - bar))
-            width[p], depth[p], weight[p] = w, d, w * d
-        else:
-            right[p] = b = stack.pop()
-            left[p] = a = stack.pop()
-            if t == VERTICAL:
-                width[p], depth[p] = width[a] + width[b], max(depth[a], depth[b])
-            else:
-                width[p], depth[p] = max(width[a], width[b]), depth[a] + depth[b]
-            weight[p] = weight[a] + weight[b]
-        stack.append(p)
-    rooms: list[list[Rect]] = [[] for _ in range(n)]
-    todo: list[tuple[int, Sequence[Rect]]] = [(size - 1, brief.floor)]
-    while todo:
-        p, region = todo.pop()
-        t = tokens[p]
-        if t >= 0:
-            rooms[t % n].extend(region)
-            continue
-        a, b = left[p], right[p]
-        if len(region) > 1:
-            share = weight[a] / weight[p]
-        elif t == VERTICAL:
-            share = width[a] / (width[a] + width[b])
-        else:
-            share = depth[a] / (depth[a] + depth[b])
-        first, second = cut_region(region, t == VERTICAL, share)
-        todo.append((a, first))
-        todo.append((b, second))
     return rooms
 
 
@@ -525,12 +480,18 @@ def _valid_postfix(tokens: list[int]) -> bool:
     return depth == 1
 
 
-def _moved(brief: _Brief, state: _State, rng: random.Random) -> _State | None:
+def _same_size(brief: _Brief, a: int, b: int) -> bool:
+    (wa, da), (wb, db) = brief.needs[a].target, brief.needs[b].target
+    return abs(wa - wb) < 0.011 and abs(da - db) < 0.011
+
+
+def _moved(brief: _Brief, state: _State, rng: random.Random,
+           weights: Sequence[float] = ()) -> _State | None:
     """One random change of the tree, or None when the drawn change cannot be made."""
     n = len(brief.ids)
     new = state.copy()
     tokens = new.tokens
-    kind = rng.choices(_MOVES, MOVE_WEIGHTS)[0]
+    kind = rng.choices(_MOVES, weights or MOVE_WEIGHTS)[0]
     if kind == "swap":  # two parts change places
         p, q = rng.sample([p for p, t in enumerate(tokens) if t >= 0], 2)
         tokens[p], tokens[q] = tokens[q], tokens[p]
@@ -552,18 +513,27 @@ def _moved(brief: _Brief, state: _State, rng: random.Random) -> _State | None:
     elif kind == "regraft":  # a group of rooms moves elsewhere, whole
         if not _regrafted(tokens, rng):
             return None
-    elif kind == "block":  # a group of rooms turns a quarter, or its two halves swap sides
+    elif kind in ("transpose", "mirror"):  # a group turns a quarter, or its halves swap
         if len(tokens) < 3:
             return None
         starts = _starts(tokens)
         p = rng.choice([p for p, t in enumerate(tokens) if t < 0])
-        if rng.random() < 0.5:
+        if kind == "transpose":
             tokens[starts[p]:p] = [t if t >= 0 else VERTICAL + HORIZONTAL - t
                                    for t in tokens[starts[p]:p]]
             tokens[p] = VERTICAL + HORIZONTAL - tokens[p]
         else:
             right = starts[p - 1]
             tokens[starts[p]:p] = tokens[right:p] + tokens[starts[p]:right]
+    elif kind == "twins":  # two rooms of the same size change places
+        n_leaves = [p for p, t in enumerate(tokens) if 0 <= t < n and t not in
+                    {u - n for u in tokens if u >= n}]
+        p = rng.choice(n_leaves)
+        same = [q for q in n_leaves if q != p and _same_size(brief, tokens[p], tokens[q])]
+        if not same:
+            return None
+        q = rng.choice(same)
+        tokens[p], tokens[q] = tokens[q], tokens[p]
     elif kind == "shape":  # a room becomes an L or a rectangle again
         present = [t for t in tokens if t >= n]
         if present and (rng.random() < 0.5 or len(present) >= max(1, round(L_SHARE * n))):
@@ -578,18 +548,10 @@ def _moved(brief: _Brief, state: _State, rng: random.Random) -> _State | None:
             tokens[at:at + 1] = [*pair, rng.choice((VERTICAL, HORIZONTAL))]
             new.split[room] = rng.uniform(0.35, 0.75)
             new.share[room] = min(new.share[room], rng.uniform(0.65, 0.9))
-            new.arm[room] = rng.uniform(0.3, 0.7)
-            new.turned[room] = rng.random() < 0.5
     else:  # a room asks for more or less area, or an L shares it otherwise
         room = rng.randrange(n)
-        if n + room in tokens and rng.random() < 0.7:
-            pick = rng.random()
-            if pick < 0.4:
-                new.split[room] = min(0.9, max(0.1, new.split[room] + rng.gauss(0.0, 0.1)))
-            elif pick < 0.8:
-                new.arm[room] = min(0.9, max(0.1, new.arm[room] + rng.gauss(0.0, 0.1)))
-            else:
-                new.turned[room] = not new.turned[room]
+        if n + room in tokens and rng.random() < 0.5:
+            new.split[room] = min(0.9, max(0.1, new.split[room] + rng.gauss(0.0, 0.1)))
         else:
             new.share[room] = min(1.3, max(0.4, new.share[room] * math.exp(rng.gauss(0.0, 0.06))))
     return new
@@ -640,7 +602,7 @@ def _drop_leaf(tokens: list[int], at: int) -> None:
 
 def _anneal(
     brief: _Brief, state: _State, rng: random.Random, steps: int, deadline: float | None,
-    should_stop: Callable[[], bool] | None,
+    should_stop: Callable[[], bool] | None, *, heat: float | None = None,
 ) -> tuple[_State, float, int, int]:
     """Anneal from `state` for `steps` steps; the best state that breaks nothing (or,
     if none, the lowest), its energy, its broken count and the steps taken."""
@@ -651,14 +613,15 @@ def _anneal(
         other = _moved(brief, state, rng)
         if other is not None:
             deltas.append(abs(_score(brief, _rooms(brief, other))[0] - energy))
-    hot = min(HOTTEST, max(1.0, sorted(deltas)[len(deltas) // 2] if deltas else 1.0))
+    hot = heat if heat is not None else max(
+        1.0, sorted(deltas)[len(deltas) // 2] if deltas else 1.0)
     cold = hot * COOLING
     step = 0
     for step in range(1, steps + 1):
         if step % 256 == 0 and ((deadline is not None and time.monotonic() > deadline)
                                 or (should_stop is not None and should_stop())):
             break
-        other = _moved(brief, state, rng)
+        other = _moved(brief, state, rng, KEEPING_WEIGHTS if heat is not None else ())
         if other is None:
             continue
         temperature = hot * (cold / hot) ** (step / steps)
@@ -668,6 +631,17 @@ def _anneal(
             if (broken, energy) < (best[2], best[1]):
                 best = (state, energy, broken)
     return best[0], best[1], best[2], step
+
+
+def _from_tiling(brief: _Brief, fit: Tiling) -> _State:
+    """The tree of an exact tiling, each L room asking the area its parts have."""
+    n = len(brief.ids)
+    state = _State(list(fit.tokens), [1.0] * n, [0.5] * n)
+    for r in fit.shaped:
+        (wa, da), (wb, db) = fit.parts[r], fit.parts[n + r]
+        state.share[r] = (wa * da + wb * db) / brief.needs[r].area
+        state.split[r] = wa * da / (wa * da + wb * db)
+    return state
 
 
 def _output(brief: _Brief, state: _State) -> dict[str, list[Box]]:

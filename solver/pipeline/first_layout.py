@@ -8,7 +8,6 @@ import random
 import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import Future, wait
-from dataclasses import replace
 
 from models import ExtraRectangles, Infeasibility, Layout, Problem, Termination
 from solver.events import Phase
@@ -48,11 +47,13 @@ from solver.pipeline.subdomains import (
     SubdomainExecutor,
 )
 from solver.soft import has_soft
+from solver.verify.checker import check_layout
 from solver.verify.precheck import find_impossibilities
 
 #: The second level-1 search of a portfolio runs under the seed plus this.
 SECOND_SEED_STEP = 1_000_003
-#: Share of level 1's time the guillotine search takes when it cannot run alongside.
+#: Share of the search time left after level 1 the guillotine search takes when it
+#: cannot run alongside.
 INLINE_GUILLOTINE_SHARE = 0.4
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
@@ -95,33 +96,70 @@ def first_level(
 
 
 def second_start(
-    problem: Problem, subdomains: SubdomainExecutor | None, deadline: float,
-    should_stop: Callable[[], bool] | None = None,
+    problem: Problem, subdomains: SubdomainExecutor | None, deadline: float
 ) -> Future[LevelOneOutcome] | None:
-    """A second search for the first layout besides level 1: the guillotine search
-    (`guillotine_alone`) where it applies, else a level-1 search under another seed
-    (`level_one_alone`). Level 1 is a local search whose first layout fixes which room
-    lies next to which; a second one that starts elsewhere ends better often enough to
-    pay (bench/NOTES.md). It runs alongside on an executor of two slots or more; without
-    one (or with one that runs only sub-domains) the guillotine search runs here first,
-    in `INLINE_GUILLOTINE_SHARE` of level 1's time, and the level-1 search not at all."""
+    """With an executor of two slots or more, a second search alongside level 1: the
+    guillotine search (`guillotine_alone`) where it applies, whose layout competes with
+    the finished one (`better_final`), else a level-1 search under another seed
+    (`level_one_alone`, `better_start`). Level 1 is a local search whose first layout
+    fixes which room lies next to which; a second one that starts elsewhere ends better
+    often enough to pay (bench/NOTES.md). None when there is no such executor, or it
+    runs only sub-domains (a remote one)."""
+    if subdomains is None or subdomains.slots < 2:
+        return None
     seed = (problem.options.seed + SECOND_SEED_STEP) % 2**31
     task = LevelOneTask(problem.with_options(seed=seed),
                         deadline=time.time() + (deadline - time.monotonic()))
-    guillotine = guillotine_applies(problem, make_domain(problem))
-    if subdomains is not None and subdomains.slots >= 2:
-        try:
-            return subdomains.executor.submit(
-                guillotine_alone if guillotine else level_one_alone, task)
-        except (ValueError, RuntimeError):  # an executor for sub-domains only, or shut down
-            pass
-    if not guillotine:
+    search = (guillotine_alone if guillotine_applies(problem, make_domain(problem))
+              else level_one_alone)
+    try:
+        return subdomains.executor.submit(search, task)
+    except (ValueError, RuntimeError):  # an executor for sub-domains only, or shut down
         return None
-    share = INLINE_GUILLOTINE_SHARE * (deadline - time.monotonic())
-    done: Future[LevelOneOutcome] = Future()
-    done.set_result(guillotine_alone(replace(task, deadline=time.time() + share),
-                                     should_stop=should_stop))
-    return done
+
+
+def guillotine_here(run: Run, domain: Domain) -> LevelOneOutcome | None:
+    """The guillotine search in this process, when it applies and did not run alongside:
+    in `INLINE_GUILLOTINE_SHARE` of the search time left after level 1, taken from the
+    refinement levels."""
+    if not guillotine_applies(run.problem, domain) or run.stopped():
+        return None
+    seconds = INLINE_GUILLOTINE_SHARE * max(0.0, run.deadline - time.monotonic())
+    seed = (run.problem.options.seed + SECOND_SEED_STEP) % 2**31
+    task = LevelOneTask(run.problem.with_options(seed=seed), deadline=time.time() + seconds)
+    return guillotine_alone(task, should_stop=run.should_stop)
+
+
+def awaited(second: Future[LevelOneOutcome], run: Run, deadline: float) -> LevelOneOutcome | None:
+    """The second search's outcome, waited for until `deadline` and a little after; None
+    when it is late, lost or failed."""
+    while not second.done() and not run.stopped() and (
+            time.monotonic() < deadline + LATE_SECONDS):
+        wait([second], timeout=0.05)
+    try:
+        return second.result(timeout=0)
+    except Exception:  # late, stopped, lost or failed: it costs its chance, not the layout
+        second.cancel()
+        return None
+
+
+def better_final(run: Run, domain: Domain, pieces: list[Piece],
+                 candidate: LevelOneOutcome | None) -> list[Piece]:
+    """The finished layout, or the guillotine search's when that covers and has the
+    lower Eq. 12 (it passed the checker already)."""
+    if candidate is None or candidate.pieces is None:
+        return pieces
+    mine = absorbed(run.problem, domain, room_boxes(pieces))
+    theirs = room_boxes(candidate.pieces)
+    if covers(domain, mine) and check_layout(run.problem, mine).valid and (
+            layout_objective(run.problem, domain, mine, soft=run.soft)
+            <= layout_objective(run.problem, domain, theirs)):
+        return pieces
+    run.wings, run.extra, run.window, run.soft = {}, candidate.extra, None, False
+    run.relaxations.append(f"{candidate.found_by} ended better")
+    run.emit(Phase.LEVEL, detail=f"{candidate.found_by} ended better")
+    run.incumbent(domain, theirs)
+    return candidate.pieces
 
 
 def guillotine_alone(
@@ -164,15 +202,8 @@ def better_start(
     meeting every constraint before one pricing soft ones, then one meeting the
     coverage goal (gaps absorbed), then the lower Eq. 12. The second search is waited
     for until `deadline`, and a little after."""
-    while not second.done() and not run.stopped() and (
-            time.monotonic() < deadline + LATE_SECONDS):
-        wait([second], timeout=0.05)
-    try:
-        other = second.result(timeout=0)
-    except Exception:  # late, stopped, lost or failed: it costs its chance, not the layout
-        second.cancel()
-        return pieces
-    if other.pieces is None or run.stopped():
+    other = awaited(second, run, deadline)
+    if other is None or other.pieces is None or run.stopped():
         return pieces
 
     def rank(candidate: list[Piece], soft: bool) -> tuple[bool, bool, float]:

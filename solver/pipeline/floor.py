@@ -16,6 +16,7 @@ from models import Infeasibility, Layout, Problem, Termination
 from solver.budget import default_time_limit
 from solver.events import EventSink, Phase, SolveEvent, StopFlag
 from solver.geometry import Domain, make_domain
+from solver.heuristics.guillotine import applies as guillotine_applies
 from solver.heuristics.variety import (
     REDRAW_MIN_SHARE,
     REDRAW_SEED_STEP,
@@ -24,11 +25,18 @@ from solver.heuristics.variety import (
 )
 from solver.openings import connection_demands
 from solver.pipeline.assemble import explained, final_layout, no_layout
-from solver.pipeline.first_layout import better_start, first_level, second_start
+from solver.pipeline.first_layout import (
+    awaited,
+    better_final,
+    better_start,
+    first_level,
+    guillotine_here,
+    second_start,
+)
 from solver.pipeline.hierarchy import Piece, absorb_gaps, absorbed, as_pieces, room_boxes
 from solver.pipeline.refine import refine, reshaped
 from solver.pipeline.run import Run, covered
-from solver.pipeline.subdomains import SubdomainExecutor
+from solver.pipeline.subdomains import LevelOneOutcome, SubdomainExecutor
 from solver.stopping import GoodEnough
 from solver.verify.precheck import find_impossibilities
 
@@ -81,17 +89,26 @@ def solve_floor(
             reason="the problem is infeasible before any solving", findings=findings)))
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
     level_one_end = started + (run.deadline - started) * LEVEL_ONE_SHARE
-    second = second_start(problem, subdomains, level_one_end, run.should_stop)
+    second = second_start(problem, subdomains, level_one_end)
     pieces, failure = first_level(run, domain, level_one_end)
+    # The guillotine search's layout (solver/heuristics/guillotine.py), which competes
+    # with the finished one.
+    candidate: LevelOneOutcome | None = None
     if second is not None:
         proven = failure is not None and failure.report.termination is Termination.INFEASIBLE
         if proven or run.stopped():  # nothing the second search finds can be used
             second.cancel()
+        elif guillotine_applies(problem, domain):
+            candidate = awaited(second, run, level_one_end)
         else:
             pieces = better_start(run, domain, pieces, second, level_one_end)
+    elif failure is None or failure.report.termination is not Termination.INFEASIBLE:
+        candidate = guillotine_here(run, domain)
     if good is not None and problem.options.diverse:
         run, pieces, failure = _redrawn(run, domain, pieces, failure, good, level_one_end)
         problem = run.problem
+    if pieces is None and candidate is not None and candidate.pieces is not None:
+        pieces, candidate = better_final(run, domain, [], candidate), None
     if pieces is None:
         assert failure is not None
         return failure
@@ -102,6 +119,7 @@ def solve_floor(
     pieces = run.better_of(domain, absorb_gaps(problem, domain, pieces))
     run.deadline = end
     pieces = reshaped(run, domain, pieces, min(end, time.monotonic() + reshaping))
+    pieces = better_final(run, domain, pieces, candidate)
     if good is not None and good.rooms is not None:
         pieces = as_pieces(good.rooms)  # good during the refinement or the reshaping
     return final_layout(run, domain, pieces, levels)

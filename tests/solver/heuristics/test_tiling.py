@@ -1,0 +1,48 @@
+"""Exact tilings by the targets (issue 19): rooms whose sides match joined into the
+floor's rectangles, an L room's two parts fixed by what they join."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from solver.heuristics.tiling import HORIZONTAL, VERTICAL, tilings
+
+#: A 12 x 12 m floor cut exactly by ten rooms: a 12 x 2 strip of three along the south,
+#: a 4 x 10 column of two, and an 8 x 10 block of five.
+TEN = [(4, 3), (4, 7), (5, 4), (3, 4), (2, 6), (6, 3), (6, 3), (3, 2), (3, 2), (6, 2)]
+
+
+def test_ten_rooms_that_tile_the_floor_are_joined_into_it() -> None:
+    found = tilings(TEN, [(0.0, 0.0, 12.0, 12.0)], limit=2, deadline=math.inf)
+    assert found
+    fit = found[0]
+    assert not fit.shaped
+    assert sorted(t for t in fit.tokens if t >= 0) == list(range(10))
+    assert sum(t in (VERTICAL, HORIZONTAL) for t in fit.tokens) == 9
+
+
+def test_an_l_room_is_found_with_the_sides_of_its_two_parts() -> None:
+    # 10 x 8: a bedroom of 6 x 4 in a corner, the living room an L around it (its box the
+    # whole floor, 56 m²): its parts 10 x 4 and 4 x 4, or 4 x 8 and 6 x 4.
+    found = tilings([(10, 8), (6, 4)], [(0.0, 0.0, 10.0, 8.0)], limit=4, deadline=math.inf)
+    assert found
+    fit = found[0]
+    assert fit.shaped == {0}
+    parts = sorted([fit.parts[0], fit.parts[2]])
+    areas = sorted(w * d for w, d in parts)
+    assert sum(areas) == pytest.approx(56)
+
+
+def test_no_tiling_when_the_targets_ask_for_less_than_the_floor() -> None:
+    assert tilings([(3, 3), (3, 3)], [(0.0, 0.0, 10.0, 10.0)], limit=1,
+                   deadline=math.inf) == []
+
+
+def test_an_outline_of_two_rectangles_is_tiled_piece_by_piece() -> None:
+    # An L outline: 8 x 4 below, 4 x 4 above its west half.
+    pieces = [(0.0, 0.0, 8.0, 4.0), (0.0, 4.0, 4.0, 8.0)]
+    found = tilings([(4, 4), (4, 4), (4, 4)], pieces, limit=1, deadline=math.inf)
+    assert found
+    assert found[0].tokens[-1] == HORIZONTAL  # the line between the two pieces
