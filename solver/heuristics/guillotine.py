@@ -111,6 +111,9 @@ class _Brief:
     adjacency: tuple[tuple[int, tuple[int, ...], float], ...]
     floor: tuple[Rect, ...]
     area: float
+    #: The parts of `floor` outside the outline, as leaves n + n + k of the tree that no
+    #: room takes: a cut plan of the outline's bounding box, the notches among its parts.
+    voids: tuple[Rect, ...] = ()
 
 
 @dataclass
@@ -158,37 +161,46 @@ def guillotine_layout(
     total = steps if steps is not None else STEPS_PER_ROOM * n
     rng = random.Random(seed)
     # Exact tilings by the targets first, if there are any: the annealing then starts
-    # from each, cool, to meet the doors, walls and guide points keeping the fit.
+    # from each, cool, to meet the doors, walls and guide points keeping the fit. They
+    # are sought on the outline's own rectangles, and on its bounding box with the
+    # notches as parts no room takes (where rooms cross the lines between the
+    # outline's rectangles, as in a plan cut from a rectangle).
+    models = [brief] + ([boxed] if (boxed := _brief(problem, domain, boxed=True)).voids else [])
+    fits: list[tuple[_Brief, Tiling]] = []
     tiling_end = (math.inf if deadline is None
                   else time.monotonic() + TILING_SHARE * max(0.0, deadline - time.monotonic()))
-    fits = tilings([needs.target for needs in brief.needs], brief.floor, limit=TILINGS,
-                   deadline=tiling_end,
-                   allowed=[needs.cap >= 2 for needs in brief.needs])
-    starts: list[tuple[_State | None, float | None]] = [
-        (_from_tiling(brief, fit), SEEDED_HEAT) for fit in fits]
+    for k, model in enumerate(models):
+        end = time.monotonic() + (tiling_end - time.monotonic()) / (len(models) - k)
+        fits += [(model, fit) for fit in tilings(
+            [needs.target for needs in model.needs], model.floor, voids=model.voids,
+            limit=TILINGS, deadline=end, allowed=[needs.cap >= 2 for needs in model.needs])]
+    starts: list[tuple[_Brief, _State | None, float | None]] = [
+        (model, _from_tiling(model, fit), SEEDED_HEAT) for model, fit in fits]
     if not starts and n > MAX_ROOMS:
         return None  # from a random tree, the annealing seldom ends valid at this size
-    starts += [(None, None)] * (RESTARTS if not starts else 0)
-    kept: list[tuple[float, _State]] = []
+    starts += [(brief, None, None)] * (RESTARTS if not starts else 0)
+    kept: list[tuple[float, _Brief, _State]] = []
     done = 0
-    for start, heat in starts:
+    for model, start, heat in starts:
         run_steps = total // len(starts)
         state, energy, broken, used = _anneal(
-            brief, start if start is not None else _initial(brief, rng), rng, run_steps,
+            model, start if start is not None else _initial(model, rng), rng, run_steps,
             deadline, should_stop, heat=heat)
         done += used
         if broken == 0:
-            kept.append((energy, state))
+            kept.append((energy, model, state))
         if used < run_steps:
             break
-    for energy, state in sorted(kept, key=lambda k: k[0]):
-        rooms = _output(brief, state)
+    for energy, model, state in sorted(kept, key=lambda k: k[0]):
+        rooms = _output(model, state)
         if check_layout(problem, rooms).valid:
             return GuillotineResult(rooms, energy, done)
     return None
 
 
-def _brief(problem: Problem, domain: Domain) -> _Brief:
+def _brief(problem: Problem, domain: Domain, *, boxed: bool = False) -> _Brief:
+    """The problem in the search's numbers: the floor as the outline's rectangles, or
+    (`boxed`) as its bounding box with the parts outside the outline as voids."""
     index = {r.id: k for k, r in enumerate(problem.rooms)}
     needs = []
     for room in problem.rooms:
@@ -203,8 +215,14 @@ def _brief(problem: Problem, domain: Domain) -> _Brief:
                             shape_allowance(room), min(MIN_ARM, min(lo) or MIN_ARM)))
     adjacency = tuple((index[a.a], tuple(index[b] for b in a.partners if b in index),
                        a.min_contact) for a in problem.adjacency if a.a in index)
-    floor = tuple((b.x0, b.y0, b.x1, b.y1) for b in rectangles_of(domain.free))
-    return _Brief(tuple(index), tuple(needs), adjacency, floor, float(domain.free.area))
+    if not boxed:
+        floor = tuple((b.x0, b.y0, b.x1, b.y1) for b in rectangles_of(domain.free))
+        return _Brief(tuple(index), tuple(needs), adjacency, floor, float(domain.free.area))
+    box = domain.bbox
+    voids = tuple((b.x0, b.y0, b.x1, b.y1)
+                  for b in rectangles_of(box.to_polygon().difference(domain.free)))
+    return _Brief(tuple(index), tuple(needs), adjacency, ((box.x0, box.y0, box.x1, box.y1),),
+                  float(domain.free.area), voids)
 
 
 # --- the slicing tree -------------------------------------------------------------
@@ -213,7 +231,7 @@ def _brief(problem: Problem, domain: Domain) -> _Brief:
 def _initial(brief: _Brief, rng: random.Random) -> _State:
     """A random balanced tree over the rooms, each a rectangle asking its target area."""
     n = len(brief.ids)
-    order = list(range(n))
+    order = list(range(n)) + [2 * n + k for k in range(len(brief.voids))]
     rng.shuffle(order)
 
     def build(rooms: list[int]) -> list[int]:
@@ -266,7 +284,7 @@ def _asked(brief: _Brief, state: _State) -> list[float]:
     When the rectangles leave too little for that, every room is scaled alike."""
     n = len(brief.ids)
     asked = [needs.area * share for needs, share in zip(brief.needs, state.share, strict=True)]
-    shaped = [t - n for t in state.tokens if t >= n]
+    shaped = [t - n for t in state.tokens if n <= t < 2 * n]
     if shaped:
         rest = brief.area - sum(asked) + sum(asked[r] for r in shaped)
         wanted = sum(asked[r] for r in shaped)
@@ -277,7 +295,7 @@ def _asked(brief: _Brief, state: _State) -> list[float]:
 
 
 def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
-    """Each room's rectangles under the tree."""
+    """Each room's rectangles under the tree, then each void's."""
     n = len(brief.ids)
     tokens = state.tokens
     weight = [0.0] * len(tokens)
@@ -285,9 +303,12 @@ def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
     right = [0] * len(tokens)
     stack: list[int] = []
     asked = _asked(brief, state)
-    present = {t - n for t in tokens if t >= n}
+    present = {t - n for t in tokens if n <= t < 2 * n}
     for p, t in enumerate(tokens):
-        if t >= 0:
+        if t >= 2 * n:  # a part of the box outside the outline
+            x0, y0, x1, y1 = brief.voids[t - 2 * n]
+            weight[p] = (x1 - x0) * (y1 - y0)
+        elif t >= 0:
             room = t % n
             part = 1.0
             if room in present:
@@ -298,13 +319,13 @@ def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
             left[p] = stack.pop()
             weight[p] = weight[left[p]] + weight[right[p]]
         stack.append(p)
-    rooms: list[list[Rect]] = [[] for _ in range(n)]
+    rooms: list[list[Rect]] = [[] for _ in range(n + len(brief.voids))]
     todo: list[tuple[int, Sequence[Rect]]] = [(len(tokens) - 1, brief.floor)]
     while todo:
         p, region = todo.pop()
         t = tokens[p]
         if t >= 0:
-            rooms[t % n].extend(region)
+            rooms[t - n if t >= 2 * n else t % n].extend(region)
             continue
         first, second = cut_region(region, t == VERTICAL, weight[left[p]] / weight[p])
         todo.append((left[p], first))
@@ -418,7 +439,14 @@ def _score(brief: _Brief, rooms: list[list[Rect]]) -> tuple[float, int]:
     energy = shortfall = 0.0
     broken = 0
     shapes: list[list[Rect]] = []
-    for needs, rects in zip(brief.needs, rooms, strict=True):
+    for void, rects in zip(brief.voids, rooms[len(brief.needs):], strict=True):
+        # A void must be the very notch of the outline: elsewhere rooms would cover it.
+        miss = (sum(abs(a - b) for a, b in zip(rects[0], void, strict=True))
+                if len(rects) == 1 else 10.0)
+        if miss > EPS:
+            broken += 1
+            shortfall += miss
+    for needs, rects in zip(brief.needs, rooms, strict=False):
         rects = _merged(rects) if len(rects) > 1 else rects
         shapes.append(rects)
         if not rects:
@@ -527,7 +555,7 @@ def _moved(brief: _Brief, state: _State, rng: random.Random,
             tokens[starts[p]:p] = tokens[right:p] + tokens[starts[p]:right]
     elif kind == "twins":  # two rooms of the same size change places
         n_leaves = [p for p, t in enumerate(tokens) if 0 <= t < n and t not in
-                    {u - n for u in tokens if u >= n}]
+                    {u - n for u in tokens if n <= u < 2 * n}]
         p = rng.choice(n_leaves)
         same = [q for q in n_leaves if q != p and _same_size(brief, tokens[p], tokens[q])]
         if not same:
@@ -535,7 +563,7 @@ def _moved(brief: _Brief, state: _State, rng: random.Random,
         q = rng.choice(same)
         tokens[p], tokens[q] = tokens[q], tokens[p]
     elif kind == "shape":  # a room becomes an L or a rectangle again
-        present = [t for t in tokens if t >= n]
+        present = [t for t in tokens if n <= t < 2 * n]
         if present and (rng.random() < 0.5 or len(present) >= max(1, round(L_SHARE * n))):
             _drop_leaf(tokens, tokens.index(rng.choice(present)))
         else:
@@ -647,4 +675,4 @@ def _from_tiling(brief: _Brief, fit: Tiling) -> _State:
 def _output(brief: _Brief, state: _State) -> dict[str, list[Box]]:
     rooms = _rooms(brief, state)
     return {room_id: [Box(*r) for r in _merged(rects)]
-            for room_id, rects in zip(brief.ids, rooms, strict=True)}
+            for room_id, rects in zip(brief.ids, rooms, strict=False)}

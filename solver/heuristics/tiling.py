@@ -52,8 +52,9 @@ class Block:
 
 @dataclass(frozen=True)
 class Tiling:
-    """A slicing tree (postfix, over leaves: room r, and n + r for the second part of an
-    L room r), the Ls' parts' sizes (leaf -> (width, depth)) and which rooms are Ls."""
+    """A slicing tree (postfix, over leaves: room r, n + r for the second part of an L
+    room r, 2 n + k for void k), the Ls' parts' sizes (leaf -> (width, depth)) and which
+    rooms are Ls."""
 
     tokens: tuple[int, ...]
     parts: dict[int, tuple[float, float]]
@@ -62,12 +63,14 @@ class Tiling:
 
 def tilings(
     targets: Sequence[tuple[float, float]], pieces: Sequence[Rect], *, limit: int,
-    deadline: float, allowed: Sequence[bool] | None = None,
+    deadline: float, allowed: Sequence[bool] | None = None, voids: Sequence[Rect] = (),
 ) -> list[Tiling]:
     """Up to `limit` distinct guillotine tilings of the floor (`pieces`: its rectangles)
-    by rooms at their targets (width, depth), Ls among them, found by `deadline`
-    (monotonic). `allowed[r]`: room r may be an L."""
-    floor = sum((p[2] - p[0]) * (p[3] - p[1]) for p in pieces)
+    by rooms at their targets (width, depth), Ls among them, and by `voids` (parts of
+    the pieces no room takes, as leaves 2 n + k), found by `deadline` (monotonic).
+    `allowed[r]`: room r may be an L."""
+    floor = sum((p[2] - p[0]) * (p[3] - p[1]) for p in pieces) - sum(
+        (v[2] - v[0]) * (v[3] - v[1]) for v in voids)
     over = sum(w * d for w, d in targets) - floor
     found: list[Tiling] = []
     guesses = _guesses(targets, over, allowed)
@@ -79,7 +82,8 @@ def tilings(
         for shaped in guesses:
             if time.monotonic() > deadline or len(found) >= limit or nodes >= NODES:
                 return found
-            search = _Search(targets, pieces, shaped, deadline, limit - len(found), budget)
+            search = _Search(targets, pieces, shaped, deadline, limit - len(found), budget,
+                             voids)
             found += search.run()
             nodes += search.nodes
             if search.nodes > budget:
@@ -114,7 +118,7 @@ class _Search:
 
     def __init__(self, targets: Sequence[tuple[float, float]], pieces: Sequence[Rect],
                  shaped: frozenset[tuple[int, bool]], deadline: float, limit: int,
-                 budget: int) -> None:
+                 budget: int, voids: Sequence[Rect] = ()) -> None:
         self.n = len(targets)
         self.targets = targets
         self.pieces = [(p[2] - p[0], p[3] - p[1]) for p in pieces]
@@ -124,6 +128,7 @@ class _Search:
         self.deadline = deadline
         self.limit = limit
         self.budget = budget
+        self.voids = [(v[2] - v[0], v[3] - v[1]) for v in voids]
         self.seen: set[tuple[object, ...]] = set()
         self.nodes = 0
         self.found: list[Tiling] = []
@@ -142,6 +147,8 @@ class _Search:
                                     (self.n + r,)))
             else:
                 blocks.append(Block(w, d, None, None, (r,)))
+        blocks += [Block(w, d, None, None, (2 * self.n + k,))
+                   for k, (w, d) in enumerate(self.voids)]
         self._grow(blocks, {}, [None] * len(self.pieces))
         return self.found
 
@@ -154,7 +161,10 @@ class _Search:
         if self.nodes % 64 == 0 and time.monotonic() > self.deadline:
             self.nodes = self.budget + 1
             return
-        key = (tuple(sorted((round(b.width, 3), round(b.depth, 3), b.open_width or -1,
+        # Sides in centimetres (None: open), which briefs give exactly.
+        cm = [(None if b.open_width is not None else round(b.width * 100),
+               None if b.open_depth is not None else round(b.depth * 100)) for b in blocks]
+        key = (tuple(sorted((round(b.width * 100), round(b.depth * 100), b.open_width or -1,
                              b.open_depth or -1) for b in blocks)),
                tuple(c is None for c in claimed))
         if key in self.seen:
@@ -185,7 +195,12 @@ class _Search:
         widest = max(p[0] for p in free)
         deepest = max(p[1] for p in free)
         for i, j in itertools.combinations(range(len(blocks)), 2):
+            (wi, di), (wj, dj) = cm[i], cm[j]
             for vertical in (True, False):
+                # Along the cut the two sides must be equal, or one of them open.
+                a, b = (di, dj) if vertical else (wi, wj)
+                if a is not None and b is not None and a != b:
+                    continue
                 joined = self._join(blocks[i], blocks[j], vertical, sides)
                 if joined is None:
                     continue
