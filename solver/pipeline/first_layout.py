@@ -13,6 +13,7 @@ from models import ExtraRectangles, Infeasibility, Layout, Problem, Termination
 from solver.events import Phase
 from solver.geometry import Box, Domain, make_domain
 from solver.heuristics.construct import construct
+from solver.heuristics.guillotine import MAX_ROOMS as GUILLOTINE_MAX_ROOMS
 from solver.heuristics.guillotine import applies as guillotine_applies
 from solver.heuristics.guillotine import guillotine_layout
 from solver.heuristics.level_one import (
@@ -52,6 +53,9 @@ from solver.verify.precheck import find_impossibilities
 
 #: The second level-1 search of a portfolio runs under the seed plus this.
 SECOND_SEED_STEP = 1_000_003
+#: How the report names the guillotine search's layout.
+GUILLOTINE = ("a guillotine search (rooms as the parts of a slicing tree, L and T rooms "
+              "among them)")
 #: Share of the search time left after level 1 the guillotine search takes when it
 #: cannot run alongside.
 INLINE_GUILLOTINE_SHARE = 0.4
@@ -172,14 +176,17 @@ def guillotine_alone(
     problem = task.problem
     found = guillotine_layout(problem, make_domain(problem), seed=problem.options.seed,
                               deadline=deadline, should_stop=should_stop)
+    if found is None and len(problem.rooms) > GUILLOTINE_MAX_ROOMS and should_stop is None:
+        # Beyond that size only an exact tiling seeds it, and there was none: the rest
+        # of the time goes to a second level-1 search, as where it does not apply.
+        return level_one_alone(task)
     if found is None:
         return LevelOneOutcome(None, {}, [], None, False, [])
     extra = [ExtraRectangles(room=room_id, rectangles=len(boxes),
                              reason="the guillotine search made it an L or a T")
              for room_id, boxes in found.rooms.items() if len(boxes) > 1]
     return LevelOneOutcome(as_pieces(found.rooms), {}, extra, None, False, [],
-                           found_by="a guillotine search (rooms as the parts of a slicing "
-                                    "tree, L and T rooms among them)")
+                           found_by=GUILLOTINE)
 
 
 def level_one_alone(task: LevelOneTask) -> LevelOneOutcome:
@@ -195,14 +202,11 @@ def level_one_alone(task: LevelOneTask) -> LevelOneOutcome:
 
 
 def better_start(
-    run: Run, domain: Domain, pieces: list[Piece] | None,
-    second: Future[LevelOneOutcome], deadline: float,
+    run: Run, domain: Domain, pieces: list[Piece] | None, other: LevelOneOutcome | None,
 ) -> list[Piece] | None:
-    """This level 1's pieces, or the second search's when they are better: a layout
-    meeting every constraint before one pricing soft ones, then one meeting the
-    coverage goal (gaps absorbed), then the lower Eq. 12. The second search is waited
-    for until `deadline`, and a little after."""
-    other = awaited(second, run, deadline)
+    """This level 1's pieces, or the second level-1 search's when they are better: a
+    layout meeting every constraint before one pricing soft ones, then one meeting the
+    coverage goal (gaps absorbed), then the lower Eq. 12."""
     if other is None or other.pieces is None or run.stopped():
         return pieces
 

@@ -16,7 +16,6 @@ from models import Infeasibility, Layout, Problem, Termination
 from solver.budget import default_time_limit
 from solver.events import EventSink, Phase, SolveEvent, StopFlag
 from solver.geometry import Domain, make_domain
-from solver.heuristics.guillotine import applies as guillotine_applies
 from solver.heuristics.variety import (
     REDRAW_MIN_SHARE,
     REDRAW_SEED_STEP,
@@ -26,6 +25,7 @@ from solver.heuristics.variety import (
 from solver.openings import connection_demands
 from solver.pipeline.assemble import explained, final_layout, no_layout
 from solver.pipeline.first_layout import (
+    GUILLOTINE,
     awaited,
     better_final,
     better_start,
@@ -98,10 +98,11 @@ def solve_floor(
         proven = failure is not None and failure.report.termination is Termination.INFEASIBLE
         if proven or run.stopped():  # nothing the second search finds can be used
             second.cancel()
-        elif guillotine_applies(problem, domain):
-            candidate = awaited(second, run, level_one_end)
+        elif (other := awaited(second, run, level_one_end)) is not None and (
+                other.found_by == GUILLOTINE):
+            candidate = other
         else:
-            pieces = better_start(run, domain, pieces, second, level_one_end)
+            pieces = better_start(run, domain, pieces, other)
     elif failure is None or failure.report.termination is not Termination.INFEASIBLE:
         candidate = guillotine_here(run, domain)
     if good is not None and problem.options.diverse:

@@ -25,7 +25,7 @@ from solver import solve
 from solver.events import Phase, SolveEvent
 from solver.geometry import Box, make_domain
 from solver.openings import connection_demands
-from solver.pipeline.first_layout import better_start, level_one_alone
+from solver.pipeline.first_layout import awaited, better_start, level_one_alone
 from solver.pipeline.hierarchy import SubDomain, room_boxes
 from solver.pipeline.pool import PARENT_POLL, subdomain_pool
 from solver.pipeline.refine import _disjoint_batches
@@ -113,15 +113,16 @@ def test_a_second_level_one_search_runs_in_the_pool_and_the_better_start_wins(
     events: list[SolveEvent] = []
     run = Run(problem, time.monotonic() + 5, time.monotonic(), events.append, None)
     # A tie keeps this search's layout, and says nothing.
-    kept = better_start(run, domain, outcome.pieces, finished(), time.monotonic())
+    kept = better_start(run, domain, outcome.pieces, awaited(finished(), run, time.monotonic()))
     assert kept is outcome.pieces and not events
     # No layout here: the second search's is taken, and said so.
-    other = better_start(run, domain, None, finished(), time.monotonic())
+    other = better_start(run, domain, None, awaited(finished(), run, time.monotonic()))
     assert other is outcome.pieces
     assert any("second search" in e.detail for e in events)
     # A second search that is still running when level 1 ends is not waited for.
     running: Future[LevelOneOutcome] = Future()
-    assert better_start(run, domain, None, running, time.monotonic() - 1) is None
+    assert awaited(running, run, time.monotonic() - 1) is None
+    assert better_start(run, domain, None, None) is None
 
 
 def test_a_solve_process_runs_its_sub_domains_in_a_pool_and_ends_it() -> None:
