@@ -14,7 +14,7 @@ The score is E_size (Eq. 6) on bounding boxes, the relative area error and a sma
 price per extra rectangle, plus every hard constraint a room
 can break (C_size Eq. 5, C_ratio Eq. 7, C_pos Eq. 8, C_boundary Eq. 9, C_adj Eq. 10, a
 connected shape within its rectangle cap and arms wide enough) priced by its shortfall.
-Only layouts that break none are kept, and the checker has the last word.
+Only layouts that break none are kept, and the caller's checker has the last word.
 
 Why: the MIQP's first layout fixes which room lies next to which, and everything after
 it (the hierarchy, the reshaping) moves walls locally; an annealing over slicing trees
@@ -28,13 +28,12 @@ import math
 import random
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from models import Problem
 from solver.geometry import Box, Domain, edges_named, rectangles_of
 from solver.heuristics.level_one import shape_allowance
 from solver.heuristics.tiling import Tiling, tilings
-from solver.verify.checker import check_layout
 
 #: (x0, y0, x1, y1): the search's own rectangles, plain tuples for speed.
 Rect = tuple[float, float, float, float]
@@ -114,6 +113,12 @@ class _Brief:
     #: The parts of `floor` outside the outline, as leaves n + n + k of the tree that no
     #: room takes: a cut plan of the outline's bounding box, the notches among its parts.
     voids: tuple[Rect, ...] = ()
+    #: The parts of `floor` outside the outline that rooms lose after the cuts (a plan
+    #: cut from a rectangle, then to its outline) ...
+    outside: tuple[Rect, ...] = ()
+    #: ... and leaves after the voids that no room takes, of the sizes the state says,
+    #: which must fall outside the outline (cells of such a plan left outside it).
+    fillers: int = 0
 
 
 @dataclass
@@ -126,8 +131,11 @@ class _State:
     share: list[float]
     #: An L room's first part's share of its area.
     split: list[float]
+    #: The fillers' areas.
+    holes: list[float] = field(default_factory=list)
+
     def copy(self) -> _State:
-        return _State(self.tokens[:], self.share[:], self.split[:])
+        return _State(self.tokens[:], self.share[:], self.split[:], self.holes[:])
 
 
 @dataclass(frozen=True)
@@ -150,10 +158,12 @@ def applies(problem: Problem, domain: Domain) -> bool:
 def guillotine_layout(
     problem: Problem, domain: Domain, *, seed: int, deadline: float | None = None,
     should_stop: Callable[[], bool] | None = None, steps: int | None = None,
+    accept: Callable[[dict[str, list[Box]]], bool] | None = None,
 ) -> GuillotineResult | None:
     """The best layout of `problem` the annealing over slicing trees finds that breaks
-    no hard constraint and passes the checker, or None. Counts steps, not seconds, so a
-    seed gives one result; `deadline` (monotonic) and `should_stop` cut it short."""
+    no hard constraint by its own reckoning and that `accept` (the checker, given by the
+    caller) takes, or None. Counts steps, not seconds, so a seed gives one result;
+    `deadline` (monotonic) and `should_stop` cut it short."""
     if not applies(problem, domain):
         return None
     brief = _brief(problem, domain)
@@ -165,7 +175,9 @@ def guillotine_layout(
     # are sought on the outline's own rectangles, and on its bounding box with the
     # notches as parts no room takes (where rooms cross the lines between the
     # outline's rectangles, as in a plan cut from a rectangle).
-    models = [brief] + ([boxed] if (boxed := _brief(problem, domain, boxed=True)).voids else [])
+    models = [brief]
+    if (boxed := _brief(problem, domain, model="boxed")).voids:
+        models += [boxed, _brief(problem, domain, model="cut")]
     fits: list[tuple[_Brief, Tiling]] = []
     tiling_end = (math.inf if deadline is None
                   else time.monotonic() + TILING_SHARE * max(0.0, deadline - time.monotonic()))
@@ -173,7 +185,8 @@ def guillotine_layout(
         end = time.monotonic() + (tiling_end - time.monotonic()) / (len(models) - k)
         fits += [(model, fit) for fit in tilings(
             [needs.target for needs in model.needs], model.floor, voids=model.voids,
-            limit=TILINGS, deadline=end, allowed=[needs.cap >= 2 for needs in model.needs])]
+            fillers=model.fillers > 0, limit=TILINGS, deadline=end,
+            allowed=[needs.cap >= 2 for needs in model.needs])]
     starts: list[tuple[_Brief, _State | None, float | None]] = [
         (model, _from_tiling(model, fit), SEEDED_HEAT) for model, fit in fits]
     if not starts and n > MAX_ROOMS:
@@ -193,14 +206,16 @@ def guillotine_layout(
             break
     for energy, model, state in sorted(kept, key=lambda k: k[0]):
         rooms = _output(model, state)
-        if check_layout(problem, rooms).valid:
+        if accept is None or accept(rooms):
             return GuillotineResult(rooms, energy, done)
     return None
 
 
-def _brief(problem: Problem, domain: Domain, *, boxed: bool = False) -> _Brief:
-    """The problem in the search's numbers: the floor as the outline's rectangles, or
-    (`boxed`) as its bounding box with the parts outside the outline as voids."""
+def _brief(problem: Problem, domain: Domain, *, model: str = "pieces") -> _Brief:
+    """The problem in the search's numbers. The floor as the outline's rectangles
+    ("pieces"); as its bounding box with the parts outside the outline as voids
+    ("boxed"); or as its bounding box cut, the rooms losing what lies outside the
+    outline, with one filler ("cut")."""
     index = {r.id: k for k, r in enumerate(problem.rooms)}
     needs = []
     for room in problem.rooms:
@@ -215,14 +230,18 @@ def _brief(problem: Problem, domain: Domain, *, boxed: bool = False) -> _Brief:
                             shape_allowance(room), min(MIN_ARM, min(lo) or MIN_ARM)))
     adjacency = tuple((index[a.a], tuple(index[b] for b in a.partners if b in index),
                        a.min_contact) for a in problem.adjacency if a.a in index)
-    if not boxed:
+    if model == "pieces":
         floor = tuple((b.x0, b.y0, b.x1, b.y1) for b in rectangles_of(domain.free))
         return _Brief(tuple(index), tuple(needs), adjacency, floor, float(domain.free.area))
     box = domain.bbox
-    voids = tuple((b.x0, b.y0, b.x1, b.y1)
-                  for b in rectangles_of(box.to_polygon().difference(domain.free)))
-    return _Brief(tuple(index), tuple(needs), adjacency, ((box.x0, box.y0, box.x1, box.y1),),
-                  float(domain.free.area), voids)
+    outside = tuple((b.x0, b.y0, b.x1, b.y1)
+                    for b in rectangles_of(box.to_polygon().difference(domain.free)))
+    whole = ((box.x0, box.y0, box.x1, box.y1),)
+    if model == "boxed":
+        return _Brief(tuple(index), tuple(needs), adjacency, whole, float(domain.free.area),
+                      voids=outside)
+    return _Brief(tuple(index), tuple(needs), adjacency, whole, box.area, outside=outside,
+                  fillers=1)
 
 
 # --- the slicing tree -------------------------------------------------------------
@@ -286,7 +305,7 @@ def _asked(brief: _Brief, state: _State) -> list[float]:
     asked = [needs.area * share for needs, share in zip(brief.needs, state.share, strict=True)]
     shaped = [t - n for t in state.tokens if n <= t < 2 * n]
     if shaped:
-        rest = brief.area - sum(asked) + sum(asked[r] for r in shaped)
+        rest = brief.area - sum(state.holes) - sum(asked) + sum(asked[r] for r in shaped)
         wanted = sum(asked[r] for r in shaped)
         if rest > L_LEAST * wanted:
             for r in shaped:
@@ -306,8 +325,12 @@ def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
     present = {t - n for t in tokens if n <= t < 2 * n}
     for p, t in enumerate(tokens):
         if t >= 2 * n:  # a part of the box outside the outline
-            x0, y0, x1, y1 = brief.voids[t - 2 * n]
-            weight[p] = (x1 - x0) * (y1 - y0)
+            k = t - 2 * n
+            if k < len(brief.voids):
+                x0, y0, x1, y1 = brief.voids[k]
+                weight[p] = (x1 - x0) * (y1 - y0)
+            else:
+                weight[p] = state.holes[k - len(brief.voids)]
         elif t >= 0:
             room = t % n
             part = 1.0
@@ -319,18 +342,44 @@ def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
             left[p] = stack.pop()
             weight[p] = weight[left[p]] + weight[right[p]]
         stack.append(p)
-    rooms: list[list[Rect]] = [[] for _ in range(n + len(brief.voids))]
+    rooms: list[list[Rect]] = [[] for _ in range(n + len(brief.voids) + brief.fillers)]
     todo: list[tuple[int, Sequence[Rect]]] = [(len(tokens) - 1, brief.floor)]
     while todo:
         p, region = todo.pop()
         t = tokens[p]
+        if t >= 2 * n:
+            rooms[t - n].extend(region)
+            continue
         if t >= 0:
-            rooms[t - n if t >= 2 * n else t % n].extend(region)
+            rooms[t % n].extend(_clipped(region, brief.outside) if brief.outside else region)
             continue
         first, second = cut_region(region, t == VERTICAL, weight[left[p]] / weight[p])
         todo.append((left[p], first))
         todo.append((right[p], second))
     return rooms
+
+
+def _clipped(rects: Sequence[Rect], outside: Sequence[Rect]) -> list[Rect]:
+    """`rects` less the `outside` rectangles (each cut into at most four pieces)."""
+    out = list(rects)
+    for ox0, oy0, ox1, oy1 in outside:
+        kept: list[Rect] = []
+        for r in out:
+            x0, y0, x1, y1 = r
+            if ox0 >= x1 - EPS or ox1 <= x0 + EPS or oy0 >= y1 - EPS or oy1 <= y0 + EPS:
+                kept.append(r)
+                continue
+            if oy0 > y0 + EPS:
+                kept.append((x0, y0, x1, oy0))
+            if oy1 < y1 - EPS:
+                kept.append((x0, oy1, x1, y1))
+            low, high = max(y0, oy0), min(y1, oy1)
+            if ox0 > x0 + EPS:
+                kept.append((x0, low, ox0, high))
+            if ox1 < x1 - EPS:
+                kept.append((ox1, low, x1, high))
+        out = kept
+    return out
 
 
 # --- the score ----------------------------------------------------------------------
@@ -439,13 +488,20 @@ def _score(brief: _Brief, rooms: list[list[Rect]]) -> tuple[float, int]:
     energy = shortfall = 0.0
     broken = 0
     shapes: list[list[Rect]] = []
-    for void, rects in zip(brief.voids, rooms[len(brief.needs):], strict=True):
+    n = len(brief.needs)
+    for void, rects in zip(brief.voids, rooms[n:n + len(brief.voids)], strict=True):
         # A void must be the very notch of the outline: elsewhere rooms would cover it.
         miss = (sum(abs(a - b) for a, b in zip(rects[0], void, strict=True))
                 if len(rects) == 1 else 10.0)
         if miss > EPS:
             broken += 1
             shortfall += miss
+    for rects in rooms[n + len(brief.voids):]:
+        # A filler must lie outside the outline: inside it, it is floor no room has.
+        inside = sum((r[2] - r[0]) * (r[3] - r[1]) for r in _clipped(rects, brief.outside))
+        if inside > EPS:
+            broken += 1
+            shortfall += inside
     for needs, rects in zip(brief.needs, rooms, strict=False):
         rects = _merged(rects) if len(rects) > 1 else rects
         shapes.append(rects)
@@ -664,7 +720,9 @@ def _anneal(
 def _from_tiling(brief: _Brief, fit: Tiling) -> _State:
     """The tree of an exact tiling, each L room asking the area its parts have."""
     n = len(brief.ids)
-    state = _State(list(fit.tokens), [1.0] * n, [0.5] * n)
+    holes = [fit.parts[leaf][0] * fit.parts[leaf][1] for leaf in sorted(fit.parts)
+             if leaf >= 2 * n]
+    state = _State(list(fit.tokens), [1.0] * n, [0.5] * n, holes)
     for r in fit.shaped:
         (wa, da), (wb, db) = fit.parts[r], fit.parts[n + r]
         state.share[r] = (wa * da + wb * db) / brief.needs[r].area

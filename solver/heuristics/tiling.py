@@ -53,8 +53,8 @@ class Block:
 @dataclass(frozen=True)
 class Tiling:
     """A slicing tree (postfix, over leaves: room r, n + r for the second part of an L
-    room r, 2 n + k for void k), the Ls' parts' sizes (leaf -> (width, depth)) and which
-    rooms are Ls."""
+    room r, 2 n + k for void k, then the fillers), the sizes of the Ls' parts and the
+    fillers (leaf -> (width, depth)) and which rooms are Ls."""
 
     tokens: tuple[int, ...]
     parts: dict[int, tuple[float, float]]
@@ -64,43 +64,56 @@ class Tiling:
 def tilings(
     targets: Sequence[tuple[float, float]], pieces: Sequence[Rect], *, limit: int,
     deadline: float, allowed: Sequence[bool] | None = None, voids: Sequence[Rect] = (),
+    fillers: bool = False,
 ) -> list[Tiling]:
     """Up to `limit` distinct guillotine tilings of the floor (`pieces`: its rectangles)
     by rooms at their targets (width, depth), Ls among them, and by `voids` (parts of
     the pieces no room takes, as leaves 2 n + k), found by `deadline` (monotonic).
-    `allowed[r]`: room r may be an L."""
+    `allowed[r]`: room r may be an L. With `fillers`, a guess may add one part of open
+    size that no room takes (leaf 2 n + len(voids)): a cell of a plan cut from a
+    rectangle that fell outside its outline."""
     floor = sum((p[2] - p[0]) * (p[3] - p[1]) for p in pieces) - sum(
         (v[2] - v[0]) * (v[3] - v[1]) for v in voids)
     over = sum(w * d for w, d in targets) - floor
     found: list[Tiling] = []
-    guesses = _guesses(targets, over, allowed)
+    guesses = [(shaped, 0) for shaped in _guesses(targets, over, allowed)]
+    if fillers:  # a filler takes floor, so the Ls' notches may add up to more
+        with_filler = [(shaped, 1) for shaped in _guesses(targets, None, allowed)]
+        guesses = [g for pair in itertools.zip_longest(guesses, with_filler) for g in pair
+                   if g is not None]
     nodes, budget = 0, FIRST_BUDGET
     # Each guess gets a small budget, then all of them a larger one: the right guess
     # is seldom the first, and a wrong one can search long.
     while guesses and nodes < NODES and len(found) < limit:
         unfinished = []
-        for shaped in guesses:
+        for shaped, filler in guesses:
             if time.monotonic() > deadline or len(found) >= limit or nodes >= NODES:
                 return found
             search = _Search(targets, pieces, shaped, deadline, limit - len(found), budget,
-                             voids)
+                             voids, filler)
             found += search.run()
             nodes += search.nodes
             if search.nodes > budget:
-                unfinished.append(shaped)
+                unfinished.append((shaped, filler))
         guesses, budget = unfinished, budget * 4
     return found
 
 
-def _guesses(targets: Sequence[tuple[float, float]], over: float,
+def _guesses(targets: Sequence[tuple[float, float]], over: float | None,
              allowed: Sequence[bool] | None) -> list[frozenset[tuple[int, bool]]]:
     """Which rooms may be the Ls, most likely first, each with the way its bar runs
     (east-west, or north-south when turned): none when the targets ask for the floor
-    exactly; else one room whose box can hold the surplus as its notch, then two."""
-    if abs(over) <= TOL * 10:
+    exactly; else one room whose box can hold the surplus as its notch, then two.
+    `over` None: the surplus is not known (a filler takes some floor)."""
+    if over is None:
+        over = 0.0
+        first = [frozenset[tuple[int, bool]]()]
+    elif abs(over) <= TOL * 10:
         return [frozenset()]
-    if over < 0:
+    elif over < 0:
         return []
+    else:
+        first = []
     n = len(targets)
     ok = [allowed is None or allowed[r] for r in range(n)]
     area = [w * d for w, d in targets]
@@ -110,7 +123,7 @@ def _guesses(targets: Sequence[tuple[float, float]], over: float,
     pairs = [frozenset({(a, ta), (b, tb)}) for a, b in itertools.combinations(order, 2)
              for ta in (False, True) for tb in (False, True)
              if ok[a] and ok[b] and over < MAX_NOTCH * (area[a] + area[b])]
-    return singles + pairs
+    return first + singles + pairs
 
 
 class _Search:
@@ -118,7 +131,7 @@ class _Search:
 
     def __init__(self, targets: Sequence[tuple[float, float]], pieces: Sequence[Rect],
                  shaped: frozenset[tuple[int, bool]], deadline: float, limit: int,
-                 budget: int, voids: Sequence[Rect] = ()) -> None:
+                 budget: int, voids: Sequence[Rect] = (), fillers: int = 0) -> None:
         self.n = len(targets)
         self.targets = targets
         self.pieces = [(p[2] - p[0], p[3] - p[1]) for p in pieces]
@@ -129,6 +142,7 @@ class _Search:
         self.limit = limit
         self.budget = budget
         self.voids = [(v[2] - v[0], v[3] - v[1]) for v in voids]
+        self.fillers = fillers
         self.seen: set[tuple[object, ...]] = set()
         self.nodes = 0
         self.found: list[Tiling] = []
@@ -149,6 +163,9 @@ class _Search:
                 blocks.append(Block(w, d, None, None, (r,)))
         blocks += [Block(w, d, None, None, (2 * self.n + k,))
                    for k, (w, d) in enumerate(self.voids)]
+        for k in range(self.fillers):
+            leaf = 2 * self.n + len(self.voids) + k
+            blocks.append(Block(0.0, 0.0, leaf, leaf + self.n * 10, (leaf,)))
         self._grow(blocks, {}, [None] * len(self.pieces))
         return self.found
 
@@ -269,6 +286,8 @@ class _Search:
         """Whether an L part's side may be `value`: at least `MIN_PART`, within the
         room's bounding box."""
         leaf, axis = side % (self.n * 10), side // (self.n * 10)
+        if leaf >= 2 * self.n:  # a filler: any size
+            return value >= MIN_PART - TOL
         room = leaf % self.n
         return MIN_PART - TOL <= value <= self.targets[room][axis] + TOL
 
@@ -290,6 +309,12 @@ class _Search:
             if not ((abs(wa + wb - tw) <= TOL and abs(max(da, db) - td) <= TOL)
                     or (abs(da + db - td) <= TOL and abs(max(wa, wb) - tw) <= TOL)):
                 return
+        for k in range(self.fillers):
+            leaf = 2 * n + len(self.voids) + k
+            w, d = sides.get(leaf), sides.get(leaf + n * 10)
+            if w is None or d is None:
+                return
+            parts[leaf] = (w, d)
         trees = [c for c in claimed if c is not None]
         tokens = _floor_tree(self.piece_rects, trees)
         if tokens is not None:

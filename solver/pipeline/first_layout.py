@@ -175,7 +175,8 @@ def guillotine_alone(
     deadline = time.monotonic() + (task.deadline - time.time())
     problem = task.problem
     found = guillotine_layout(problem, make_domain(problem), seed=problem.options.seed,
-                              deadline=deadline, should_stop=should_stop)
+                              deadline=deadline, should_stop=should_stop,
+                              accept=lambda rooms: check_layout(problem, rooms).valid)
     if found is None and len(problem.rooms) > GUILLOTINE_MAX_ROOMS and should_stop is None:
         # Beyond that size only an exact tiling seeds it, and there was none: the rest
         # of the time goes to a second level-1 search, as where it does not apply.

@@ -40,7 +40,8 @@ def l_living_brief() -> Problem:
 
 def test_an_l_shaped_living_room_around_a_bedroom_at_its_target() -> None:
     problem = l_living_brief()
-    found = guillotine_layout(problem, make_domain(problem), seed=1, steps=3000)
+    found = guillotine_layout(problem, make_domain(problem), seed=1, steps=3000,
+                              accept=lambda rooms: check_layout(problem, rooms).valid)
     assert found is not None
     living, bed = found.rooms["living"], found.rooms["bed"]
     assert len(living) == 2  # an L
@@ -58,11 +59,13 @@ def test_a_planted_brief_gets_a_valid_covering_layout_and_a_seed_gives_one(seed:
     problem, _ = draw(seed, rooms=7)
     problem = connection_demands(problem)
     domain = make_domain(problem)
-    found = guillotine_layout(problem, domain, seed=3, steps=8000)
+    found = guillotine_layout(problem, domain, seed=3, steps=8000,
+                              accept=lambda rooms: check_layout(problem, rooms).valid)
     assert found is not None
     assert check_layout(problem, found.rooms).valid
     assert covers(domain, found.rooms)
-    again = guillotine_layout(problem, domain, seed=3, steps=8000)
+    again = guillotine_layout(problem, domain, seed=3, steps=8000,
+                              accept=lambda rooms: check_layout(problem, rooms).valid)
     assert again is not None and again.rooms == found.rooms
 
 

@@ -267,9 +267,7 @@ def test_a_part_out_of_time_is_retried_with_its_share_before_anything_is_relaxed
         None if deadline - time.monotonic() < 0.01 else slice_in_time(run, domain, deadline)))
     # The guillotine search would lay such a part out where level 1 found nothing; this
     # test is of the retry, so it is left out.
-    import solver.pipeline.floor as floor_module
     monkeypatch.setattr(solve_module, "guillotine_applies", lambda problem, domain: False)
-    monkeypatch.setattr(floor_module, "guillotine_applies", lambda problem, domain: False)
     problem = Problem.model_validate({
         "boundary": [[0, 0], [34, 0], [34, 19], [0, 19]], "rooms": _offices(45, seed=2),
         "options": {"time_limit": 5, "seed": 0}})
