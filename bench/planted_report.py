@@ -35,8 +35,9 @@ from solver.geometry import make_domain
 from solver.verify.checker import COVERAGE_GOAL
 
 DEFAULT_BRIEFS = Path(__file__).resolve().parent.parent.parent / "shared" / "bench" / "planted"
-#: Columns of each brief's row: the plan, then the solvers.
-COLUMNS = ("plan", "ours", "flat")
+#: Columns of each brief's row: the plan, then the solvers ("ours-parallel": ours with
+#: a pool of one process per core, as the service and `floorplan solve` run it).
+COLUMNS = ("plan", "ours", "ours-parallel", "flat")
 #: A layout's area error counts as close to the plan's up to this multiple of it.
 WITHIN = 2.0
 
@@ -168,11 +169,12 @@ def markdown(results: dict[str, Any]) -> str:
         lines += _summary_rows(summarise([r for r in rows if r.get("source") == source]),
                                f"{label}: ")
     keys = ("valid", "coverage", "area_error", "objective")
-    lines += ["", "Per brief: plan / ours / flat.", "",
+    shown = [c for c in COLUMNS if any(r.get(c) for r in rows)]
+    lines += ["", f"Per brief: {' / '.join(shown)}.", "",
               "| brief | rooms | valid | coverage % | area error | Eq. 12 |",
               "|---|---|---|---|---|---|"]
     for r in rows:
-        cells = [" / ".join(_cell(r.get(c), k) for c in COLUMNS) for k in keys]
+        cells = [" / ".join(_cell(r.get(c), k) for c in shown) for k in keys]
         lines.append(f"| {r['name']} | {r['rooms']} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -190,7 +192,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--briefs", type=Path, nargs="*", default=[DEFAULT_BRIEFS],
                    help="directories of NAME.json + NAME.truth.json (default: %(default)s)")
     p.add_argument("--seeds", default="", help="briefs to draw too, e.g. 2001-2012")
-    p.add_argument("--solvers", default="ours,flat", help="comma-separated: ours, flat")
+    p.add_argument("--solvers", default="ours,flat",
+                   help="comma-separated: ours, ours-parallel, flat")
     p.add_argument("--flat-limit", type=float, default=10.0,
                    help="cap in seconds on the flat model's limit (default: %(default)s)")
     p.add_argument("--out", type=Path, default=Path("bench/results/planted"))
@@ -199,7 +202,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     args = p.parse_args(argv)
     args.solvers = [x.strip() for x in args.solvers.split(",") if x.strip()]
     if not set(args.solvers) <= set(COLUMNS[1:]):
-        p.error("--solvers: choose from ours, flat")
+        p.error("--solvers: choose from ours, ours-parallel, flat")
     return args
 
 
