@@ -159,11 +159,13 @@ def guillotine_layout(
     problem: Problem, domain: Domain, *, seed: int, deadline: float | None = None,
     should_stop: Callable[[], bool] | None = None, steps: int | None = None,
     accept: Callable[[dict[str, list[Box]]], bool] | None = None,
+    tiled: bool = True, untiled: bool = True,
 ) -> GuillotineResult | None:
     """The best layout of `problem` the annealing over slicing trees finds that breaks
     no hard constraint by its own reckoning and that `accept` (the checker, given by the
     caller) takes, or None. Counts steps, not seconds, so a seed gives one result;
-    `deadline` (monotonic) and `should_stop` cut it short."""
+    `deadline` (monotonic) and `should_stop` cut it short. Without `tiled` no exact
+    tiling is sought; without `untiled` the annealing never starts from random trees."""
     if not applies(problem, domain):
         return None
     brief = _brief(problem, domain)
@@ -175,21 +177,22 @@ def guillotine_layout(
     # are sought on the outline's own rectangles, and on its bounding box with the
     # notches as parts no room takes (where rooms cross the lines between the
     # outline's rectangles, as in a plan cut from a rectangle).
-    models = [brief]
-    if (boxed := _brief(problem, domain, model="boxed")).voids:
+    models = [brief] if tiled else []
+    if tiled and (boxed := _brief(problem, domain, model="boxed")).voids:
         models += [boxed, _brief(problem, domain, model="cut")]
     fits: list[tuple[_Brief, Tiling]] = []
     tiling_end = (math.inf if deadline is None
                   else time.monotonic() + TILING_SHARE * max(0.0, deadline - time.monotonic()))
     for k, model in enumerate(models):
-        end = time.monotonic() + (tiling_end - time.monotonic()) / (len(models) - k)
+        end = min(tiling_end,
+                  time.monotonic() + (tiling_end - time.monotonic()) / (len(models) - k))
         fits += [(model, fit) for fit in tilings(
             [needs.target for needs in model.needs], model.floor, voids=model.voids,
             fillers=model.fillers > 0, limit=TILINGS, deadline=end,
             allowed=[needs.cap >= 2 for needs in model.needs])]
     starts: list[tuple[_Brief, _State | None, float | None]] = [
         (model, _from_tiling(model, fit), SEEDED_HEAT) for model, fit in fits]
-    if not starts and n > MAX_ROOMS:
+    if not starts and (n > MAX_ROOMS or not untiled):
         return None  # from a random tree, the annealing seldom ends valid at this size
     starts += [(brief, None, None)] * (RESTARTS if not starts else 0)
     kept: list[tuple[float, _Brief, _State]] = []

@@ -59,6 +59,9 @@ GUILLOTINE = ("a guillotine search (rooms as the parts of a slicing tree, L and 
 #: Share of the search time left after level 1 the guillotine search takes when it
 #: cannot run alongside.
 INLINE_GUILLOTINE_SHARE = 0.4
+#: Share of the solve the exact tilings may take before level 1 when the guillotine
+#: search cannot run alongside.
+EARLY_TILING_SHARE = 0.3
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
 #: After this many size windows proved infeasible, `WINGS_SHARE` of the first layout's
@@ -122,16 +125,32 @@ def second_start(
         return None
 
 
+def tilings_first(run: Run, domain: Domain) -> LevelOneOutcome | None:
+    """The guillotine search from exact tilings only, in this process before level 1,
+    when it applies and cannot run alongside: a tiling, when there is one, is mostly
+    found within a fraction of a second, and its layout is the plan's quality; the
+    search gets at most `EARLY_TILING_SHARE` of the solve."""
+    if not guillotine_applies(run.problem, domain) or run.stopped():
+        return None
+    seconds = EARLY_TILING_SHARE * max(0.0, run.deadline - time.monotonic())
+    return guillotine_alone(_second_task(run, seconds), should_stop=run.should_stop,
+                            untiled=False)
+
+
 def guillotine_here(run: Run, domain: Domain) -> LevelOneOutcome | None:
-    """The guillotine search in this process, when it applies and did not run alongside:
-    in `INLINE_GUILLOTINE_SHARE` of the search time left after level 1, taken from the
-    refinement levels."""
+    """The guillotine search from random trees in this process, after level 1, when it
+    applies, did not run alongside and found no tiling first: in
+    `INLINE_GUILLOTINE_SHARE` of the search time left, taken from the refinement."""
     if not guillotine_applies(run.problem, domain) or run.stopped():
         return None
     seconds = INLINE_GUILLOTINE_SHARE * max(0.0, run.deadline - time.monotonic())
+    return guillotine_alone(_second_task(run, seconds), should_stop=run.should_stop,
+                            tiled=False)
+
+
+def _second_task(run: Run, seconds: float) -> LevelOneTask:
     seed = (run.problem.options.seed + SECOND_SEED_STEP) % 2**31
-    task = LevelOneTask(run.problem.with_options(seed=seed), deadline=time.time() + seconds)
-    return guillotine_alone(task, should_stop=run.should_stop)
+    return LevelOneTask(run.problem.with_options(seed=seed), deadline=time.time() + seconds)
 
 
 def awaited(second: Future[LevelOneOutcome], run: Run, deadline: float) -> LevelOneOutcome | None:
@@ -167,7 +186,8 @@ def better_final(run: Run, domain: Domain, pieces: list[Piece],
 
 
 def guillotine_alone(
-    task: LevelOneTask, should_stop: Callable[[], bool] | None = None,
+    task: LevelOneTask, should_stop: Callable[[], bool] | None = None, *,
+    tiled: bool = True, untiled: bool = True,
 ) -> LevelOneOutcome:
     """The guillotine search (solver/heuristics/guillotine.py) on `task.problem` in
     whatever process the executor uses: a whole layout, its L and T rooms chosen by the
@@ -176,7 +196,8 @@ def guillotine_alone(
     problem = task.problem
     found = guillotine_layout(problem, make_domain(problem), seed=problem.options.seed,
                               deadline=deadline, should_stop=should_stop,
-                              accept=lambda rooms: check_layout(problem, rooms).valid)
+                              accept=lambda rooms: check_layout(problem, rooms).valid,
+                              tiled=tiled, untiled=untiled)
     if found is None and len(problem.rooms) > GUILLOTINE_MAX_ROOMS and should_stop is None:
         # Beyond that size only an exact tiling seeds it, and there was none: the rest
         # of the time goes to a second level-1 search, as where it does not apply.

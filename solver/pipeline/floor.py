@@ -32,6 +32,7 @@ from solver.pipeline.first_layout import (
     first_level,
     guillotine_here,
     second_start,
+    tilings_first,
 )
 from solver.pipeline.hierarchy import Piece, absorb_gaps, absorbed, as_pieces, room_boxes
 from solver.pipeline.refine import refine, reshaped
@@ -90,10 +91,12 @@ def solve_floor(
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
     level_one_end = started + (run.deadline - started) * LEVEL_ONE_SHARE
     second = second_start(problem, subdomains, level_one_end)
-    pieces, failure = first_level(run, domain, level_one_end)
     # The guillotine search's layout (solver/heuristics/guillotine.py), which competes
     # with the finished one.
     candidate: LevelOneOutcome | None = None
+    if second is None:
+        candidate = tilings_first(run, domain)
+    pieces, failure = first_level(run, domain, level_one_end)
     if second is not None:
         proven = failure is not None and failure.report.termination is Termination.INFEASIBLE
         if proven or run.stopped():  # nothing the second search finds can be used
@@ -103,7 +106,8 @@ def solve_floor(
             candidate = other
         else:
             pieces = better_start(run, domain, pieces, other)
-    elif failure is None or failure.report.termination is not Termination.INFEASIBLE:
+    elif (candidate is None or candidate.pieces is None) and (
+            failure is None or failure.report.termination is not Termination.INFEASIBLE):
         candidate = guillotine_here(run, domain)
     if good is not None and problem.options.diverse:
         run, pieces, failure = _redrawn(run, domain, pieces, failure, good, level_one_end)
