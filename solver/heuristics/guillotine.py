@@ -11,10 +11,15 @@ which rooms have a second leaf, how such a room shares its area between its two 
 and how much area each room asks for.
 
 The score is E_size (Eq. 6) on bounding boxes, the relative area error and a small
-price per extra rectangle, plus every hard constraint a room
-can break (C_size Eq. 5, C_ratio Eq. 7, C_pos Eq. 8, C_boundary Eq. 9, C_adj Eq. 10, a
-connected shape within its rectangle cap and arms wide enough) priced by its shortfall.
-Only layouts that break none are kept, and the caller's checker has the last word.
+price per extra rectangle, plus every hard constraint a room can break (C_size Eq. 5,
+C_ratio Eq. 7, C_pos Eq. 8, C_boundary Eq. 9, C_adj Eq. 10, a connected shape within
+its rectangle cap and arms wide enough) priced by its shortfall. Only layouts that break
+none are kept, and the caller's checker has the last word.
+
+The annealing starts, cool, from the exact tilings of the floor by the targets where
+there are any (solver/heuristics/tiling.py), on three models of the floor; from random
+trees it reaches about three times the plan's score at best (bench/NOTES.md), so it
+starts from those only for small floors.
 
 Why: the MIQP's first layout fixes which room lies next to which, and everything after
 it (the hierarchy, the reshaping) moves walls locally; an annealing over slicing trees
