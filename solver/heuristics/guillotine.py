@@ -33,11 +33,12 @@ import math
 import random
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from models import Problem
 from solver.geometry import Box, Domain, edges_named, rectangles_of
 from solver.heuristics.level_one import shape_allowance
+from solver.heuristics.tiling import TOL as SIDE_TOL
 from solver.heuristics.tiling import Tiling, tilings
 
 #: (x0, y0, x1, y1): the search's own rectangles, plain tuples for speed.
@@ -179,12 +180,10 @@ def guillotine_layout(
     rng = random.Random(seed)
     # Exact tilings by the targets first, if there are any: the annealing then starts
     # from each, cool, to meet the doors, walls and guide points keeping the fit. They
-    # are sought on the outline's own rectangles, and on its bounding box with the
-    # notches as parts no room takes (where rooms cross the lines between the
-    # outline's rectangles, as in a plan cut from a rectangle).
-    models = [brief] if tiled else []
-    if tiled and (boxed := _brief(problem, domain, model="boxed")).voids:
-        models += [boxed, _brief(problem, domain, model="cut")]
+    # are sought on the outline's own rectangles, and on its bounding box (where rooms
+    # cross the lines between the outline's rectangles, as in a plan cut from a
+    # rectangle).
+    models = [brief, *_boxed_models(brief, domain)] if tiled else []
     fits: list[tuple[_Brief, Tiling]] = []
     tiling_end = (math.inf if deadline is None
                   else time.monotonic() + TILING_SHARE * max(0.0, deadline - time.monotonic()))
@@ -219,11 +218,8 @@ def guillotine_layout(
     return None
 
 
-def _brief(problem: Problem, domain: Domain, *, model: str = "pieces") -> _Brief:
-    """The problem in the search's numbers. The floor as the outline's rectangles
-    ("pieces"); as its bounding box with the parts outside the outline as voids
-    ("boxed"); or as its bounding box cut, the rooms losing what lies outside the
-    outline, with one filler ("cut")."""
+def _brief(problem: Problem, domain: Domain) -> _Brief:
+    """The problem in the search's numbers, the floor as the outline's rectangles."""
     index = {r.id: k for k, r in enumerate(problem.rooms)}
     needs = []
     for room in problem.rooms:
@@ -238,18 +234,23 @@ def _brief(problem: Problem, domain: Domain, *, model: str = "pieces") -> _Brief
                             shape_allowance(room), min(MIN_ARM, min(lo) or MIN_ARM)))
     adjacency = tuple((index[a.a], tuple(index[b] for b in a.partners if b in index),
                        a.min_contact) for a in problem.adjacency if a.a in index)
-    if model == "pieces":
-        floor = tuple((b.x0, b.y0, b.x1, b.y1) for b in rectangles_of(domain.free))
-        return _Brief(tuple(index), tuple(needs), adjacency, floor, float(domain.free.area))
+    floor = tuple((b.x0, b.y0, b.x1, b.y1) for b in rectangles_of(domain.free))
+    return _Brief(tuple(index), tuple(needs), adjacency, floor, float(domain.free.area))
+
+
+def _boxed_models(brief: _Brief, domain: Domain) -> list[_Brief]:
+    """For an outline that is not a rectangle, `brief` with the floor as its bounding
+    box: the parts outside the outline as voids, and the box cut as a plan drawn on a
+    rectangle and then cut to its outline (the rooms lose what lies outside it, one
+    filler may stand for a cell left wholly outside). None for a rectangle's."""
     box = domain.bbox
     outside = tuple((b.x0, b.y0, b.x1, b.y1)
                     for b in rectangles_of(box.to_polygon().difference(domain.free)))
+    if not outside:
+        return []
     whole = ((box.x0, box.y0, box.x1, box.y1),)
-    if model == "boxed":
-        return _Brief(tuple(index), tuple(needs), adjacency, whole, float(domain.free.area),
-                      voids=outside)
-    return _Brief(tuple(index), tuple(needs), adjacency, whole, box.area, outside=outside,
-                  fillers=1)
+    return [replace(brief, floor=whole, voids=outside),
+            replace(brief, floor=whole, area=box.area, outside=outside, fillers=1)]
 
 
 # --- the slicing tree -------------------------------------------------------------
@@ -258,7 +259,7 @@ def _brief(problem: Problem, domain: Domain, *, model: str = "pieces") -> _Brief
 def _initial(brief: _Brief, rng: random.Random) -> _State:
     """A random balanced tree over the rooms, each a rectangle asking its target area."""
     n = len(brief.ids)
-    order = list(range(n)) + [2 * n + k for k in range(len(brief.voids))]
+    order = list(range(n))
     rng.shuffle(order)
 
     def build(rooms: list[int]) -> list[int]:
@@ -304,14 +305,13 @@ def cut_region(
     return first, second
 
 
-def _asked(brief: _Brief, state: _State) -> list[float]:
+def _asked(brief: _Brief, state: _State, shaped: Sequence[int]) -> list[float]:
     """The area each room asks of the tree. A rectangle asks its target's area (times
     its share); the L and T rooms share what the rectangles leave, as in a real plan,
     where an L's area falls short of its bounding box by whatever its neighbours need.
-    When the rectangles leave too little for that, every room is scaled alike."""
-    n = len(brief.ids)
+    When the rectangles leave too little for that, every room is scaled alike.
+    `shaped`: the rooms that are Ls or Ts."""
     asked = [needs.area * share for needs, share in zip(brief.needs, state.share, strict=True)]
-    shaped = [t - n for t in state.tokens if n <= t < 2 * n]
     if shaped:
         rest = brief.area - sum(state.holes) - sum(asked) + sum(asked[r] for r in shaped)
         wanted = sum(asked[r] for r in shaped)
@@ -329,8 +329,9 @@ def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
     left = [0] * len(tokens)
     right = [0] * len(tokens)
     stack: list[int] = []
-    asked = _asked(brief, state)
-    present = {t - n for t in tokens if n <= t < 2 * n}
+    shaped = [t - n for t in tokens if n <= t < 2 * n]
+    asked = _asked(brief, state, shaped)
+    present = set(shaped)
     for p, t in enumerate(tokens):
         if t >= 2 * n:  # a part of the box outside the outline
             k = t - 2 * n
@@ -446,8 +447,10 @@ def _connected(rects: list[Rect], wall: float) -> bool:
     return len(reached) == len(rects)
 
 
-def contact(a: list[Rect], b: list[Rect]) -> float:
-    """The longest straight wall rooms a and b share (as the checker measures C_adj)."""
+def _contact(a: list[Rect], b: list[Rect]) -> float:
+    """The longest straight wall rooms a and b share, as `geometry.contact_length`
+    measures C_adj for the checker, on plain tuples: it runs for every adjacency at
+    every step, where shapely would cost more than the rest of the step."""
     if len(a) == 1 and len(b) == 1:
         wall = _walls(a[0], b[0])
         return 0.0 if wall is None else wall[3] - wall[2]
@@ -551,9 +554,9 @@ def _score(brief: _Brief, rooms: list[list[Rect]]) -> tuple[float, int]:
             shortfall += miss
     for a, partners, wanted in brief.adjacency:
         if len(partners) == 1:
-            best = contact(shapes[a], shapes[partners[0]])
+            best = _contact(shapes[a], shapes[partners[0]])
         else:
-            best = max((contact(shapes[a], shapes[b]) for b in partners), default=0.0)
+            best = max((_contact(shapes[a], shapes[b]) for b in partners), default=0.0)
         if best < wanted - EPS or best <= EPS:
             broken += 1
             shortfall += wanted - best + (0.5 if best <= EPS else 0.0)
@@ -574,7 +577,7 @@ def _valid_postfix(tokens: list[int]) -> bool:
 
 def _same_size(brief: _Brief, a: int, b: int) -> bool:
     (wa, da), (wb, db) = brief.needs[a].target, brief.needs[b].target
-    return abs(wa - wb) < 0.011 and abs(da - db) < 0.011
+    return abs(wa - wb) < SIDE_TOL and abs(da - db) < SIDE_TOL
 
 
 def _moved(brief: _Brief, state: _State, rng: random.Random,
@@ -618,8 +621,8 @@ def _moved(brief: _Brief, state: _State, rng: random.Random,
             right = starts[p - 1]
             tokens[starts[p]:p] = tokens[right:p] + tokens[starts[p]:right]
     elif kind == "twins":  # two rooms of the same size change places
-        n_leaves = [p for p, t in enumerate(tokens) if 0 <= t < n and t not in
-                    {u - n for u in tokens if n <= u < 2 * n}]
+        shaped = {u - n for u in tokens if n <= u < 2 * n}
+        n_leaves = [p for p, t in enumerate(tokens) if 0 <= t < n and t not in shaped]
         p = rng.choice(n_leaves)
         same = [q for q in n_leaves if q != p and _same_size(brief, tokens[p], tokens[q])]
         if not same:

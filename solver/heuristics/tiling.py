@@ -218,7 +218,7 @@ class _Search:
                 a, b = (di, dj) if vertical else (wi, wj)
                 if a is not None and b is not None and a != b:
                     continue
-                joined = self._join(blocks[i], blocks[j], vertical, sides)
+                joined = self._join(blocks[i], blocks[j], vertical)
                 if joined is None:
                     continue
                 block, fixed = joined
@@ -230,8 +230,8 @@ class _Search:
                 if len(self.found) >= self.limit or self.nodes > self.budget:
                     return
 
-    def _join(self, a: Block, b: Block, vertical: bool,
-              sides: dict[int, float]) -> tuple[Block, dict[int, float]] | None:
+    def _join(self, a: Block, b: Block,
+              vertical: bool) -> tuple[Block, dict[int, float]] | None:
         """a and b side by side (vertical cut) or stacked, or None when their shared
         sides cannot match; with the open sides the join fixes."""
         # Along the cut the sides must match; across it they add.
@@ -258,9 +258,8 @@ class _Search:
             fixed[part] = value
             along = known
         across = (a.width + b.width) if vertical else (a.depth + b.depth)
+        # The side across the cut stays open when one block's was (never both).
         open_across = add_open_a if add_open_a is not None else add_open_b
-        # An L's part whose side was just fixed no longer leaves the other side open
-        # when that part is one block alone: its other side stays open.
         if vertical:
             block = Block(across, along, open_across, None, a.tokens + b.tokens + (VERTICAL,))
         else:

@@ -103,7 +103,7 @@ def first_level(
 
 
 def second_start(
-    problem: Problem, subdomains: SubdomainExecutor | None, deadline: float
+    problem: Problem, domain: Domain, subdomains: SubdomainExecutor | None, deadline: float
 ) -> Future[LevelOneOutcome] | None:
     """With an executor of two slots or more, a second search alongside level 1: the
     guillotine search (`guillotine_alone`) where it applies, whose layout competes with
@@ -114,11 +114,8 @@ def second_start(
     runs only sub-domains (a remote one)."""
     if subdomains is None or subdomains.slots < 2:
         return None
-    seed = (problem.options.seed + SECOND_SEED_STEP) % 2**31
-    task = LevelOneTask(problem.with_options(seed=seed),
-                        deadline=time.time() + (deadline - time.monotonic()))
-    search = (guillotine_alone if guillotine_applies(problem, make_domain(problem))
-              else level_one_alone)
+    task = _second_task(problem, deadline - time.monotonic())
+    search = guillotine_alone if guillotine_applies(problem, domain) else level_one_alone
     try:
         return subdomains.executor.submit(search, task)
     except (ValueError, RuntimeError):  # an executor for sub-domains only, or shut down
@@ -133,7 +130,7 @@ def tilings_first(run: Run, domain: Domain) -> LevelOneOutcome | None:
     if not guillotine_applies(run.problem, domain) or run.stopped():
         return None
     seconds = EARLY_TILING_SHARE * max(0.0, run.deadline - time.monotonic())
-    return guillotine_alone(_second_task(run, seconds), should_stop=run.should_stop,
+    return guillotine_alone(_second_task(run.problem, seconds), should_stop=run.should_stop,
                             untiled=False)
 
 
@@ -144,13 +141,15 @@ def guillotine_here(run: Run, domain: Domain) -> LevelOneOutcome | None:
     if not guillotine_applies(run.problem, domain) or run.stopped():
         return None
     seconds = INLINE_GUILLOTINE_SHARE * max(0.0, run.deadline - time.monotonic())
-    return guillotine_alone(_second_task(run, seconds), should_stop=run.should_stop,
+    return guillotine_alone(_second_task(run.problem, seconds), should_stop=run.should_stop,
                             tiled=False)
 
 
-def _second_task(run: Run, seconds: float) -> LevelOneTask:
-    seed = (run.problem.options.seed + SECOND_SEED_STEP) % 2**31
-    return LevelOneTask(run.problem.with_options(seed=seed), deadline=time.time() + seconds)
+def _second_task(problem: Problem, seconds: float) -> LevelOneTask:
+    """A second search's task: `problem` under another seed, ending in `seconds` (the
+    deadline as epoch time, for another process)."""
+    seed = (problem.options.seed + SECOND_SEED_STEP) % 2**31
+    return LevelOneTask(problem.with_options(seed=seed), deadline=time.time() + seconds)
 
 
 def awaited(second: Future[LevelOneOutcome], run: Run, deadline: float) -> LevelOneOutcome | None:

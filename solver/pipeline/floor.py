@@ -90,7 +90,7 @@ def solve_floor(
             reason="the problem is infeasible before any solving", findings=findings)))
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
     level_one_end = started + (run.deadline - started) * LEVEL_ONE_SHARE
-    second = second_start(problem, subdomains, level_one_end)
+    second = second_start(problem, domain, subdomains, level_one_end)
     # The guillotine search's layout (solver/heuristics/guillotine.py), which competes
     # with the finished one.
     candidate: LevelOneOutcome | None = None
