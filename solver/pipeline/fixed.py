@@ -139,9 +139,11 @@ def solve_fixed(
             report = Report(coverage=0.0, uncovered_area=0.0, levels=result.levels,
                             termination=result.termination, valid=True)
             layout = fixed_layout(problem, result.rooms, report, started)
-            if kept is not None and layout.report.objective > kept.report.objective:
-                layout = kept  # an edit never answers worse than the start it was given
-            if layout.report.valid or (should_stop is not None and should_stop()):
+            stopped = should_stop is not None and should_stop()
+            # An edit never answers worse than the start it was given, nor answers the
+            # start back (SCIP may hand its warm start over as found) as something new.
+            better = kept is None or layout.report.objective < kept.report.objective - 1e-9
+            if better and (layout.report.valid or (stopped and kept is None)):
                 _done(on_event, layout, started)
                 return layout
         if kept is not None:
