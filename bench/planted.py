@@ -4,8 +4,10 @@ designer would extract from it, so that the optimum of Eq. 12 is known.
     python -m bench.planted --seed S [S ...] [--rooms N] --out DIR
 
 The plan: a rectangle, L, U or T outline on a 5 cm grid; a guillotine subdivision of its
-rectangles into cells; one or two pairs of cells merged into L or T rooms; types by size
-and shape; doors along a spanning tree of the walls the rooms share (at least 0.9 m),
+bounding box into cells; one or two pairs of cells merged into L or T rooms; the whole
+cut to the outline (cells outside drop out, cells across it keep their inside, which
+makes more L rooms: ../shared/bench/planted/ was drawn this way); types by size and
+shape; doors along a spanning tree of the walls the rooms share (at least 0.9 m),
 searched breadth first from the room at the entrance. The brief is extracted as
 ../shared/bench/README.md ("Planted briefs") states. All geometry is drawn in integer
 grid units and converted to metres (2 decimals) only when the brief is written.
@@ -34,6 +36,8 @@ from solver.geometry import Box, boundary_edges, rectangles_of
 UNIT = 0.05
 #: Shortest side of a cell, in grid units (1.5 m).
 MIN_SIDE = 30
+#: Subdivisions tried on one outline before another is drawn.
+TRIES_PER_OUTLINE = 50
 #: Longest side of a cell over its shortest.
 MAX_CELL_RATIO = 4.5
 #: Corridors and balconies are at most this wide, in grid units (2 m).
@@ -158,9 +162,11 @@ def _split(rng: random.Random, cell: Cell, k: int, out: list[Cell]) -> bool:
         out.append(cell)
         return min(w, d) >= MIN_SIDE and max(w, d) <= MAX_CELL_RATIO * min(w, d)
     across_x = w > d if abs(w - d) > 0.15 * max(w, d) else rng.random() < 0.5
-    length = w if across_x else d
+    length, other = (w, d) if across_x else (d, w)
     k1 = rng.choice((k // 2, (k + 1) // 2))
-    lo, hi = k1 * MIN_SIDE, length - (k - k1) * MIN_SIDE
+    # Each part keeps room for its cells: a side of MIN_SIDE, twice MIN_SIDE² a cell.
+    lo = max(MIN_SIDE, math.ceil(k1 * 2 * MIN_SIDE**2 / other))
+    hi = length - max(MIN_SIDE, math.ceil((k - k1) * 2 * MIN_SIDE**2 / other))
     if lo > hi:
         return False
     cut = min(max(round(length * k1 / k * rng.uniform(0.8, 1.2)), lo), hi)
@@ -171,21 +177,29 @@ def _split(rng: random.Random, cell: Cell, k: int, out: list[Cell]) -> bool:
     return _split(rng, first, k1, out) and _split(rng, second, k - k1, out)
 
 
-def _cells(rng: random.Random, outline: Polygon, k: int) -> list[Cell] | None:
-    """The outline's rectangles cut into `k` cells, shared out by area."""
-    pieces = [(round(b.x0), round(b.y0), round(b.x1), round(b.y1)) for b in rectangles_of(outline)]
-    if len(pieces) > k:
-        return None
-    areas = [(c[2] - c[0]) * (c[3] - c[1]) for c in pieces]
-    counts = [1] * len(pieces)
-    for _ in range(k - len(pieces)):  # each next cell to the piece with most area per cell
-        best = max(range(len(pieces)), key=lambda i: areas[i] / counts[i])
-        counts[best] += 1
-    out: list[Cell] = []
-    for piece, count in zip(pieces, counts, strict=True):
-        if not _split(rng, piece, count, out):
-            return None
-    return out
+def _clipped_rooms(rng: random.Random, outline: Polygon, n: int,
+                   pairs: int) -> list[Polygon] | None:
+    """`n` rooms: the outline's bounding box cut into cells, `pairs` pairs of them merged,
+    then cut to the outline, as a plan drawn on a rectangle is: a cell wholly outside
+    drops out, one across the outline keeps its inside part (a smaller rectangle, or an L
+    around a corner of the outline). None when that does not give `n` rooms of at least
+    half a cell's shortest side."""
+    x0, y0, x1, y1 = (round(v) for v in outline.bounds)
+    share = outline.area / ((x1 - x0) * (y1 - y0))
+    # Tries on the same outline, so that each kind of outline is drawn as often.
+    for _ in range(TRIES_PER_OUTLINE):
+        cells: list[Cell] = []
+        count = round((n + pairs) / share) + rng.choice((-1, 0, 0, 1))
+        if count < n + pairs or not _split(rng, (x0, y0, x1, y1), count, cells):
+            continue
+        merged = _merge(rng, cells, pairs)
+        rooms = [] if merged is None else [shape.intersection(outline) for shape in merged]
+        rooms = [room for room in rooms if room.area > 0]
+        if len(rooms) == n and all(isinstance(room, Polygon) and min(
+                room.bounds[2] - room.bounds[0], room.bounds[3] - room.bounds[1])
+                >= MIN_SIDE / 2 for room in rooms):
+            return [orient(room.simplify(0), 1.0) for room in rooms]
+    return None
 
 
 def _merge_shape(a: Cell, b: Cell) -> bool:
@@ -300,8 +314,7 @@ def _plan(rng: random.Random, n: int) -> _Plan:
     for _ in range(1000):
         outline = _outline(rng, n)
         pairs = 1 if n < 8 else rng.choice((1, 2))
-        cells = _cells(rng, outline, n + pairs)
-        rooms = _merge(rng, cells, pairs) if cells else None
+        rooms = _clipped_rooms(rng, outline, n, pairs)
         if rooms is not None:
             rng.shuffle(rooms)
             return _Plan(outline, rooms, _types(rooms, outline))

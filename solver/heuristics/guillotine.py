@@ -38,8 +38,8 @@ from dataclasses import dataclass, field, replace
 from models import Problem
 from solver.geometry import Box, Domain, edges_named, rectangles_of
 from solver.heuristics.level_one import shape_allowance
+from solver.heuristics.tiling import MIN_PART, Tiling, tilings
 from solver.heuristics.tiling import TOL as SIDE_TOL
-from solver.heuristics.tiling import Tiling, tilings
 
 #: (x0, y0, x1, y1): the search's own rectangles, plain tuples for speed.
 Rect = tuple[float, float, float, float]
@@ -60,8 +60,8 @@ RECT_PRICE = 0.1
 #: constraint: far above any size error, so the search leaves them first.
 SHORTFALL_PRICE = 40.0
 BROKEN_PRICE = 10.0
-#: An arm of an L narrower than this (m) is a broken shape, as the reshaping has it.
-MIN_ARM = 0.9
+#: An arm of an L narrower than this (m) is a broken shape (the tilings' least part).
+MIN_ARM = MIN_PART
 #: Annealing steps per room, split between `RESTARTS` independent runs (the best kept).
 STEPS_PER_ROOM = 2500
 RESTARTS = 3

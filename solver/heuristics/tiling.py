@@ -5,7 +5,9 @@ depth (its bounding box), and an L or T room its bounding box only. Such a plan 
 then, very often, a guillotine tiling: rooms whose sides match join into blocks, blocks
 into larger ones, until the blocks are the floor's own rectangles. This search joins
 them bottom-up: two blocks may join side by side when their depths match, or stacked
-when their widths do. The two parts of an L room enter with unknown sides, each fixed
+when their widths do. Each block (a set of rooms and its sides) is built once, from
+the blocks built before it, so the search runs over subtrees, not over the orders of
+the joins around them. The two parts of an L room enter with unknown sides, each fixed
 by the first block it joins and the one after. Which rooms are Ls is guessed from the
 floor the targets over-ask (an L's bounding box holds some of its neighbours' floor).
 
@@ -27,27 +29,16 @@ Rect = tuple[float, float, float, float]
 VERTICAL, HORIZONTAL = -1, -2
 #: Sides within this (m) match: briefs give sides to the centimetre.
 TOL = 0.011
-#: The part of an L room is at least this wide (m).
-MIN_PART = 0.9
+#: The part of an L room is at least this wide (m): a plan cut to its outline leaves Ls
+#: with thin arms where a room's cell crossed a corner of the outline (0.3-0.9 m in
+#: ../shared/bench/planted); below half a metre a part is no use as floor.
+MIN_PART = 0.5
 #: Nodes of the search per guess of which rooms are Ls in the first round (each round
 #: gives the guesses not yet searched through four times more), and in all.
-FIRST_BUDGET = 1500
-NODES = 60000
+FIRST_BUDGET = 20000
+NODES = 4_000_000
 #: An L's notch (its bounding box less its floor) is at most this share of the box.
 MAX_NOTCH = 0.7
-
-
-@dataclass(frozen=True)
-class Block:
-    """Joined rooms: its width and depth (known parts), the L part whose unknown side
-    adds to either (or None), and its slicing tree in postfix (leaves >= 0)."""
-
-    width: float
-    depth: float
-    #: An unknown side: (L part, its side 0 = width or 1 = depth), adding to this side.
-    open_width: int | None
-    open_depth: int | None
-    tokens: tuple[int, ...]
 
 
 @dataclass(frozen=True)
@@ -127,113 +118,109 @@ def _guesses(targets: Sequence[tuple[float, float]], over: float | None,
 
 
 class _Search:
-    """Depth-first joins of blocks, each state seen once."""
+    """Every block the rooms of one guess can join into, each built once.
+
+    A block is a set of leaves (a bit mask) joined into a rectangle, with its sides (in
+    centimetres, which briefs give exactly) and the L parts' sides its joins fixed. A
+    new block is joined with every block it shares no leaf with and whose side matches
+    along the cut, so every subtree of a tiling is built once, not once per order of the
+    joins around it; the floor is found when blocks holding every leaf fit its pieces."""
 
     def __init__(self, targets: Sequence[tuple[float, float]], pieces: Sequence[Rect],
                  shaped: frozenset[tuple[int, bool]], deadline: float, limit: int,
                  budget: int, voids: Sequence[Rect] = (), fillers: int = 0) -> None:
-        self.n = len(targets)
-        self.targets = targets
-        self.pieces = [(p[2] - p[0], p[3] - p[1]) for p in pieces]
+        self.n = n = len(targets)
+        self.targets = [(_cm(w), _cm(d)) for w, d in targets]
+        self.pieces = [(_cm(p[2] - p[0]), _cm(p[3] - p[1])) for p in pieces]
         self.piece_rects = list(pieces)
         self.shaped = frozenset(r for r, _ in shaped)
         self.turned = {r: turned for r, turned in shaped}
         self.deadline = deadline
         self.limit = limit
         self.budget = budget
-        self.voids = [(v[2] - v[0], v[3] - v[1]) for v in voids]
+        self.voids = [(_cm(v[2] - v[0]), _cm(v[3] - v[1])) for v in voids]
         self.fillers = fillers
-        self.seen: set[tuple[object, ...]] = set()
+        self.filler_leaves = range(2 * n + len(voids), 2 * n + len(voids) + fillers)
+        self.everything = 0
         self.nodes = 0
         self.found: list[Tiling] = []
+        self.trees: set[tuple[int, ...]] = set()
+        self.widest = max(w for w, _ in self.pieces)
+        self.deepest = max(d for _, d in self.pieces)
+        self.tol = round(TOL * 100)
+        self.least = round(MIN_PART * 100) - self.tol
 
     def run(self) -> list[Tiling]:
-        blocks: list[Block] = []
+        n = self.n
+        leaves: list[_Block] = []
         for r, (w, d) in enumerate(self.targets):
             if r in self.shaped:
                 # The bar spans the room's box one way (its other side open); the arm's
                 # sides are both open.
-                if self.turned[r]:
-                    blocks.append(Block(0.0, d, r, None, (r,)))
-                else:
-                    blocks.append(Block(w, 0.0, None, r + self.n * 10, (r,)))
-                blocks.append(Block(0.0, 0.0, self.n + r, self.n + r + self.n * 10,
-                                    (self.n + r,)))
+                bar = (_Block(1 << r, 0, d, _side(r, 0), None, (), (r,)) if self.turned[r]
+                       else _Block(1 << r, w, 0, None, _side(r, 1), (), (r,)))
+                leaves += [bar, _Block(1 << (n + r), 0, 0, _side(n + r, 0), _side(n + r, 1),
+                                       (), (n + r,))]
             else:
-                blocks.append(Block(w, d, None, None, (r,)))
-        blocks += [Block(w, d, None, None, (2 * self.n + k,))
+                leaves.append(_Block(1 << r, w, d, None, None, (), (r,)))
+        leaves += [_Block(1 << (2 * n + k), w, d, None, None, (), (2 * n + k,))
                    for k, (w, d) in enumerate(self.voids)]
-        for k in range(self.fillers):
-            leaf = 2 * self.n + len(self.voids) + k
-            blocks.append(Block(0.0, 0.0, leaf, leaf + self.n * 10, (leaf,)))
-        self._grow(blocks, {}, [None] * len(self.pieces))
+        leaves += [_Block(1 << leaf, 0, 0, _side(leaf, 0), _side(leaf, 1), (), (leaf,))
+                   for leaf in self.filler_leaves]
+        for block in leaves:
+            self.everything |= block.mask
+        seen: set[tuple[object, ...]] = set()
+        blocks: list[_Block] = []
+        # Blocks by their width and depth (None: open), for the joins that need a match.
+        by_width: dict[int | None, list[_Block]] = {}
+        by_depth: dict[int | None, list[_Block]] = {}
+        fitting: list[list[tuple[_Block, dict[int, int]]]] = [[] for _ in self.pieces]
+        stack = list(reversed(leaves))
+        while stack:
+            block = stack.pop()
+            key = (block.mask, block.width, block.depth, block.open_width,
+                   block.open_depth, block.fixed)
+            if key in seen:
+                continue
+            seen.add(key)
+            for k, (pw, pd) in enumerate(self.pieces):
+                fixed = self._fixed_by(block, pw, pd)
+                if fixed is not None:
+                    fitting[k].append((block, fixed))
+                    self._cover(fitting, k, len(fitting[k]) - 1)
+                    if len(self.found) >= self.limit:
+                        return self.found
+            new: list[_Block] = []
+            for vertical in (True, False):
+                along = block.depth if vertical else block.width
+                index = by_depth if vertical else by_width
+                open_along = (block.open_depth if vertical else block.open_width) is not None
+                partners = (list(itertools.chain.from_iterable(
+                    v for k, v in index.items() if k is not None)) if open_along
+                    else index.get(along, []) + index.get(None, []))
+                for other in partners:
+                    if other.mask & block.mask:
+                        continue
+                    self.nodes += 1
+                    if self.nodes > self.budget:
+                        return self.found
+                    if self.nodes % 256 == 0 and time.monotonic() > self.deadline:
+                        self.nodes = self.budget + 1
+                        return self.found
+                    joined = self._join(other, block, vertical)
+                    if joined is not None:
+                        new.append(joined)
+            blocks.append(block)
+            width = None if block.open_width is not None else block.width
+            depth = None if block.open_depth is not None else block.depth
+            by_width.setdefault(width, []).append(block)
+            by_depth.setdefault(depth, []).append(block)
+            stack += new
         return self.found
 
-    # An open side is named by its part's leaf (width) or leaf + 10 n (depth).
-    def _grow(self, blocks: list[Block], sides: dict[int, float],
-              claimed: list[tuple[int, ...] | None]) -> None:
-        if len(self.found) >= self.limit or self.nodes > self.budget:
-            return
-        self.nodes += 1
-        if self.nodes % 64 == 0 and time.monotonic() > self.deadline:
-            self.nodes = self.budget + 1
-            return
-        # Sides in centimetres (None: open), which briefs give exactly.
-        cm = [(None if b.open_width is not None else round(b.width * 100),
-               None if b.open_depth is not None else round(b.depth * 100)) for b in blocks]
-        key = (tuple(sorted((round(b.width * 100), round(b.depth * 100), b.open_width or -1,
-                             b.open_depth or -1) for b in blocks)),
-               tuple(c is None for c in claimed))
-        if key in self.seen:
-            return
-        self.seen.add(key)
-        if not blocks:
-            if all(c is not None for c in claimed):
-                self._finish(claimed, sides)
-            return
-        # A block the size of a free piece of the floor may take it; an open side of
-        # one of its L parts is then fixed by the piece.
-        for i, b in enumerate(blocks):
-            if b.open_width is not None and b.open_depth is not None:
-                continue
-            for k, (pw, pd) in enumerate(self.pieces):
-                if claimed[k] is not None:
-                    continue
-                fixed = self._fixed_by(b, pw, pd)
-                if fixed is None:
-                    continue
-                taken = claimed[:]
-                taken[k] = b.tokens
-                self._grow(blocks[:i] + blocks[i + 1:], {**sides, **fixed}, taken)
-                break
-        free = [p for p, c in zip(self.pieces, claimed, strict=True) if c is None]
-        if not free:
-            return
-        widest = max(p[0] for p in free)
-        deepest = max(p[1] for p in free)
-        for i, j in itertools.combinations(range(len(blocks)), 2):
-            (wi, di), (wj, dj) = cm[i], cm[j]
-            for vertical in (True, False):
-                # Along the cut the two sides must be equal, or one of them open.
-                a, b = (di, dj) if vertical else (wi, wj)
-                if a is not None and b is not None and a != b:
-                    continue
-                joined = self._join(blocks[i], blocks[j], vertical)
-                if joined is None:
-                    continue
-                block, fixed = joined
-                if block.width > widest + TOL or block.depth > deepest + TOL or not any(
-                        block.width <= pw + TOL and block.depth <= pd + TOL for pw, pd in free):
-                    continue
-                rest = [b for k, b in enumerate(blocks) if k not in (i, j)] + [block]
-                self._grow(rest, {**sides, **fixed}, claimed)
-                if len(self.found) >= self.limit or self.nodes > self.budget:
-                    return
-
-    def _join(self, a: Block, b: Block,
-              vertical: bool) -> tuple[Block, dict[int, float]] | None:
+    def _join(self, a: _Block, b: _Block, vertical: bool) -> _Block | None:
         """a and b side by side (vertical cut) or stacked, or None when their shared
-        sides cannot match; with the open sides the join fixes."""
+        sides cannot match or the block would not fit the floor."""
         # Along the cut the sides must match; across it they add.
         match_a, match_b = (a.depth, b.depth) if vertical else (a.width, b.width)
         open_a, open_b = (a.open_depth, b.open_depth) if vertical else (a.open_width, b.open_width)
@@ -241,9 +228,10 @@ class _Search:
             a.open_depth, b.open_depth)
         if add_open_a is not None and add_open_b is not None:
             return None  # two unknowns on one side
-        fixed: dict[int, float] = {}
+        fixed = dict(a.fixed)
+        fixed.update(b.fixed)
         if open_a is None and open_b is None:
-            if abs(match_a - match_b) > TOL:
+            if abs(match_a - match_b) > self.tol:
                 return None
             along = max(match_a, match_b)
         elif open_a is not None and open_b is not None:
@@ -251,73 +239,145 @@ class _Search:
         else:
             known, unknown, part = (match_b, match_a, open_a) if open_a is not None else (
                 match_a, match_b, open_b)
-            value = known - unknown
             assert part is not None
-            if not self._fits(part, value):
+            fixed[part] = known - unknown
+            if not self._fits(part, known - unknown, fixed):
                 return None
-            fixed[part] = value
             along = known
+        if a.fixed and b.fixed and not self._consistent(fixed):
+            return None
         across = (a.width + b.width) if vertical else (a.depth + b.depth)
+        if across > (self.widest if vertical else self.deepest) + self.tol or along > (
+                self.deepest if vertical else self.widest) + self.tol:
+            return None
         # The side across the cut stays open when one block's was (never both).
         open_across = add_open_a if add_open_a is not None else add_open_b
+        tokens = a.tokens + b.tokens + ((VERTICAL,) if vertical else (HORIZONTAL,))
+        sides = tuple(sorted(fixed.items()))
         if vertical:
-            block = Block(across, along, open_across, None, a.tokens + b.tokens + (VERTICAL,))
-        else:
-            block = Block(along, across, None, open_across, a.tokens + b.tokens + (HORIZONTAL,))
-        return block, fixed
+            return _Block(a.mask | b.mask, across, along, open_across, None, sides, tokens)
+        return _Block(a.mask | b.mask, along, across, None, open_across, sides, tokens)
 
-    def _fixed_by(self, b: Block, width: float, depth: float) -> dict[int, float] | None:
-        """The open side `b` leaves fixed when it is `width` x `depth`, or None when it
+    def _fixed_by(self, b: _Block, width: int, depth: int) -> dict[int, int] | None:
+        """The open sides `b` leaves fixed when it is `width` x `depth`, or None when it
         cannot be."""
-        fixed: dict[int, float] = {}
+        fixed = dict(b.fixed)
         for known, wanted, side in ((b.width, width, b.open_width),
                                     (b.depth, depth, b.open_depth)):
             if side is None:
-                if abs(known - wanted) > TOL:
+                if abs(known - wanted) > self.tol:
                     return None
-            elif self._fits(side, wanted - known):
-                fixed[side] = wanted - known
             else:
-                return None
+                fixed[side] = wanted - known
+                if not self._fits(side, wanted - known, fixed):
+                    return None
         return fixed
 
-    def _fits(self, side: int, value: float) -> bool:
+    def _fits(self, side: int, value: int, fixed: dict[int, int]) -> bool:
         """Whether an L part's side may be `value`: at least `MIN_PART`, within the
-        room's bounding box."""
-        leaf, axis = side % (self.n * 10), side // (self.n * 10)
-        if leaf >= 2 * self.n:  # a filler: any size
-            return value >= MIN_PART - TOL
+        room's bounding box, and its two parts still able to make that box."""
+        leaf, axis = side >> 1, side & 1
+        if leaf >= 2 * self.n:  # a filler: a cell wholly outside the outline, any size
+            return value > self.tol
         room = leaf % self.n
-        return MIN_PART - TOL <= value <= self.targets[room][axis] + TOL
+        return (self.least <= value <= self.targets[room][axis] + self.tol
+                and self._consistent(fixed, room))
 
-    def _finish(self, claimed: list[tuple[int, ...] | None],
-                sides: dict[int, float]) -> None:
+    def _consistent(self, fixed: dict[int, int], only: int | None = None) -> bool:
+        """Whether each L room's parts, as far as their sides are fixed, can still make
+        its box: the bar's open side and the arm's side across it add up to the box's,
+        and the arm is no wider along the bar than the bar is."""
+        rooms = self.shaped if only is None else (only,)
+        for r in rooms:
+            tw, td = self.targets[r]
+            across, along = (0, 1) if self.turned[r] else (1, 0)
+            box_across = (tw, td)[across]
+            bar = fixed.get(_side(r, across))
+            arm = fixed.get(_side(self.n + r, across))
+            arm_along = fixed.get(_side(self.n + r, along))
+            if bar is not None and arm is not None and abs(bar + arm - box_across) > self.tol:
+                return False
+            if arm_along is not None and arm_along > (tw, td)[along] + self.tol:
+                return False
+        return True
+
+    def _cover(self, fitting: list[list[tuple[_Block, dict[int, int]]]], piece: int,
+               at: int) -> None:
+        """Every way the blocks that fit the floor's pieces, the newest one for `piece`
+        among them, hold every leaf once: each a tiling."""
+        chosen: list[tuple[_Block, dict[int, int]] | None] = [None] * len(self.pieces)
+        chosen[piece] = fitting[piece][at]
+
+        def fill(k: int, mask: int, fixed: dict[int, int]) -> None:
+            if len(self.found) >= self.limit:
+                return
+            if k == len(self.pieces):
+                if mask == self.everything:
+                    self._finish([c[0].tokens for c in chosen if c is not None], fixed)
+                return
+            options = [chosen[k]] if k == piece else fitting[k]
+            for option in options:
+                assert option is not None
+                block, sides = option
+                if block.mask & mask:
+                    continue
+                merged = {**fixed, **sides}
+                if not self._consistent(merged):
+                    continue
+                chosen[k] = option
+                fill(k + 1, mask | block.mask, merged)
+            if k != piece:
+                chosen[k] = None
+
+        fill(0, 0, {})
+
+    def _finish(self, trees: list[tuple[int, ...]], sides: dict[int, int]) -> None:
         n = self.n
         parts: dict[int, tuple[float, float]] = {}
         for r in self.shaped:
             tw, td = self.targets[r]
             for leaf in (r, n + r):
-                w, d = sides.get(leaf), sides.get(leaf + n * 10)
+                w, d = sides.get(_side(leaf, 0)), sides.get(_side(leaf, 1))
                 if leaf == r:  # the bar's spanning side
                     w, d = (w, td) if self.turned[r] else (tw, d)
                 if w is None or d is None:
                     return
-                parts[leaf] = (w, d)
-            (wa, da), (wb, db) = parts[r], parts[n + r]
-            # The two parts' bounding box is the room's: side by side or stacked.
-            if not ((abs(wa + wb - tw) <= TOL and abs(max(da, db) - td) <= TOL)
-                    or (abs(da + db - td) <= TOL and abs(max(wa, wb) - tw) <= TOL)):
-                return
-        for k in range(self.fillers):
-            leaf = 2 * n + len(self.voids) + k
-            w, d = sides.get(leaf), sides.get(leaf + n * 10)
+                parts[leaf] = (w / 100, d / 100)
+        for leaf in self.filler_leaves:
+            w, d = sides.get(_side(leaf, 0)), sides.get(_side(leaf, 1))
             if w is None or d is None:
                 return
-            parts[leaf] = (w, d)
-        trees = [c for c in claimed if c is not None]
+            parts[leaf] = (w / 100, d / 100)
+        if not self._consistent(sides):
+            return
         tokens = _floor_tree(self.piece_rects, trees)
-        if tokens is not None:
+        if tokens is not None and tokens not in self.trees:
+            self.trees.add(tokens)
             self.found.append(Tiling(tokens, parts, self.shaped))
+
+
+@dataclass(frozen=True, slots=True)
+class _Block:
+    """Joined leaves (`mask`): the known width and depth (cm), the L part side (see
+    `_side`) whose unknown length adds to either (or None), the parts' sides the joins
+    fixed (sorted (side, cm)) and the slicing tree in postfix (leaves >= 0)."""
+
+    mask: int
+    width: int
+    depth: int
+    open_width: int | None
+    open_depth: int | None
+    fixed: tuple[tuple[int, int], ...]
+    tokens: tuple[int, ...]
+
+
+def _side(leaf: int, axis: int) -> int:
+    """The name of a part's width (axis 0) or depth (axis 1)."""
+    return leaf * 2 + axis
+
+
+def _cm(metres: float) -> int:
+    return round(metres * 100)
 
 
 def _floor_tree(pieces: Sequence[Rect], trees: Sequence[tuple[int, ...]]) -> tuple[int, ...] | None:
