@@ -41,6 +41,17 @@ def test_drawn_plan_meets_its_brief(seed: int) -> None:
     assert sum(len(r.positions) for r in problem.rooms) == 1
 
 
+def test_plans_are_cut_from_their_bounding_box_to_the_outline() -> None:
+    # As ../shared/bench/planted was drawn: a cell across the outline keeps its inside,
+    # so some plans have more L rooms than merged pairs (at most two), and some rooms
+    # cross the lines between the outline's own rectangles.
+    shaped = []
+    for seed in SEEDS:
+        _, truth = draw(seed)
+        shaped.append(sum(len(r.shape.simplify(0).exterior.coords) > 5 for r in truth.rooms))
+    assert max(shaped) > 2
+
+
 def test_same_seed_same_brief() -> None:
     for seed in (3, 2001):
         (p1, t1), (p2, t2) = draw(seed), draw(seed)

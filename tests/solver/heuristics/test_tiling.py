@@ -46,3 +46,18 @@ def test_an_outline_of_two_rectangles_is_tiled_piece_by_piece() -> None:
     found = tilings([(4, 4), (4, 4), (4, 4)], pieces, limit=1, deadline=math.inf)
     assert found
     assert found[0].tokens[-1] == HORIZONTAL  # the line between the two pieces
+
+
+def test_an_l_whose_parts_join_other_rooms_first_is_found() -> None:
+    # A 6.8 x 7.3 box with its south-west corner (2.8 x 2.6) outside the outline. The
+    # bedroom is an L (box 2.8 x 4.7): its bar, 2.8 x 1.85, stands on the void; its arm,
+    # 2.2 x 2.85, beside the 4.6 x 2.85 room above the 4.0 x 4.45 living room. Neither
+    # part joins the other until the whole floor is joined.
+    targets = [(4.0, 4.45), (4.6, 2.85), (2.8, 4.7)]
+    found = tilings(targets, [(0.0, 0.0, 6.8, 7.3)], voids=[(0.0, 0.0, 2.8, 2.6)], limit=1,
+                    deadline=math.inf)
+    assert found
+    fit = found[0]
+    assert fit.shaped == {2}
+    assert fit.parts[2] == pytest.approx((2.8, 1.85))
+    assert fit.parts[5] == pytest.approx((2.2, 2.85))
