@@ -111,3 +111,30 @@ def test_left_to_the_other_searches_where_it_does_not_apply() -> None:
                   for k in range(guillotine.MAX_TILED_ROOMS + 1)]})
     assert not applies(many, make_domain(many))
     assert guillotine_layout(many, make_domain(many), seed=0) is None
+
+
+@pytest.mark.parametrize(("column", "strip"), [("east", "north"), ("east", "south"),
+                                             ("west", "north"), ("west", "south")])
+def test_the_halves_of_a_tilings_cuts_are_swapped_to_meet_the_walls(column: str,
+                                                                    strip: str) -> None:
+    # One tiling of the 6 x 4 floor: a 2 x 4 column beside a 4 x 1.5 strip over or under
+    # a 4 x 2.5 room. Which side each stands on is the halves of its cut; with a single
+    # annealing step, the swaps of halves alone must put them on their walls.
+    problem = Problem.model_validate({
+        "boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],
+        "rooms": [
+            {"id": "column", "type": "bedroom", "target_size": [2, 4], "min_size": [1.8, 3.6],
+             "max_size": [2.2, 4.4], "boundary": [column]},
+            {"id": "strip", "type": "corridor", "target_size": [4, 1.5],
+             "min_size": [3.6, 1.4], "max_size": [4.4, 1.6], "boundary": [strip]},
+            {"id": "room", "type": "bedroom", "target_size": [4, 2.5], "min_size": [3.6, 2.3],
+             "max_size": [4.4, 2.7]},
+        ],
+    })
+    found = guillotine_layout(problem, make_domain(problem), seed=0, steps=1,
+                              accept=lambda rooms: check_layout(problem, rooms).valid)
+    assert found is not None
+    placed = found.rooms["column"][0]
+    assert placed.x0 == pytest.approx(4 if column == "east" else 0)
+    placed = found.rooms["strip"][0]
+    assert placed.y0 == pytest.approx(2.5 if strip == "north" else 0)
