@@ -180,9 +180,8 @@ class _Search:
             block = stack.pop()
             key = (block.mask, block.width, block.depth, block.open_width,
                    block.open_depth, block.fixed)
-            if key in seen:
-                continue
-            seen.add(key)
+            # A block that fits a piece of the floor counts however often it is built:
+            # each other tree of it is another tiling (the rooms otherwise grouped).
             for k, (pw, pd) in enumerate(self.pieces):
                 fixed = self._fixed_by(block, pw, pd)
                 if fixed is not None:
@@ -190,6 +189,9 @@ class _Search:
                     self._cover(fitting, k, len(fitting[k]) - 1)
                     if len(self.found) >= self.limit:
                         return self.found
+            if key in seen:
+                continue
+            seen.add(key)
             new: list[_Block] = []
             for vertical in (True, False):
                 along = block.depth if vertical else block.width
