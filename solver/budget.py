@@ -1,5 +1,5 @@
-"""Time limits (paper Sec. 5.4): 5 s for small floors, more for a flat's dozen rooms,
-growing in proportion beyond."""
+"""Time limits (paper Sec. 5.4, which gives 5 s up to 20 rooms): 5 s for small floors,
+more for a flat's dozen rooms, growing in proportion beyond."""
 
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ BASE_TIME = 5.0
 BASE_ROOMS = 20
 #: ... from `MID_ROOMS` rooms on, `PER_MID_ROOM` s more for each room up to
 #: `BASE_ROOMS`: briefs of 9 to 14 rooms extracted from real plans often need L rooms
-#: and found no valid layout in 5 s (bench/NOTES.md, "Time for a flat's dozen rooms").
+#: and found no valid layout in 5 s (bench/NOTES.md, "Tilings over subtrees, halves
+#: swapped, and time for a dozen rooms").
 MID_ROOMS = 8
 PER_MID_ROOM = 0.6
 

@@ -73,9 +73,9 @@ COOLING = 1e-3
 #: not what mends best.)
 TILINGS = 6
 STARTS = 6
-#: Scores the search over the halves of a tiling's cuts may spend on one tiling: every
-#: way when that is few enough.
-MIRROR_SCORES = 1024
+#: Scores the search over the halves of a tiling's cuts may spend on one tiling (each
+#: about 0.1 ms): every way when that is few enough.
+MIRROR_SCORES = 256
 SEEDED_HEAT = 1.0
 #: At most this share of the rooms (and at least one) may be Ls at once.
 L_SHARE = 0.34
@@ -200,12 +200,14 @@ def guillotine_layout(
             [needs.target for needs in model.needs], model.floor, voids=model.voids,
             fillers=model.fillers > 0, limit=TILINGS, deadline=end,
             allowed=[needs.cap >= 2 for needs in model.needs])]
-    # Tilings differ in where the doors, walls and guide points land: the annealing
-    # starts from those that break the least.
-    seeded = sorted(((model, _from_tiling(model, fit)) for model, fit in fits),
-                    key=lambda start: _score(start[0], _rooms(*start))[0])[:STARTS]
+    # Tilings differ in where the doors, walls and guide points land, which the halves
+    # of their cuts decide: the annealing starts from those that, so turned, break the
+    # least.
+    turned = [(model, _mirrored(model, _from_tiling(model, fit), rng, deadline))
+              for model, fit in fits]
+    seeded = sorted(turned, key=lambda start: _score(start[0], _rooms(*start))[::-1])
     starts: list[tuple[_Brief, _State | None, float | None]] = [
-        (model, state, SEEDED_HEAT) for model, state in seeded]
+        (model, state, SEEDED_HEAT) for model, state in seeded[:STARTS]]
     if not starts and (n > MAX_ROOMS or not untiled):
         return None  # from a random tree, the annealing seldom ends valid at this size
     starts += [(brief, None, None)] * (RESTARTS if not starts else 0)
@@ -213,8 +215,6 @@ def guillotine_layout(
     done = 0
     for model, start, heat in starts:
         run_steps = total // len(starts)
-        if start is not None:
-            start = _mirrored(model, start, rng, deadline)
         state, energy, broken, used = _anneal(
             model, start if start is not None else _initial(model, rng), rng, run_steps,
             deadline, should_stop, heat=heat)

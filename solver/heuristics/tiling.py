@@ -18,9 +18,10 @@ that keep the fit (a block mirrored, two halves swapped).
 
 from __future__ import annotations
 
+import bisect
 import itertools
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 #: (x0, y0, x1, y1).
@@ -171,9 +172,12 @@ class _Search:
             self.everything |= block.mask
         seen: set[tuple[object, ...]] = set()
         blocks: list[_Block] = []
-        # Blocks by their width and depth (None: open), for the joins that need a match.
+        # Blocks by their width and depth (None: open), for the joins that need a match,
+        # and the known sides in order, for an open side's range.
         by_width: dict[int | None, list[_Block]] = {}
         by_depth: dict[int | None, list[_Block]] = {}
+        widths: list[int] = []
+        depths: list[int] = []
         fitting: list[list[tuple[_Block, dict[int, int]]]] = [[] for _ in self.pieces]
         stack = list(reversed(leaves))
         while stack:
@@ -192,14 +196,26 @@ class _Search:
             if key in seen:
                 continue
             seen.add(key)
+            if time.monotonic() > self.deadline:
+                self.nodes = self.budget + 1
+                return self.found
             new: list[_Block] = []
             for vertical in (True, False):
                 along = block.depth if vertical else block.width
                 index = by_depth if vertical else by_width
-                open_along = (block.open_depth if vertical else block.open_width) is not None
-                partners = (list(itertools.chain.from_iterable(
-                    v for k, v in index.items() if k is not None)) if open_along
-                    else index.get(along, []) + index.get(None, []))
+                open_side = block.open_depth if vertical else block.open_width
+                partners: Iterable[_Block]
+                if open_side is None:
+                    partners = itertools.chain(index.get(along, ()), index.get(None, ()))
+                else:
+                    # The partner's side fixes the open one: only sides that leave it
+                    # within its part's bounds.
+                    least, most = self._bounds(open_side)
+                    known = depths if vertical else widths
+                    first = bisect.bisect_left(known, along + least)
+                    last = bisect.bisect_right(known, along + most)
+                    partners = itertools.chain.from_iterable(
+                        [index[k] for k in known[first:last]])
                 for other in partners:
                     if other.mask & block.mask:
                         continue
@@ -215,8 +231,10 @@ class _Search:
             blocks.append(block)
             width = None if block.open_width is not None else block.width
             depth = None if block.open_depth is not None else block.depth
-            by_width.setdefault(width, []).append(block)
-            by_depth.setdefault(depth, []).append(block)
+            for side, index, known in ((width, by_width, widths), (depth, by_depth, depths)):
+                if side not in index and side is not None:
+                    bisect.insort(known, side)
+                index.setdefault(side, []).append(block)
             stack += new
         return self.found
 
@@ -275,15 +293,21 @@ class _Search:
                     return None
         return fixed
 
+    def _bounds(self, side: int) -> tuple[int, int]:
+        """The least and most an open side may be (cm)."""
+        leaf, axis = side >> 1, side & 1
+        if leaf >= 2 * self.n:  # a filler: up to the floor's largest piece
+            return self.tol + 1, (self.widest, self.deepest)[axis]
+        return self.least, self.targets[leaf % self.n][axis] + self.tol
+
     def _fits(self, side: int, value: int, fixed: dict[int, int]) -> bool:
         """Whether an L part's side may be `value`: at least `MIN_PART`, within the
         room's bounding box, and its two parts still able to make that box."""
-        leaf, axis = side >> 1, side & 1
+        least, most = self._bounds(side)
+        leaf = side >> 1
         if leaf >= 2 * self.n:  # a filler: a cell wholly outside the outline, any size
-            return value > self.tol
-        room = leaf % self.n
-        return (self.least <= value <= self.targets[room][axis] + self.tol
-                and self._consistent(fixed, room))
+            return least <= value <= most
+        return least <= value <= most and self._consistent(fixed, leaf % self.n)
 
     def _consistent(self, fixed: dict[int, int], only: int | None = None) -> bool:
         """Whether each L room's parts, as far as their sides are fixed, can still make
