@@ -599,6 +599,8 @@ def _moved(brief: _Brief, state: _State, rng: random.Random,
     new = state.copy()
     tokens = new.tokens
     kind = rng.choices(_MOVES, weights or MOVE_WEIGHTS)[0]
+    if len(tokens) < 3 and kind not in ("shape", "area"):
+        return None  # a single part: nothing to swap, turn or move
     if kind == "swap":  # two parts change places
         p, q = rng.sample([p for p, t in enumerate(tokens) if t >= 0], 2)
         tokens[p], tokens[q] = tokens[q], tokens[p]
@@ -635,6 +637,8 @@ def _moved(brief: _Brief, state: _State, rng: random.Random,
     elif kind == "twins":  # two rooms of the same size change places
         shaped = {u - n for u in tokens if n <= u < 2 * n}
         n_leaves = [p for p, t in enumerate(tokens) if 0 <= t < n and t not in shaped]
+        if len(n_leaves) < 2:
+            return None
         p = rng.choice(n_leaves)
         same = [q for q in n_leaves if q != p and _same_size(brief, tokens[p], tokens[q])]
         if not same:

@@ -42,10 +42,18 @@ def _total_area(problem: Problem, domain: Domain) -> list[str]:
 def _room_fits(room: Room, domain: Domain) -> list[str]:
     """A w x d rectangle fits in the free area iff, with x scaled by 1/w and y by 1/d,
     the area eroded by half a unit is not empty. The obstacles a room may wrap around
-    count as free here: a room enclosing one is still a rectangle of its size."""
+    count as free here: a room enclosing one is still a rectangle of its size. A room
+    that may be an L or a T (`max_rects` unset or above 1) is sized by its bounding box,
+    which may reach over the outline's notches: only the outline's own box bounds it."""
     if not room.min_size or min(room.min_size) <= EPS:
         return []
     w, d = room.min_size
+    if room.max_rects != 1:
+        box = domain.bbox
+        if w > box.width + EPS or d > box.depth + EPS:
+            return [f"room '{room.id}' needs at least {w:g} x {d:g} m, more than the "
+                    f"outline's {box.width:g} x {box.depth:g} m bounding box"]
+        return []
     if not _fits_somewhere(domain.spannable, w, d):
         return [f"room '{room.id}' needs at least {w:g} x {d:g} m, which fits nowhere in the "
                 "free area"]

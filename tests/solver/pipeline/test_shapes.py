@@ -207,6 +207,28 @@ def test_a_living_room_of_three_rectangles_is_not_called_infeasible() -> None:
     assert len(living.polygon) >= 8  # it wraps the bedroom
 
 
+def test_a_room_whose_least_box_fits_only_as_an_l_is_not_refused_before_solving() -> None:
+    # An L-shaped flat (8 x 8 less its 4 x 4 north-east quarter): the living room's
+    # least box, 5 x 5 m, fits in no rectangle of it, but an L of that box does (a
+    # planted brief was refused so, though its plan meets every constraint).
+    flat = Problem.model_validate({
+        "boundary": [[0, 0], [8, 0], [8, 4], [4, 4], [4, 8], [0, 8]],
+        "rooms": [{"id": "living", "type": "living", "min_size": [5, 5],
+                   "max_size": [8, 8], "target_size": [8, 8]}],
+        "options": {"time_limit": 5},
+    })
+    layout = solve(flat)
+    assert layout.report.termination is not Termination.INFEASIBLE
+    assert layout.report.valid and layout.report.coverage > 0.99, layout.report.constraints
+    # Held to one rectangle it cannot be: that is refused before any solving.
+    rect = Problem.model_validate(flat.model_dump() | {"rooms": [
+        flat.rooms[0].model_dump() | {"max_rects": 1}]})
+    report = solve(rect).report
+    assert report.termination is Termination.INFEASIBLE
+    assert report.infeasibility is not None
+    assert any("fits nowhere" in f for f in report.infeasibility.findings)
+
+
 SQUARES: dict[str, Any] = {
     # Three rooms of at least 2.6 x 2.6 m in a 5 x 5 m square.
     "boundary": [[0, 0], [5, 0], [5, 5], [0, 5]],

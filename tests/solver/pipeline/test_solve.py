@@ -112,7 +112,8 @@ def test_should_stop_interrupts_and_keeps_the_best_layout_so_far() -> None:
     [
         ({"rooms": [{"id": "a", "min_size": [3, 3]}, {"id": "b", "min_size": [3, 3]}]},
          "minimum sizes need"),
-        ({"rooms": [{"id": "a", "min_size": [5, 1]}]}, "fits nowhere"),
+        ({"rooms": [{"id": "a", "min_size": [5, 1]}]}, "bounding box"),
+        ({"rooms": [{"id": "a", "min_size": [5, 1], "max_rects": 1}]}, "fits nowhere"),
         ({"rooms": [{"id": "a"}, {"id": "b"}], "adjacency": [{"a": "a", "any_of": ["a"]}]},
          "touch itself"),
         ({"rooms": [{"id": "a", "min_size": [1, 1], "max_size": [1.5, 1.5],
