@@ -214,7 +214,9 @@ def guillotine_layout(
     kept: list[tuple[float, _Brief, _State]] = []
     done = 0
     for model, start, heat in starts:
-        run_steps = total // len(starts)
+        # From a tiling, a short cool run mends it or seldom does: each gets an equal
+        # share of all `STARTS`, so that the later ones still run when the first fail.
+        run_steps = total // (len(starts) if start is None else max(len(starts), STARTS))
         state, energy, broken, used = _anneal(
             model, start if start is not None else _initial(model, rng), rng, run_steps,
             deadline, should_stop, heat=heat)
