@@ -171,7 +171,6 @@ class _Search:
         for block in leaves:
             self.everything |= block.mask
         seen: set[tuple[object, ...]] = set()
-        blocks: list[_Block] = []
         # Blocks by their width and depth (None: open), for the joins that need a match,
         # and the known sides in order, for an open side's range.
         by_width: dict[int | None, list[_Block]] = {}
@@ -228,7 +227,6 @@ class _Search:
                     joined = self._join(other, block, vertical)
                     if joined is not None:
                         new.append(joined)
-            blocks.append(block)
             width = None if block.open_width is not None else block.width
             depth = None if block.open_depth is not None else block.depth
             for side, index, known in ((width, by_width, widths), (depth, by_depth, depths)):
