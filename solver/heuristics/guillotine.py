@@ -203,11 +203,11 @@ def guillotine_layout(
     # Tilings differ in where the doors, walls and guide points land, which the halves
     # of their cuts decide: the annealing starts from those that, so turned, break the
     # least.
-    turned = [(model, _mirrored(model, _from_tiling(model, fit), rng, deadline))
+    turned = [(*_mirrored(model, _from_tiling(model, fit), rng, deadline), model)
               for model, fit in fits]
-    seeded = sorted(turned, key=lambda start: _score(start[0], _rooms(*start))[::-1])
+    seeded = sorted(turned, key=lambda start: start[0])[:STARTS]
     starts: list[tuple[_Brief, _State | None, float | None]] = [
-        (model, state, SEEDED_HEAT) for model, state in seeded[:STARTS]]
+        (model, state, SEEDED_HEAT) for _, state, model in seeded]
     if not starts and (n > MAX_ROOMS or not untiled):
         return None  # from a random tree, the annealing seldom ends valid at this size
     starts += [(brief, None, None)] * (RESTARTS if not starts else 0)
@@ -747,11 +747,12 @@ def _anneal(
 
 
 def _mirrored(brief: _Brief, state: _State, rng: random.Random,
-              deadline: float | None) -> _State:
-    """`state` with the two halves of each cut swapped or not, as breaks least: every
-    way when there are few cuts, else by swaps that each lower the score, from the
-    start and from random ways, within `MIRROR_SCORES` scores. Swapping halves keeps a
-    tiling's fit; it is where the doors, walls and guide points are won or lost."""
+              deadline: float | None) -> tuple[tuple[int, float], _State]:
+    """`state` with the two halves of each cut swapped or not, as breaks least, and its
+    (broken, energy): every way when there are few cuts, else by swaps that each lower
+    the score, from the start and from random ways, within `MIRROR_SCORES` scores.
+    Swapping halves keeps a tiling's fit; it is where the doors, walls and guide points
+    are won or lost."""
     tree = _tree(state.tokens)
     cuts = sum(t < 0 for t in state.tokens)
 
@@ -767,7 +768,7 @@ def _mirrored(brief: _Brief, state: _State, rng: random.Random,
             key, other = scored(way)
             if key < best_key:
                 best_key, best = key, other
-        return best
+        return best_key, best
     scores = 1
     key = best_key
     while scores < MIRROR_SCORES and best_key[0] > 0:
@@ -788,7 +789,7 @@ def _mirrored(brief: _Brief, state: _State, rng: random.Random,
             flips = [rng.random() < 0.5 for _ in range(cuts)]
             key, _ = scored(flips)
             scores += 1
-    return best
+    return best_key, best
 
 
 #: A slicing tree: a leaf, or (cut, its number, first half, second half).

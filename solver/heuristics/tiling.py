@@ -140,7 +140,6 @@ class _Search:
         self.limit = limit
         self.budget = budget
         self.voids = [(_cm(v[2] - v[0]), _cm(v[3] - v[1])) for v in voids]
-        self.fillers = fillers
         self.filler_leaves = range(2 * n + len(voids), 2 * n + len(voids) + fillers)
         self.everything = 0
         self.nodes = 0
@@ -303,9 +302,9 @@ class _Search:
         room's bounding box, and its two parts still able to make that box."""
         least, most = self._bounds(side)
         leaf = side >> 1
-        if leaf >= 2 * self.n:  # a filler: a cell wholly outside the outline, any size
-            return least <= value <= most
-        return least <= value <= most and self._consistent(fixed, leaf % self.n)
+        # A filler is a cell wholly outside the outline: no room's box to make.
+        return least <= value <= most and (
+            leaf >= 2 * self.n or self._consistent(fixed, leaf % self.n))
 
     def _consistent(self, fixed: dict[int, int], only: int | None = None) -> bool:
         """Whether each L room's parts, as far as their sides are fixed, can still make
@@ -372,8 +371,6 @@ class _Search:
             if w is None or d is None:
                 return
             parts[leaf] = (w / 100, d / 100)
-        if not self._consistent(sides):
-            return
         tokens = _floor_tree(self.piece_rects, trees)
         if tokens is not None and tokens not in self.trees:
             self.trees.add(tokens)
