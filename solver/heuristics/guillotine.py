@@ -38,7 +38,7 @@ from dataclasses import dataclass, field, replace
 from models import Problem
 from solver.geometry import Box, Domain, edges_named, rectangles_of
 from solver.heuristics.level_one import shape_allowance
-from solver.heuristics.tiling import MIN_PART, Tiling, tilings
+from solver.heuristics.tiling import MIN_PART, Fillers, Tiling, tilings
 from solver.heuristics.tiling import TOL as SIDE_TOL
 
 #: (x0, y0, x1, y1): the search's own rectangles, plain tuples for speed.
@@ -94,6 +94,10 @@ KEEPING_WEIGHTS = (0.02, 0.02, 0.02, 0.02, 0.04, 0.02, 0.6, 0.2, 0.02, 0.04)
 #: bench/NOTES.md). Up to `MAX_TILED_ROOMS`, it starts only from exact tilings.
 MAX_ROOMS = 10
 MAX_TILED_ROOMS = 16
+#: At most this many cells of a plan cut from the outline's bounding box may lie wholly
+#: outside the outline (briefs with two or three such cells were those the search
+#: found no tiling for, bench/NOTES.md).
+FILLERS = 2
 #: Share of the search's time the exact tilings may take.
 TILING_SHARE = 0.4
 
@@ -130,7 +134,7 @@ class _Brief:
     outside: tuple[Rect, ...] = ()
     #: ... and leaves after the voids that no room takes, of the sizes the state says,
     #: which must fall outside the outline (cells of such a plan left outside it).
-    fillers: int = 0
+    fillers: Fillers | None = None
 
 
 @dataclass
@@ -198,7 +202,7 @@ def guillotine_layout(
                   time.monotonic() + (tiling_end - time.monotonic()) / (len(models) - k))
         fits += [(model, fit) for fit in tilings(
             [needs.target for needs in model.needs], model.floor, voids=model.voids,
-            fillers=model.fillers > 0, limit=TILINGS, deadline=end,
+            fillers=model.fillers, limit=TILINGS, deadline=end,
             allowed=[needs.cap >= 2 for needs in model.needs])]
     # Tilings differ in where the doors, walls and guide points land, which the halves
     # of their cuts decide: the annealing starts from those that, so turned, break the
@@ -256,15 +260,18 @@ def _boxed_models(brief: _Brief, domain: Domain) -> list[_Brief]:
     """For an outline that is not a rectangle, `brief` with the floor as its bounding
     box: the parts outside the outline as voids, and the box cut as a plan drawn on a
     rectangle and then cut to its outline (the rooms lose what lies outside it, one
-    filler may stand for a cell left wholly outside). None for a rectangle's."""
+    fillers stand for the cells left wholly outside). None for a rectangle's."""
     box = domain.bbox
-    outside = tuple((b.x0, b.y0, b.x1, b.y1)
-                    for b in rectangles_of(box.to_polygon().difference(domain.free)))
+    beyond = box.to_polygon().difference(domain.free)
+    outside = tuple((b.x0, b.y0, b.x1, b.y1) for b in rectangles_of(beyond))
     if not outside:
         return []
+    parts = [part.bounds for part in getattr(beyond, "geoms", [beyond])]
+    fillers = Fillers(FILLERS, (max(p[2] - p[0] for p in parts), max(p[3] - p[1] for p in parts)),
+                      beyond.area)
     whole = ((box.x0, box.y0, box.x1, box.y1),)
     return [replace(brief, floor=whole, voids=outside),
-            replace(brief, floor=whole, area=box.area, outside=outside, fillers=1)]
+            replace(brief, floor=whole, area=box.area, outside=outside, fillers=fillers)]
 
 
 # --- the slicing tree -------------------------------------------------------------
@@ -365,7 +372,8 @@ def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
             left[p] = stack.pop()
             weight[p] = weight[left[p]] + weight[right[p]]
         stack.append(p)
-    rooms: list[list[Rect]] = [[] for _ in range(n + len(brief.voids) + brief.fillers)]
+    fillers = brief.fillers.count if brief.fillers else 0
+    rooms: list[list[Rect]] = [[] for _ in range(n + len(brief.voids) + fillers)]
     todo: list[tuple[int, Sequence[Rect]]] = [(len(tokens) - 1, brief.floor)]
     while todo:
         p, region = todo.pop()

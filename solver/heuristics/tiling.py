@@ -53,68 +53,78 @@ class Tiling:
     shaped: frozenset[int]
 
 
+@dataclass(frozen=True)
+class Fillers:
+    """What the parts no room takes may be, in a floor cut from the outline's bounding
+    box: at most `count` of them, each no wider or deeper than `most` (the largest part of
+    the box outside the outline), `area` between them at most (all of that part)."""
+
+    count: int
+    most: tuple[float, float]
+    area: float
+
+
 def tilings(
     targets: Sequence[tuple[float, float]], pieces: Sequence[Rect], *, limit: int,
     deadline: float, allowed: Sequence[bool] | None = None, voids: Sequence[Rect] = (),
-    fillers: bool = False,
+    fillers: Fillers | None = None,
 ) -> list[Tiling]:
     """Up to `limit` distinct guillotine tilings of the floor (`pieces`: its rectangles)
     by rooms at their targets (width, depth), Ls among them, and by `voids` (parts of
     the pieces no room takes, as leaves 2 n + k), found by `deadline` (monotonic).
-    `allowed[r]`: room r may be an L. With `fillers`, a guess may add one part of open
-    size that no room takes (leaf 2 n + len(voids)): a cell of a plan cut from a
-    rectangle that fell outside its outline."""
+    `allowed[r]`: room r may be an L. With `fillers`, a guess may add parts of open
+    size that no room takes (leaves 2 n + len(voids) + k): the cells of a plan cut from
+    a rectangle that fell outside its outline."""
     floor = sum((p[2] - p[0]) * (p[3] - p[1]) for p in pieces) - sum(
         (v[2] - v[0]) * (v[3] - v[1]) for v in voids)
     over = sum(w * d for w, d in targets) - floor
     found: list[Tiling] = []
-    guesses = [(shaped, 0) for shaped in _guesses(targets, over, allowed)]
-    if fillers:  # a filler takes floor, so the Ls' notches may add up to more
-        with_filler = [(shaped, 1) for shaped in _guesses(targets, None, allowed)]
-        guesses = [g for pair in itertools.zip_longest(guesses, with_filler) for g in pair
-                   if g is not None]
+    # Guesses without fillers and with them in turn: fillers take floor, so with them
+    # the Ls' notches may add up to more than the targets' surplus.
+    counts = range(fillers.count + 1 if fillers else 1)
+    guesses = [guess for group in itertools.zip_longest(*(
+        [(shaped, count) for shaped in _guesses(
+            targets, over, over + (fillers.area if count else 0.0), allowed)]
+        for count in counts)) for guess in group if guess is not None]
     nodes, budget = 0, FIRST_BUDGET
     # Each guess gets a small budget, then all of them a larger one: the right guess
     # is seldom the first, and a wrong one can search long.
     while guesses and nodes < NODES and len(found) < limit:
         unfinished = []
-        for shaped, filler in guesses:
+        for shaped, count in guesses:
             if time.monotonic() > deadline or len(found) >= limit or nodes >= NODES:
                 return found
             search = _Search(targets, pieces, shaped, deadline, limit - len(found), budget,
-                             voids, filler)
+                             voids, count, fillers.most if fillers else (0.0, 0.0))
             found += search.run()
             nodes += search.nodes
             if search.nodes > budget:
-                unfinished.append((shaped, filler))
+                unfinished.append((shaped, count))
         guesses, budget = unfinished, budget * 4
     return found
 
 
-def _guesses(targets: Sequence[tuple[float, float]], over: float | None,
+def _guesses(targets: Sequence[tuple[float, float]], least: float, most: float,
              allowed: Sequence[bool] | None) -> list[frozenset[tuple[int, bool]]]:
     """Which rooms may be the Ls, most likely first, each with the way its bar runs
-    (east-west, or north-south when turned): none when the targets ask for the floor
-    exactly; else one room whose box can hold the surplus as its notch, then two.
-    `over` None: the surplus is not known (a filler takes some floor)."""
-    if over is None:
-        over = 0.0
-        first = [frozenset[tuple[int, bool]]()]
-    elif abs(over) <= TOL * 10:
-        return [frozenset()]
-    elif over < 0:
+    (east-west, or north-south when turned), when their notches add up to between
+    `least` and `most` (m²): none when that may be nothing; else one room whose box can
+    hold the notch, then two."""
+    slack = TOL * 10
+    if most < -slack:
         return []
-    else:
-        first = []
+    first = [frozenset[tuple[int, bool]]()] if least <= slack else []
+    if most <= slack:
+        return first
     n = len(targets)
     ok = [allowed is None or allowed[r] for r in range(n)]
     area = [w * d for w, d in targets]
     order = sorted(range(n), key=lambda r: -area[r])
     singles = [frozenset({(r, turned)}) for r in order for turned in (False, True)
-               if ok[r] and over < MAX_NOTCH * area[r]]
+               if ok[r] and least < MAX_NOTCH * area[r]]
     pairs = [frozenset({(a, ta), (b, tb)}) for a, b in itertools.combinations(order, 2)
              for ta in (False, True) for tb in (False, True)
-             if ok[a] and ok[b] and over < MAX_NOTCH * (area[a] + area[b])]
+             if ok[a] and ok[b] and least < MAX_NOTCH * (area[a] + area[b])]
     return first + singles + pairs
 
 
@@ -129,7 +139,8 @@ class _Search:
 
     def __init__(self, targets: Sequence[tuple[float, float]], pieces: Sequence[Rect],
                  shaped: frozenset[tuple[int, bool]], deadline: float, limit: int,
-                 budget: int, voids: Sequence[Rect] = (), fillers: int = 0) -> None:
+                 budget: int, voids: Sequence[Rect] = (), fillers: int = 0,
+                 filler_most: tuple[float, float] = (0.0, 0.0)) -> None:
         self.n = n = len(targets)
         self.targets = [(_cm(w), _cm(d)) for w, d in targets]
         self.pieces = [(_cm(p[2] - p[0]), _cm(p[3] - p[1])) for p in pieces]
@@ -149,6 +160,7 @@ class _Search:
         self.deepest = max(d for _, d in self.pieces)
         self.tol = round(TOL * 100)
         self.least = round(MIN_PART * 100) - self.tol
+        self.filler_most = (_cm(filler_most[0]) + self.tol, _cm(filler_most[1]) + self.tol)
 
     def run(self) -> list[Tiling]:
         n = self.n
@@ -171,9 +183,11 @@ class _Search:
             self.everything |= block.mask
         seen: set[tuple[object, ...]] = set()
         # Blocks by their width and depth (None: open), for the joins that need a match,
-        # and the known sides in order, for an open side's range.
-        by_width: dict[int | None, list[_Block]] = {}
-        by_depth: dict[int | None, list[_Block]] = {}
+        # then by their lowest leaf (a partner's must be a leaf the block lacks, which
+        # skips most blocks sharing a leaf unseen), and the known sides in order, for an
+        # open side's range.
+        by_width: dict[int | None, dict[int, list[_Block]]] = {}
+        by_depth: dict[int | None, dict[int, list[_Block]]] = {}
         widths: list[int] = []
         depths: list[int] = []
         fitting: list[list[tuple[_Block, dict[int, int]]]] = [[] for _ in self.pieces]
@@ -202,9 +216,9 @@ class _Search:
                 along = block.depth if vertical else block.width
                 index = by_depth if vertical else by_width
                 open_side = block.open_depth if vertical else block.open_width
-                partners: Iterable[_Block]
+                buckets: Iterable[dict[int, list[_Block]]]
                 if open_side is None:
-                    partners = itertools.chain(index.get(along, ()), index.get(None, ()))
+                    buckets = [index[k] for k in (along, None) if k in index]
                 else:
                     # The partner's side fixes the open one: only sides that leave it
                     # within its part's bounds.
@@ -212,8 +226,10 @@ class _Search:
                     known = depths if vertical else widths
                     first = bisect.bisect_left(known, along + least)
                     last = bisect.bisect_right(known, along + most)
-                    partners = itertools.chain.from_iterable(
-                        [index[k] for k in known[first:last]])
+                    buckets = [index[k] for k in known[first:last]]
+                mask = block.mask
+                partners = [other for bucket in buckets for low, group in bucket.items()
+                            if not low & mask for other in group]
                 for other in partners:
                     if other.mask & block.mask:
                         continue
@@ -231,7 +247,7 @@ class _Search:
             for side, index, known in ((width, by_width, widths), (depth, by_depth, depths)):
                 if side not in index and side is not None:
                     bisect.insort(known, side)
-                index.setdefault(side, []).append(block)
+                index.setdefault(side, {}).setdefault(block.mask & -block.mask, []).append(block)
             stack += new
         return self.found
 
@@ -293,8 +309,8 @@ class _Search:
     def _bounds(self, side: int) -> tuple[int, int]:
         """The least and most an open side may be (cm)."""
         leaf, axis = side >> 1, side & 1
-        if leaf >= 2 * self.n:  # a filler: up to the floor's largest piece
-            return self.tol + 1, (self.widest, self.deepest)[axis]
+        if leaf >= 2 * self.n:  # a filler: within the largest part outside the outline
+            return self.tol + 1, self.filler_most[axis]
         return self.least, self.targets[leaf % self.n][axis] + self.tol
 
     def _fits(self, side: int, value: int, fixed: dict[int, int]) -> bool:

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from solver.heuristics.tiling import HORIZONTAL, VERTICAL, tilings
+from solver.heuristics.tiling import HORIZONTAL, VERTICAL, Fillers, tilings
 
 #: A 12 x 12 m floor cut exactly by ten rooms: a 12 x 2 strip of three along the south,
 #: a 4 x 10 column of two, and an 8 x 10 block of five.
@@ -61,3 +61,26 @@ def test_an_l_whose_parts_join_other_rooms_first_is_found() -> None:
     assert fit.shaped == {2}
     assert fit.parts[2] == pytest.approx((2.8, 1.85))
     assert fit.parts[5] == pytest.approx((2.2, 2.85))
+
+
+#: A 10 x 10 box whose north-east 4 x 4 lies outside the outline. A 3 x 5 room's cell
+#: crosses into that corner (the room is an L once cut to the outline), so the corner's
+#: rest is two cells no room takes, 2 x 2 and 2 x 4.
+CORNER_CUT = [(5, 10), (5, 3), (3, 5), (2, 3), (1, 2)]
+
+
+def test_two_cells_left_outside_the_outline_are_two_fillers() -> None:
+    found = tilings(CORNER_CUT, [(0.0, 0.0, 10.0, 10.0)], limit=3, deadline=math.inf,
+                    fillers=Fillers(2, (4.0, 4.0), 16.0))
+    assert found
+    for fit in found:
+        fillers = [fit.parts[leaf] for leaf in fit.parts if leaf >= 2 * len(CORNER_CUT)]
+        assert len(fillers) == 2
+        assert sum(w * d for w, d in fillers) == pytest.approx(12)
+    assert tilings(CORNER_CUT, [(0.0, 0.0, 10.0, 10.0)], limit=1, deadline=math.inf,
+                   fillers=Fillers(1, (4.0, 4.0), 16.0)) == []
+
+
+def test_a_filler_is_no_larger_than_the_part_outside_the_outline() -> None:
+    assert tilings(CORNER_CUT, [(0.0, 0.0, 10.0, 10.0)], limit=1, deadline=math.inf,
+                   fillers=Fillers(2, (1.5, 4.0), 16.0)) == []
