@@ -38,8 +38,8 @@ from dataclasses import dataclass, field, replace
 from models import Problem
 from solver.geometry import Box, Domain, edges_named, rectangles_of
 from solver.heuristics.level_one import shape_allowance
-from solver.heuristics.tiling import MIN_PART, Fillers, Tiling, tilings
 from solver.heuristics.tiling import TOL as SIDE_TOL
+from solver.heuristics.tiling import Fillers, Tiling, tilings
 
 #: (x0, y0, x1, y1): the search's own rectangles, plain tuples for speed.
 Rect = tuple[float, float, float, float]
@@ -60,8 +60,11 @@ RECT_PRICE = 0.1
 #: constraint: far above any size error, so the search leaves them first.
 SHORTFALL_PRICE = 40.0
 BROKEN_PRICE = 10.0
-#: An arm of an L narrower than this (m) is a broken shape (the tilings' least part).
-MIN_ARM = MIN_PART
+#: A part of an L narrower than this (m) is a broken shape: below half a metre a part
+#: is no use as floor. What the outline cuts off a part may be thinner (the plans have
+#: strips of 5-45 cm where a room's cell crossed a notch's corner: the outline's doing,
+#: not the search's).
+MIN_ARM = 0.5
 #: Annealing steps per room, split between `RESTARTS` independent runs (the best kept).
 STEPS_PER_ROOM = 2500
 RESTARTS = 3
@@ -342,8 +345,10 @@ def _asked(brief: _Brief, state: _State, shaped: Sequence[int]) -> list[float]:
     return asked
 
 
-def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
-    """Each room's rectangles under the tree, then each void's."""
+def _rooms(brief: _Brief, state: _State, parts: list[list[Rect]] | None = None
+           ) -> list[list[Rect]]:
+    """Each room's rectangles under the tree, then each void's; into `parts`, when
+    given, each room's rectangles before the outline cut them."""
     n = len(brief.ids)
     tokens = state.tokens
     weight = [0.0] * len(tokens)
@@ -383,6 +388,8 @@ def _rooms(brief: _Brief, state: _State) -> list[list[Rect]]:
             continue
         if t >= 0:
             rooms[t % n].extend(_clipped(region, brief.outside) if brief.outside else region)
+            if parts is not None:
+                parts[t % n].extend(region)
             continue
         first, second = cut_region(region, t == VERTICAL, weight[left[p]] / weight[p])
         todo.append((left[p], first))
@@ -516,8 +523,16 @@ def _point_gap(rects: list[Rect], x: float, y: float) -> float:
                for r in rects)
 
 
-def _score(brief: _Brief, rooms: list[list[Rect]]) -> tuple[float, int]:
-    """The energy the annealing lowers, and how many hard constraints are broken."""
+def _scored(brief: _Brief, state: _State) -> tuple[float, int]:
+    """`_score` of the layout under `state`."""
+    parts: list[list[Rect]] = [[] for _ in brief.ids]
+    return _score(brief, _rooms(brief, state, parts), parts)
+
+
+def _score(brief: _Brief, rooms: list[list[Rect]], parts: list[list[Rect]]
+           ) -> tuple[float, int]:
+    """The energy the annealing lowers, and how many hard constraints are broken, of
+    `rooms` whose rectangles before the outline cut them are `parts`."""
     energy = shortfall = 0.0
     broken = 0
     shapes: list[list[Rect]] = []
@@ -535,7 +550,7 @@ def _score(brief: _Brief, rooms: list[list[Rect]]) -> tuple[float, int]:
         if inside > EPS:
             broken += 1
             shortfall += inside
-    for needs, rects in zip(brief.needs, rooms, strict=False):
+    for needs, rects, own in zip(brief.needs, rooms, parts, strict=False):
         rects = _merged(rects) if len(rects) > 1 else rects
         shapes.append(rects)
         if not rects:
@@ -564,7 +579,9 @@ def _score(brief: _Brief, rooms: list[list[Rect]]) -> tuple[float, int]:
                      + max(0.0, long - needs.ratio[1] * short))
         if len(rects) > 1:
             miss += max(0, len(rects) - needs.cap) * 2.0
-            miss += sum(max(0.0, needs.arm - min(r[2] - r[0], r[3] - r[1])) for r in rects)
+            # The arms the tree made: what the outline cut off them may be thinner.
+            made = _merged(list(own)) if brief.outside else rects
+            miss += sum(max(0.0, needs.arm - min(r[2] - r[0], r[3] - r[1])) for r in made)
             if not _connected(rects, needs.arm):
                 miss += 5.0
         for x, y in needs.points:
@@ -727,13 +744,13 @@ def _anneal(
 ) -> tuple[_State, float, int, int]:
     """Anneal from `state` for `steps` steps; the best state that breaks nothing (or,
     if none, the lowest), its energy, its broken count and the steps taken."""
-    energy, broken = _score(brief, _rooms(brief, state))
+    energy, broken = _scored(brief, state)
     best = (state, energy, broken)
     deltas = []
     for _ in range(20):
         other = _moved(brief, state, rng)
         if other is not None:
-            deltas.append(abs(_score(brief, _rooms(brief, other))[0] - energy))
+            deltas.append(abs(_scored(brief, other)[0] - energy))
     hot = heat if heat is not None else max(
         1.0, sorted(deltas)[len(deltas) // 2] if deltas else 1.0)
     cold = hot * COOLING
@@ -746,7 +763,7 @@ def _anneal(
         if other is None:
             continue
         temperature = hot * (cold / hot) ** (step / steps)
-        e, b = _score(brief, _rooms(brief, other))
+        e, b = _scored(brief, other)
         if e <= energy or rng.random() < math.exp((energy - e) / temperature):
             state, energy, broken = other, e, b
             if (broken, energy) < (best[2], best[1]):
@@ -766,7 +783,7 @@ def _mirrored(brief: _Brief, state: _State, rng: random.Random,
 
     def scored(flips: Sequence[bool]) -> tuple[tuple[int, float], _State]:
         other = replace(state, tokens=_emit(tree, flips))
-        energy, broken = _score(brief, _rooms(brief, other))
+        energy, broken = _scored(brief, other)
         return (broken, energy), other
 
     flips = [False] * cuts

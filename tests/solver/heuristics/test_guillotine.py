@@ -138,3 +138,53 @@ def test_the_halves_of_a_tilings_cuts_are_swapped_to_meet_the_walls(column: str,
     assert placed.x0 == pytest.approx(4 if column == "east" else 0)
     placed = found.rooms["strip"][0]
     assert placed.y0 == pytest.approx(2.5 if strip == "north" else 0)
+
+
+def notch_sliver_brief() -> Problem:
+    """An 8 x 6 m box less its north-east 3 x 2 m, cut as a plan drawn on the box: the
+    east room's cell (4 x 4.05) crosses the notch's corner by 5 cm, so cut to the outline
+    it keeps a 1 m x 5 cm strip beside the notch, and its box is still its target."""
+    return Problem.model_validate({
+        "boundary": [[0, 0], [8, 0], [8, 4], [5, 4], [5, 6], [0, 6]],
+        "rooms": [
+            {"id": "south", "type": "bedroom", "target_size": [4, 3], "min_size": [3, 2.5],
+             "max_size": [5, 3.5], "boundary": ["south", "west"]},
+            {"id": "west", "type": "bedroom", "target_size": [4, 3], "min_size": [3, 2.5],
+             "max_size": [5, 3.5], "boundary": ["north", "west"]},
+            {"id": "east", "type": "living", "target_size": [4, 4.05], "min_size": [3, 3],
+             "max_size": [5, 5], "boundary": ["east"]},
+            {"id": "store", "type": "storage", "target_size": [1, 1.95], "min_size": [0.8, 1.5],
+             "max_size": [1.5, 2.5]},
+        ],
+    })
+
+
+def test_a_strip_the_outline_cuts_off_a_room_may_be_thinner_than_an_arm() -> None:
+    problem = notch_sliver_brief()
+    found = guillotine_layout(problem, make_domain(problem), seed=0,
+                              accept=lambda rooms: check_layout(problem, rooms).valid)
+    assert found is not None
+    east = found.rooms["east"]
+    xs = [v for b in east for v in (b.x0, b.x1)]
+    ys = [v for b in east for v in (b.y0, b.y1)]
+    # Its box at the target, so its strip beside the notch is there, 5 cm thin.
+    assert (max(xs) - min(xs), max(ys) - min(ys)) == (pytest.approx(4), pytest.approx(4.05))
+    assert min(min(b.x1 - b.x0, b.y1 - b.y0) for b in east) == pytest.approx(0.05)
+    assert layout_objective(problem, make_domain(problem), found.rooms) < 0.01
+
+
+def test_an_arm_the_search_made_thinner_than_half_a_metre_is_broken() -> None:
+    problem = notch_sliver_brief()
+    domain = make_domain(problem)
+    plan = guillotine._boxed_models(guillotine._brief(problem, domain), domain)[1]
+    south, west, store = (0, 0, 4, 3), (0, 3, 4, 6), (4, 4.05, 5, 6)
+    # The east room as the plan has it: a 4 x 4.05 cell cut by the outline.
+    cell = (4, 0, 8, 4.05)
+    rooms = [[south], [west], guillotine._clipped([cell], plan.outside), [store]]
+    _, broken = guillotine._score(plan, rooms, [[south], [west], [cell], [store]])
+    assert broken == 0
+    # The same floor as two parts the tree made, one of them 5 cm thin.
+    made = [(4, 0, 8, 4), (4, 4, 5, 4.05)]
+    _, broken = guillotine._score(plan, [[south], [west], made, [store]],
+                                  [[south], [west], made, [store]])
+    assert broken == 1
