@@ -580,7 +580,7 @@ def _score(brief: _Brief, rooms: list[list[Rect]], parts: list[list[Rect]]
         if len(rects) > 1:
             miss += max(0, len(rects) - needs.cap) * 2.0
             # The arms the tree made: what the outline cut off them may be thinner.
-            made = _merged(list(own)) if brief.outside else rects
+            made = _merged(own) if brief.outside else rects
             miss += sum(max(0.0, needs.arm - min(r[2] - r[0], r[3] - r[1])) for r in made)
             if not _connected(rects, needs.arm):
                 miss += 5.0
