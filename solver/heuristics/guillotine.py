@@ -579,10 +579,13 @@ def _score(brief: _Brief, rooms: list[list[Rect]], parts: list[list[Rect]]
                      + max(0.0, long - needs.ratio[1] * short))
         if len(rects) > 1:
             miss += max(0, len(rects) - needs.cap) * 2.0
-            # The arms the tree made: what the outline cut off them may be thinner.
+            # The arms the tree made: what the outline cut off them may be thinner, and
+            # then meets the rest over its own width.
             made = _merged(own) if brief.outside else rects
             miss += sum(max(0.0, needs.arm - min(r[2] - r[0], r[3] - r[1])) for r in made)
-            if not _connected(rects, needs.arm):
+            wall = needs.arm if made is rects else min(
+                needs.arm, *(min(r[2] - r[0], r[3] - r[1]) for r in rects))
+            if not _connected(rects, wall):
                 miss += 5.0
         for x, y in needs.points:
             miss += _point_gap(rects, x, y)

@@ -188,3 +188,21 @@ def test_an_arm_the_search_made_thinner_than_half_a_metre_is_broken() -> None:
     _, broken = guillotine._score(plan, [[south], [west], made, [store]],
                                   [[south], [west], made, [store]])
     assert broken == 1
+
+
+def test_a_strip_the_outline_cut_meets_the_rest_of_its_room_over_its_own_width() -> None:
+    # A 4 x 4 m box less its south-west 3.8 x 2 m: a hall drawn on the whole box keeps,
+    # cut to the outline, its north half and a 20 cm strip down the east wall, which
+    # meets the half over its 20 cm width.
+    problem = Problem.model_validate({
+        "boundary": [[3.8, 0], [4, 0], [4, 4], [0, 4], [0, 2], [3.8, 2]],
+        "rooms": [{"id": "hall", "type": "hall", "target_size": [4, 4], "min_size": [3, 3],
+                   "max_size": [4, 4]}],
+    })
+    domain = make_domain(problem)
+    plan = guillotine._boxed_models(guillotine._brief(problem, domain), domain)[1]
+    cell = (0, 0, 4, 4)
+    hall = guillotine._clipped([cell], plan.outside)
+    assert min(min(r[2] - r[0], r[3] - r[1]) for r in hall) == pytest.approx(0.2)
+    _, broken = guillotine._score(plan, [hall], [[cell]])
+    assert broken == 0
