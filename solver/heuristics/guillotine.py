@@ -461,6 +461,11 @@ def _walls(a: Rect, b: Rect) -> tuple[int, float, float, float] | None:
     return None
 
 
+def _thickness(rect: Rect) -> float:
+    """The shorter side of `rect`."""
+    return min(rect[2] - rect[0], rect[3] - rect[1])
+
+
 def _connected(rects: list[Rect], wall: float) -> bool:
     """Whether the rectangles make one shape, each joined to the next by a wall at least
     `wall` long (an L's arms meet over their width, not at a point)."""
@@ -525,6 +530,9 @@ def _point_gap(rects: list[Rect], x: float, y: float) -> float:
 
 def _scored(brief: _Brief, state: _State) -> tuple[float, int]:
     """`_score` of the layout under `state`."""
+    if not brief.outside:  # nothing cut: the rooms are the tree's own parts
+        rooms = _rooms(brief, state)
+        return _score(brief, rooms, rooms)
     parts: list[list[Rect]] = [[] for _ in brief.ids]
     return _score(brief, _rooms(brief, state, parts), parts)
 
@@ -581,10 +589,11 @@ def _score(brief: _Brief, rooms: list[list[Rect]], parts: list[list[Rect]]
             miss += max(0, len(rects) - needs.cap) * 2.0
             # The arms the tree made: what the outline cut off them may be thinner, and
             # then meets the rest over its own width.
-            made = _merged(own) if brief.outside else rects
-            miss += sum(max(0.0, needs.arm - min(r[2] - r[0], r[3] - r[1])) for r in made)
-            wall = needs.arm if made is rects else min(
-                needs.arm, *(min(r[2] - r[0], r[3] - r[1]) for r in rects))
+            made, wall = rects, needs.arm
+            if brief.outside:
+                made = _merged(own)
+                wall = min(needs.arm, *(_thickness(r) for r in rects))
+            miss += sum(max(0.0, needs.arm - _thickness(r)) for r in made)
             if not _connected(rects, wall):
                 miss += 5.0
         for x, y in needs.points:

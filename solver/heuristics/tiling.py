@@ -232,7 +232,7 @@ class _Search:
                 partners = [other for bucket in buckets for low, group in bucket.items()
                             if not low & mask for other in group]
                 for other in partners:
-                    if other.mask & block.mask:
+                    if other.mask & mask:
                         continue
                     self.nodes += 1
                     if self.nodes > self.budget:
