@@ -50,7 +50,7 @@ from solver.soft import ratio_shortfall, size_shortfall
 MIN_ARM = 0.9
 #: Weight of the relative area error squared, against E_size's 1 per square metre of
 #: dimension error (measured on 36 planted briefs against 10 and 100: bench/README.md).
-AREA_WEIGHT = 30.0
+AREA_WEIGHT = 10.0
 #: Price of each corner of a room beyond four (in m² of Eq. 6).
 CORNER_WEIGHT = 0.05
 #: Size errors and shortfalls are compared to this tolerance (m² and m).
@@ -310,7 +310,7 @@ def _cost(needs: _Needs | None, shape: Polygon) -> _Cost:
     x0, y0, x1, y1 = shape.bounds
     size = (x1 - x0 - tw) ** 2 + (y1 - y0 - td) ** 2
     area = (shape.area - tw * td) / max(tw * td, TOL)
-    return _Cost(size, size + AREA_WEIGHT * area * area + corners)
+    return _Cost(size, size + AREA_WEIGHT * abs(area) + corners)
 
 
 def _needs(problem: Problem, domain: Domain, room: Room, shape: Polygon | None) -> _Needs:
