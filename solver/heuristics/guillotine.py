@@ -50,7 +50,7 @@ VERTICAL, HORIZONTAL = -1, -2
 
 #: Lengths closer than this (m) are equal.
 EPS = 1e-7
-#: Weight of a room's relative area error. Linear, not squared as in the reshaping: an
+#: Weight of a room's relative area error. Linear (as in the reshaping), not squared: an
 #: L's area always falls short of its bounding box's target, and a squared error would
 #: have its neighbours shrink to share that shortfall, where the mean error rises.
 AREA_WEIGHT = 10.0

@@ -48,8 +48,10 @@ from solver.soft import ratio_shortfall, size_shortfall
 #: A room's arms stay at least this thick (metres), or as thick as its minimum size
 #: allows when that is less: a thinner arm is no floor anyone can use.
 MIN_ARM = 0.9
-#: Weight of the relative area error squared, against E_size's 1 per square metre of
-#: dimension error (measured on 36 planted briefs against 10 and 100: bench/README.md).
+#: Weight of the relative area error, against E_size's 1 per square metre of dimension
+#: error. Linear, not squared: the floor the Ls' notches leave is cheapest in one large
+#: room, as the plans have it, where a squared error spreads it over every room (56
+#: planted briefs: 5, 10, 20 and 30 squared measured, bench/NOTES.md).
 AREA_WEIGHT = 10.0
 #: Price of each corner of a room beyond four (in m² of Eq. 6).
 CORNER_WEIGHT = 0.05
@@ -300,7 +302,7 @@ class _Cost:
 
 def _cost(needs: _Needs | None, shape: Polygon) -> _Cost:
     """E_size of the room's bounding box, and the total the annealing lowers: that,
-    the relative area error squared (`AREA_WEIGHT`) and a small price per corner
+    the relative area error (`AREA_WEIGHT`) and a small price per corner
     beyond a rectangle's (`CORNER_WEIGHT`): of two shapes equally near the targets,
     the simpler."""
     corners = CORNER_WEIGHT * (_corners(shape) - 4)
