@@ -101,6 +101,10 @@ MAX_TILED_ROOMS = 16
 #: outside the outline (briefs with two or three such cells were those the search
 #: found no tiling for, bench/NOTES.md).
 FILLERS = 2
+#: Relative steps of the polish of a layout's areas (`_polished`), and the scores it
+#: may spend on one layout (each about 0.1 ms).
+POLISH_STEPS = (0.05, 0.01, 0.002)
+POLISH_SCORES = 1500
 #: Share of the search's time the exact tilings may take.
 TILING_SHARE = 0.4
 
@@ -229,6 +233,7 @@ def guillotine_layout(
             deadline, should_stop, heat=heat)
         done += used
         if broken == 0:
+            state, energy = _polished(model, state, energy, deadline)
             kept.append((energy, model, state))
         if used < run_steps:
             break
@@ -781,6 +786,54 @@ def _anneal(
             if (broken, energy) < (best[2], best[1]):
                 best = (state, energy, broken)
     return best[0], best[1], best[2], step
+
+
+def _polished(brief: _Brief, state: _State, energy: float, deadline: float | None
+              ) -> tuple[_State, float]:
+    """`state` (breaking nothing) with its rooms' areas and its Ls' splits set by
+    coordinate descent, each change kept when it lowers the energy and breaks nothing:
+    the annealing changes them by random factors, and even at its coldest ends a few
+    per cent off a layout whose rectangles all meet their targets (planted-10-5015: the
+    plan's own tree with an area error of 0.043 against its 0.030). Every rectangle at
+    its target's area is tried first, then each room's area and split by ever smaller
+    steps, within `POLISH_SCORES` scores."""
+    n = len(brief.ids)
+    scores = 0
+
+    def better(candidate: _State) -> bool:
+        nonlocal state, energy, scores
+        scores += 1
+        e, b = _scored(brief, candidate)
+        if b == 0 and e < energy - EPS:
+            state, energy = candidate, e
+            return True
+        return False
+
+    exact = state.copy()
+    exact.share = [1.0] * n
+    better(exact)
+    for step in POLISH_STEPS:
+        improved = True
+        while improved and scores < POLISH_SCORES:
+            if deadline is not None and time.monotonic() > deadline:
+                return state, energy
+            improved = False
+            shaped = {t - n for t in state.tokens if n <= t < 2 * n}
+            for room in range(n):
+                for factor in (1.0 + step, 1.0 - step):
+                    candidate = state.copy()
+                    candidate.share[room] = min(1.3, max(0.4, state.share[room] * factor))
+                    if better(candidate):
+                        improved = True
+                        break
+                if room in shaped:
+                    for delta in (step, -step):
+                        candidate = state.copy()
+                        candidate.split[room] = min(0.9, max(0.1, state.split[room] + delta))
+                        if better(candidate):
+                            improved = True
+                            break
+    return state, energy
 
 
 def _mirrored(brief: _Brief, state: _State, rng: random.Random,

@@ -117,10 +117,39 @@ def test_left_to_the_other_searches_where_it_does_not_apply() -> None:
                                              ("west", "north"), ("west", "south")])
 def test_the_halves_of_a_tilings_cuts_are_swapped_to_meet_the_walls(column: str,
                                                                     strip: str) -> None:
-    # One tiling of the 6 x 4 floor: a 2 x 4 column beside a 4 x 1.5 strip over or under
-    # a 4 x 2.5 room. Which side each stands on is the halves of its cut; with a single
-    # annealing step, the swaps of halves alone must put them on their walls.
-    problem = Problem.model_validate({
+    # Which side each stands on is the halves of its cut; with a single annealing step,
+    # the swaps of halves alone must put them on their walls.
+    problem = column_strip_room(column, strip)
+    found = guillotine_layout(problem, make_domain(problem), seed=0, steps=1,
+                              accept=lambda rooms: check_layout(problem, rooms).valid)
+    assert found is not None
+    placed = found.rooms["column"][0]
+    assert placed.x0 == pytest.approx(4 if column == "east" else 0)
+    placed = found.rooms["strip"][0]
+    assert placed.y0 == pytest.approx(2.5 if strip == "north" else 0)
+
+
+def test_the_polish_sets_the_areas_the_annealing_left_a_few_per_cent_off() -> None:
+    problem = column_strip_room("west", "north")
+    domain = make_domain(problem)
+    brief = guillotine._brief(problem, domain)
+    # The one tiling (column | room / strip), each room asking a few per cent off.
+    state = guillotine._State([0, 2, 1, HORIZONTAL, VERTICAL], [1.06, 0.95, 1.04],
+                              [0.5] * 3)
+    energy, broken = guillotine._scored(brief, state)
+    assert broken == 0
+    assert layout_objective(problem, domain, guillotine._output(brief, state)) > 0.01
+    polished, lower = guillotine._polished(brief, state, energy, None)
+    assert lower < energy
+    rooms = guillotine._output(brief, polished)
+    assert check_layout(problem, rooms).valid
+    assert layout_objective(problem, domain, rooms) < 1e-6
+
+
+def column_strip_room(column: str, strip: str) -> Problem:
+    """The one tiling of a 6 x 4 m floor: a 2 x 4 column on the `column` wall beside a
+    4 x 1.5 strip on the `strip` wall, over or under a 4 x 2.5 room."""
+    return Problem.model_validate({
         "boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],
         "rooms": [
             {"id": "column", "type": "bedroom", "target_size": [2, 4], "min_size": [1.8, 3.6],
@@ -131,13 +160,6 @@ def test_the_halves_of_a_tilings_cuts_are_swapped_to_meet_the_walls(column: str,
              "max_size": [4.4, 2.7]},
         ],
     })
-    found = guillotine_layout(problem, make_domain(problem), seed=0, steps=1,
-                              accept=lambda rooms: check_layout(problem, rooms).valid)
-    assert found is not None
-    placed = found.rooms["column"][0]
-    assert placed.x0 == pytest.approx(4 if column == "east" else 0)
-    placed = found.rooms["strip"][0]
-    assert placed.y0 == pytest.approx(2.5 if strip == "north" else 0)
 
 
 def notch_sliver_brief() -> Problem:
