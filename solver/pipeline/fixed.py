@@ -132,9 +132,16 @@ def solve_fixed(
         start = start_boxes(problem)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
     if edit_applies(problem):
+        kept = start_layout(problem, start, started)
+        if kept is not None and time.monotonic() >= started + limit:
+            # No time left to search (SCIP, given any, takes at least 0.05 s and may
+            # or may not find something in it): the start that holds is the answer.
+            _told(on_event, started, "edit: no time left to search; the start still "
+                  "holds and is kept")
+            _done(on_event, kept, started)
+            return kept
         result = solve_edit(problem, fixed_boxes(problem), deadline=started + limit,
                             start=start, on_event=on_event, should_stop=should_stop)
-        kept = start_layout(problem, start, started)
         if result.rooms is not None:
             report = Report(coverage=0.0, uncovered_area=0.0, levels=result.levels,
                             termination=result.termination, valid=True)
