@@ -65,9 +65,10 @@ MIN_STRIP = 0.05
 #: The annealing's first temperature (m² of Eq. 6) and its last, as a share of it.
 TEMPERATURE = 0.3
 COOLED = 0.01
-#: Steps the annealing tries per room, over all its restarts (about 0.2 ms each on
-#: 2020s hardware).
-TRIES_PER_ROOM = 600
+#: Steps the annealing tries per room, over all its restarts (about 0.25 ms each on
+#: 2020s hardware). 600 left planted briefs of 11-14 rooms 0.02-0.03 further from
+#: their plans' area error than 1,200 (bench/NOTES.md).
+TRIES_PER_ROOM = 1200
 #: Independent runs from the same layout, the best kept: one run's end depends much on
 #: its first moves (planted briefs: area error 0.04 to 0.17 over six seeds of one).
 RESTARTS = 3
