@@ -51,7 +51,7 @@ MIN_ARM = 0.9
 #: Weight of the relative area error, against E_size's 1 per square metre of dimension
 #: error. Linear, not squared: the floor the Ls' notches leave is cheapest in one large
 #: room, as the plans have it, where a squared error spreads it over every room (56
-#: planted briefs: 5, 10, 20 and 30 squared measured, bench/NOTES.md).
+#: planted briefs: linear 5, 10 and 20 against squared 30, bench/NOTES.md).
 AREA_WEIGHT = 10.0
 #: Price of each corner of a room beyond four (in m² of Eq. 6).
 CORNER_WEIGHT = 0.05
