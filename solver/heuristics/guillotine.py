@@ -101,6 +101,11 @@ MAX_TILED_ROOMS = 16
 #: outside the outline (briefs with two or three such cells were those the search
 #: found no tiling for, bench/NOTES.md).
 FILLERS = 2
+#: A room asks for this share of its target's area at least and at most; an L's first
+#: part holds this share of its area at least and at most (the annealing's moves and
+#: the polish keep to both).
+SHARE_RANGE = (0.4, 1.3)
+SPLIT_RANGE = (0.1, 0.9)
 #: Relative steps of the polish of a layout's areas (`_polished`), and the scores it
 #: may spend on one layout (each about 0.05 ms; 260-370 on a 10-room plan).
 POLISH_STEPS = (0.05, 0.01, 0.002)
@@ -706,10 +711,15 @@ def _moved(brief: _Brief, state: _State, rng: random.Random,
     else:  # a room asks for more or less area, or an L shares it otherwise
         room = rng.randrange(n)
         if n + room in tokens and rng.random() < 0.5:
-            new.split[room] = min(0.9, max(0.1, new.split[room] + rng.gauss(0.0, 0.1)))
+            new.split[room] = _clamped(new.split[room] + rng.gauss(0.0, 0.1), SPLIT_RANGE)
         else:
-            new.share[room] = min(1.3, max(0.4, new.share[room] * math.exp(rng.gauss(0.0, 0.06))))
+            new.share[room] = _clamped(new.share[room] * math.exp(rng.gauss(0.0, 0.06)),
+                                       SHARE_RANGE)
     return new
+
+
+def _clamped(value: float, bounds: tuple[float, float]) -> float:
+    return min(bounds[1], max(bounds[0], value))
 
 
 def _starts(tokens: list[int]) -> list[int]:
@@ -822,14 +832,14 @@ def _polished(brief: _Brief, state: _State, energy: float, deadline: float | Non
             for room in range(n):
                 for factor in (1.0 + step, 1.0 - step):
                     candidate = state.copy()
-                    candidate.share[room] = min(1.3, max(0.4, state.share[room] * factor))
+                    candidate.share[room] = _clamped(state.share[room] * factor, SHARE_RANGE)
                     if better(candidate):
                         improved = True
                         break
                 if room in shaped:
                     for delta in (step, -step):
                         candidate = state.copy()
-                        candidate.split[room] = min(0.9, max(0.1, state.split[room] + delta))
+                        candidate.split[room] = _clamped(state.split[room] + delta, SPLIT_RANGE)
                         if better(candidate):
                             improved = True
                             break
