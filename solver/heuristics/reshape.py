@@ -80,10 +80,17 @@ GAP = "~gap"
 #: margin (solver.verify.checker.COVERAGE_GOAL + solver.pipeline.run.COVER_MARGIN, both
 #: above this layer).
 COVER_GOAL = 0.9905
+#: Margin (in cost) by which a strip's cost floor must exceed what the annealing allows
+#: before it is refused unbuilt: the floor ignores the snapping of shapes to the grid.
+BOUND_SLACK = 1e-4
 #: Share of the steps tried that swap two rooms' floors.
 SWAP_SHARE = 0.2
 #: Share of the steps tried that nest a room in a corner of another (`_nest`).
 NEST_SHARE = 0.1
+
+
+#: A rectangle as (x0, y0, x1, y1): the cheap arithmetic of refusing a strip unbuilt.
+Rect = tuple[float, float, float, float]
 
 
 @dataclass(frozen=True)
@@ -159,8 +166,16 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
         c = _cost(needs.get(room), shape)
         return _Cost(size_weight * c.size, size_weight * c.total)
 
+    def lowest(room: str, bounds: Rect | None, area: float) -> float:
+        """The least `costs(room, shape).total` of a shape with these bounds and area."""
+        if room.startswith(GAP):
+            return cover * area
+        return size_weight * _cost_floor(needs.get(room), bounds, area)
+
     state.update(_gaps(domain, state))
     cost = {r: costs(r, p) for r, p in state.items()}
+    # Each room's floor as rectangles (x0, y0, x1, y1), kept until the room changes.
+    pieces: dict[str, list[Rect]] = {}
     start = sum(c.size for c in cost.values())
     best = (sum(c.total for c in cost.values()), dict(state))
     rng = random.Random(seed)
@@ -176,8 +191,12 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
         if candidates % STOP_EVERY == 0 and (time.monotonic() >= deadline or (
                 should_stop is not None and should_stop())):
             break
-        # Annealing: worse steps are taken at first, ever more rarely.
+        # Annealing: worse steps are taken at first, ever more rarely. A step is taken
+        # when it raises the cost by less than `allowed` (Metropolis, drawn up front so
+        # that a strip can be refused before its polygons are built).
         heat = TEMPERATURE * (COOLED ** (candidates / planned))
+        drawn = rng.random()
+        allowed = math.inf if drawn <= 0.0 else -heat * math.log(drawn)
         pick = rng.random()
         if pick < SWAP_SHARE:
             # Two rooms trade floors: the one step that moves a room across the plan.
@@ -196,7 +215,23 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
                                                 needs.get(b)))
             if not strips[a, b]:
                 continue
-            strip = state[a].intersection(box(*rng.choice(strips[a, b])))
+            cut = rng.choice(strips[a, b])
+            if a not in pieces:
+                pieces[a] = [(p.x0, p.y0, p.x1, p.y1) for p in rectangles_of(state[a])]
+            taken = _strip_extent(pieces[a], cut)
+            if taken is None:
+                continue
+            # Most strips are refused: a floor under their cost from areas and bounding
+            # boxes alone (the corners' price is left out) refuses them without shapely.
+            area, strip_bounds, rest_bounds = taken
+            if rest_bounds is None and not a.startswith(GAP):
+                continue  # the strip would take the whole room
+            floor = (lowest(a, rest_bounds, state[a].area - area)
+                     + lowest(b, _hull(state[b].bounds, strip_bounds), state[b].area + area)
+                     - cost[a].total - cost[b].total)
+            if floor > 0 and floor >= allowed + BOUND_SLACK:
+                continue
+            strip = state[a].intersection(box(*cut))
             if strip.area <= JOG * JOG:
                 continue
             new_a = _clean(state[a].difference(strip), a.startswith(GAP))
@@ -206,7 +241,7 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
             moved = {a: new_a, b: new_b}
         new_cost = {r: costs(r, shape) for r, shape in moved.items()}
         delta = sum(c.total for c in new_cost.values()) - sum(cost[r].total for r in moved)
-        if delta > 0 and rng.random() >= math.exp(-delta / heat):
+        if delta > 0 and delta >= allowed:
             continue
         if not all(r.startswith(GAP) or _shape_ok(needs[r], new, state[r])
                    for r, new in moved.items()):
@@ -217,14 +252,23 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
         state = trial
         cost.update(new_cost)
         steps += 1
+        for r in moved:
+            pieces.pop(r, None)
+        touched = set(moved)
         if any(r.startswith(GAP) for r in moved):
             # Gaps merge and split: recount them.
+            touched |= {r for r in state if r.startswith(GAP)}
+            pieces = {r: p for r, p in pieces.items() if not r.startswith(GAP)}
             state = {r: p for r, p in state.items() if not r.startswith(GAP)}
             state.update(_gaps(domain, state))
+            touched |= {r for r in state if r.startswith(GAP)}
             cost = {r: cost[r] if not r.startswith(GAP) else costs(r, p)
                     for r, p in state.items()}
-        pairs, into_rooms = _neighbour_pairs(state)
-        strips = {}
+        pairs, into_rooms = _neighbour_pairs(state, touched, pairs)
+        # A pair's strips depend on its two rooms alone (gaps are renumbered).
+        strips = {(a, b): cuts for (a, b), cuts in strips.items()
+                  if a not in moved and b not in moved
+                  and not a.startswith(GAP) and not b.startswith(GAP)}
         total = sum(c.total for c in cost.values())
         if (total < best[0] - TOL and sum(c.size for c in cost.values()) <= start + TOL
                 and _covered(domain, state) >= goal):
@@ -316,6 +360,60 @@ def _cost(needs: _Needs | None, shape: Polygon) -> _Cost:
     return _Cost(size, size + AREA_WEIGHT * abs(area) + corners)
 
 
+def _cost_floor(needs: _Needs | None, bounds: Rect | None, area: float) -> float:
+    """The least `_cost(needs, shape).total` of a shape with these bounds and area (its
+    corners' price is at least 0)."""
+    if needs is None or needs.room.target_size is None or bounds is None:
+        return 0.0
+    tw, td = needs.room.target_size
+    x0, y0, x1, y1 = bounds
+    size = (x1 - x0 - tw) ** 2 + (y1 - y0 - td) ** 2
+    return size + AREA_WEIGHT * abs(area - tw * td) / max(tw * td, TOL)
+
+
+def _strip_extent(pieces: Sequence[Rect], cut: Rect
+                  ) -> tuple[float, Rect, Rect | None] | None:
+    """What cutting the box `cut` out of a room made of the disjoint rectangles
+    `pieces` takes: the strip's area and bounds, and the bounds of what the room keeps
+    (None: nothing); None when the strip is no thicker than a jog."""
+    cx0, cy0, cx1, cy1 = cut
+    area = 0.0
+    strip: list[Rect] = []
+    rest: list[Rect] = []
+    for x0, y0, x1, y1 in pieces:
+        ix0, iy0, ix1, iy1 = max(x0, cx0), max(y0, cy0), min(x1, cx1), min(y1, cy1)
+        if ix1 - ix0 <= 0 or iy1 - iy0 <= 0:
+            rest.append((x0, y0, x1, y1))
+            continue
+        area += (ix1 - ix0) * (iy1 - iy0)
+        strip.append((ix0, iy0, ix1, iy1))
+        # What the piece keeps spans its whole width unless the cut spans its depth,
+        # and then only the side(s) the cut leaves; the same across.
+        across_x = cy0 <= y0 and cy1 >= y1
+        across_y = cx0 <= x0 and cx1 >= x1
+        if across_x and across_y:
+            continue  # the cut takes the whole piece
+        kx0, kx1 = x0, x1
+        if across_x:
+            kx0 = ix1 if cx0 <= x0 else x0
+            kx1 = ix0 if cx1 >= x1 else x1
+        ky0, ky1 = y0, y1
+        if across_y:
+            ky0 = iy1 if cy0 <= y0 else y0
+            ky1 = iy0 if cy1 >= y1 else y1
+        rest.append((kx0, ky0, kx1, ky1))
+    if area <= JOG * JOG:
+        return None
+    kept = _hull(*rest) if rest else None
+    return area, _hull(*strip), kept
+
+
+def _hull(*boxes: Rect) -> Rect:
+    """The bounding box of boxes (x0, y0, x1, y1)."""
+    return (min(b[0] for b in boxes), min(b[1] for b in boxes),
+            max(b[2] for b in boxes), max(b[3] for b in boxes))
+
+
 def _needs(problem: Problem, domain: Domain, room: Room, shape: Polygon | None) -> _Needs:
     allowed = shape_allowance(room)
     # A rectangle has 4 corners, each further rectangle adds 2 (L: 6, T or U: 8); a room
@@ -354,16 +452,22 @@ def _corners(shape: Polygon) -> int:
     return len(shape.exterior.coords) - 1
 
 
-def _neighbour_pairs(state: Mapping[str, Polygon]
+def _neighbour_pairs(state: Mapping[str, Polygon], changed: set[str] | None = None,
+                     known: Sequence[tuple[str, str]] = ()
                      ) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
-    """Ordered pairs of rooms sharing a wall (a gives, b takes), and those of them in
-    which a gap gives."""
+    """Ordered pairs of rooms sharing a wall (a gives, b takes), sorted, and those of
+    them in which a gap gives. With `changed`, the `known` pairs of the other rooms
+    stand and only the changed rooms' walls are measured again."""
     ids = sorted(state)
     tree = shapely.STRtree([state[r] for r in ids])
-    pairs = []
-    for i, j in zip(*tree.query([state[r] for r in ids], "touches"), strict=True):
-        if i != j and shared_wall_length(state[ids[i]], state[ids[j]]) > MIN_STRIP:
-            pairs.append((ids[i], ids[j]))
+    asked = ids if changed is None else [r for r in ids if r in changed]
+    found = set() if changed is None else {
+        (a, b) for a, b in known if a not in changed and b not in changed}
+    for k, j in zip(*tree.query([state[r] for r in asked], "touches"), strict=True):
+        a, b = asked[k], ids[j]
+        if a != b and shared_wall_length(state[a], state[b]) > MIN_STRIP:
+            found |= {(a, b), (b, a)}
+    pairs = sorted(found)
     return pairs, [ab for ab in pairs if ab[0].startswith(GAP)]
 
 
