@@ -46,6 +46,12 @@ DEFAULT_TOLERANCE = math.inf
 REDRAWS = 2
 #: The seed of a redraw: the layout's seed plus this times the attempt.
 REDRAW_SEED_STEP = 1_000_003
+#: With `floorplan batch --distinct`, a good layout whose plan the batch already holds
+#: is laid out again under another draw (`LayoutTask.draw`), this many times at most;
+#: the first new plan is kept, else the first layout. A draw's seed is the layout's
+#: plus `DRAW_SEED_STEP` times the draw.
+DISTINCT_DRAWS = 2
+DRAW_SEED_STEP = 7_000_003
 #: The summary's termination of a layout stopped at a good-enough incumbent.
 GOOD_ENOUGH = "good-enough"
 
@@ -98,6 +104,14 @@ class LayoutTask:
     #: Stop the solve at the first incumbent that passes the checker, covers
     #: `GOOD_COVERAGE` of the floor and has an Eq. 12 at most this (None: solve on).
     good_enough: float | None = None
+    #: 0 for the layout's first solve; k for its k-th draw for a plan the batch does
+    #: not hold yet (`DISTINCT_DRAWS`), solved under seed + k * `DRAW_SEED_STEP`.
+    draw: int = 0
+
+    @property
+    def solved_seed(self) -> int:
+        """The seed the layout is solved with (before any redraw for a good layout)."""
+        return (self.seed + self.draw * DRAW_SEED_STEP) % 2**31
 
 
 class LayoutRow(BaseModel):
@@ -114,6 +128,8 @@ class LayoutRow(BaseModel):
     rooms: int = 0
     termination: str | None = None
     error: str | None = Field(None, description="why the layout failed, if it did")
+    draw: int = Field(0, description="0, or with --distinct the draw that gave a plan the "
+                      "batch did not hold yet (solved under seed + draw * 7000003)")
 
     @property
     def good(self) -> bool:
@@ -123,7 +139,7 @@ class LayoutRow(BaseModel):
 def task_problem(task: LayoutTask, seed: int | None = None) -> Problem:
     """The problem `task` solves: its programme (drawn or the brief's), its options;
     with `seed`, a redraw of it under that seed instead of the task's."""
-    seed = task.seed if seed is None else seed
+    seed = task.solved_seed if seed is None else seed
     if task.vary_program:
         from models.programme import vary_programme
 
@@ -155,7 +171,7 @@ def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
 
     best: tuple[Problem, Layout, bool] | None = None
     for attempt in range(REDRAWS + 1):
-        problem = task_problem(task, (task.seed + attempt * REDRAW_SEED_STEP) % 2**31)
+        problem = task_problem(task, (task.solved_seed + attempt * REDRAW_SEED_STEP) % 2**31)
         if task.good_enough is None or problem.floors is not None:
             layout, stopped = solve(problem), False
         elif problem.options.stop_when_good:
@@ -203,6 +219,7 @@ def lay_out_to_file(args: tuple[LayoutTask, str, FormatName, str]) -> tuple[dict
     finally:
         tmp.unlink(missing_ok=True)
     row = row_of(name, task.seed, layout, time.monotonic() - started, file=target.name)
+    row.draw = task.draw
     if stopped_early:
         row.termination = GOOD_ENOUGH
     return row.model_dump(mode="json"), layout.model_dump_json()
@@ -228,6 +245,9 @@ class BatchSummary(BaseModel):
     distinct_plans: int = Field(0, description="geometrically distinct plans among the "
                                 "layouts (solver.distinct: at most 5 % of the floor differs)")
     distinct_graphs: int = Field(0, description="distinct room adjacency graphs")
+    redraws: int = Field(0, description="solves of this run that laid a good layout out "
+                         "again for a plan the batch did not hold (`floorplan batch "
+                         "--distinct`)")
     seconds: float = Field(0.0, description="wall-clock seconds of this run")
     rate: float = Field(0.0, description="layouts per second in this run")
     rows: list[LayoutRow] = Field(default_factory=list)
@@ -241,6 +261,7 @@ class Tally:
 
         self.rows: list[LayoutRow] = []
         self.plans = DistinctPlans()
+        self.redraws = 0
 
     def add(self, row: LayoutRow, layout: Layout | None) -> None:
         self.rows.append(row)
@@ -253,5 +274,6 @@ class Tally:
             layouts=len(rows), valid=sum(r.good for r in rows),
             failed=sum(r.error is not None for r in rows),
             distinct_plans=self.plans.plans, distinct_graphs=self.plans.graphs,
+            redraws=self.redraws,
             seconds=round(seconds, 3), rate=round(done_here / seconds, 3) if seconds else 0.0,
             rows=rows)

@@ -88,13 +88,21 @@ class DistinctPlans:
         self.layouts += 1
         self._graphs.add(adjacency_graph(layout))
         ids, grid = raster(layout, cell=self.cell)
-        same_shape = self._plans.setdefault((ids, grid.size), [])
-        if same_shape:
-            differing = (np.stack(same_shape) != grid).sum(axis=1)
-            if differing.min() <= self.share * grid.size:
-                return False
-        same_shape.append(grid)
+        if not self._is_new(ids, grid):
+            return False
+        self._plans.setdefault((ids, grid.size), []).append(grid)
         return True
+
+    def is_new(self, layout: Layout) -> bool:
+        """Whether `layout`'s plan differs from every plan counted (it is not counted)."""
+        return self._is_new(*raster(layout, cell=self.cell))
+
+    def _is_new(self, ids: tuple[str, ...], grid: np.ndarray) -> bool:
+        same_shape = self._plans.get((ids, grid.size))
+        if not same_shape:
+            return True
+        differing = (np.stack(same_shape) != grid).sum(axis=1)
+        return bool(differing.min() > self.share * grid.size)
 
     @property
     def plans(self) -> int:

@@ -3,7 +3,7 @@
 
     floorplan batch INPUT... --count N --out DIR [--processes P] [--seed S]
                     [--format json|svg|dxf|geojson] [--time-limit S] [--vary program]
-                    [--tolerance T | --full]
+                    [--tolerance T | --full] [--distinct [--draws K]]
 
 Each brief (a file, every ``*.json`` brief in a folder, or a templated brief) is laid out
 N times, with seeds S, S+1, ... and ``options.diverse`` (service/batch.py). DIR gets
@@ -11,7 +11,9 @@ N times, with seeds S, S+1, ... and ``options.diverse`` (service/batch.py). DIR 
 (``.batch.jsonl``) of what is done: rerunning the same command skips every layout whose
 file and journal line exist. Ctrl-C stops handing out layouts, ends the running ones
 and writes the summary of what is done (exit 130); failed layouts (an error, a crashed
-or killed process) are rows with an error, and are tried again on a rerun.
+or killed process) are rows with an error, and are tried again on a rerun. With
+``--distinct`` a good layout whose plan the batch holds already is laid out again under
+another draw (``LayoutTask.draw``), K times at most, in a hidden file until it is kept.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import json
 import os
 import sys
 import time
+from collections import deque
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -38,8 +41,8 @@ JOURNAL = ".batch.jsonl"
 SUMMARY_JSON = "summary.json"
 SUMMARY_CSV = "summary.csv"
 #: The columns of summary.csv, in order.
-CSV_COLUMNS = ("brief", "seed", "file", "valid", "coverage", "objective", "time", "rooms",
-               "termination", "error")
+CSV_COLUMNS = ("brief", "seed", "draw", "file", "valid", "coverage", "objective", "time",
+               "rooms", "termination", "error")
 #: Files in an input folder that are outputs, not briefs.
 NOT_BRIEFS = (".layout.json", ".expanded.json")
 
@@ -82,6 +85,13 @@ def add_batch(commands: Any) -> None:
                    help="stop each solve at its first good layout (valid, covering 99 %%) "
                    "(the default), or with T, once a brief has 4 good layouts, at its first "
                    "good layout whose Eq. 12 is within T (relative) of the brief's best so far")
+    p.add_argument("--distinct", action="store_true",
+                   help="lay a good layout out again, under another draw, when the batch "
+                   "already holds its plan (--draws times at most; the first new plan is "
+                   "kept, else the first layout): more distinct plans for more solves")
+    p.add_argument("--draws", type=_positive, default=None, metavar="K",
+                   help="with --distinct, the draws a layout may have beyond its first "
+                   "(default 2)")
     p.add_argument("--full", action="store_true",
                    help="never stop a solve early: each layout gets its whole time limit")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
@@ -154,6 +164,8 @@ def cmd_batch(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
         raise UsageError("--time-limit: between 0 and 86400 seconds")
     if args.tolerance is not None and args.tolerance < 0:
         raise UsageError("--tolerance: 0 or more")
+    if args.draws is not None and not args.distinct:
+        raise UsageError("--draws: only with --distinct")
     return run_batch(args, briefs, out, interrupted)
 
 
@@ -162,6 +174,7 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     from models import Layout, Problem
     from service.batch import (
         DEFAULT_TOLERANCE,
+        DISTINCT_DRAWS,
         BestSoFar,
         LayoutRow,
         LayoutTask,
@@ -192,13 +205,55 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     total = len(briefs) * args.count
     skipped = total - len(todo)
 
-    def tasks() -> Iterator[tuple[Any, Any, Any, float]]:
-        for name, seed, path in todo:
-            task = LayoutTask(briefs[name], seed, args.time_limit, "program" in args.vary,
-                              vary_sizes="sizes" in args.vary,
-                              good_enough=best.good_enough(name))
-            yield ((name, seed), lay_out_to_file, (task, str(path), args.format, name),
+    # Layouts waiting for another draw (--distinct): the first layout, kept in its
+    # file until a draw gives a new plan, and its row; the draws to try, and what runs.
+    held: dict[tuple[str, int], tuple[LayoutRow, Layout, dict[str, Any]]] = {}
+    draws: deque[tuple[str, LayoutTask]] = deque()
+    running: set[tuple[str, int]] = set()
+
+    def task_of(name: str, seed: int, draw: int = 0) -> LayoutTask:
+        return LayoutTask(briefs[name], seed, args.time_limit, "program" in args.vary,
+                          vary_sizes="sizes" in args.vary,
+                          good_enough=best.good_enough(name), draw=draw)
+
+    def draw_path(name: str, seed: int, draw: int) -> Path:
+        """A layout's file; a draw's own until it is kept (a hidden name)."""
+        final = out / f"{name}-{seed:06d}.{extension}"
+        return final if draw == 0 else final.with_name(f".{final.stem}.draw{draw}.{extension}")
+
+    def tasks() -> Iterator[tuple[Any, Any, Any, float] | None]:
+        queued = iter(todo)
+        while True:
+            if draws:
+                name, task = draws.popleft()
+            elif (item := next(queued, None)) is not None:
+                name, seed, _ = item
+                task = task_of(name, seed)
+            elif running:
+                yield None  # a layout still running may ask for another draw
+                continue
+            else:
+                return
+            running.add((name, task.seed))
+            yield ((name, task.seed, task.draw), lay_out_to_file,
+                   (task, str(draw_path(name, task.seed, task.draw)), args.format, name),
                    hard_limit(limits[name]))
+
+    def settle(row: LayoutRow, layout: Layout | None, entry: dict[str, Any]) -> None:
+        """Count a finished layout, journalled with `entry` unless it failed (empty)."""
+        nonlocal finished
+        if entry:
+            journal.write(json.dumps(entry) + "\n")
+            journal.flush()
+        tally.add(row, layout)
+        best.add(row)
+        finished += 1
+        if bar is not None:
+            bar.advance(row)
+
+    def redraw(name: str, seed: int, draw: int) -> None:
+        tally.redraws += 1
+        draws.append((name, task_of(name, seed, draw)))
 
     started = time.monotonic()
     finished = 0
@@ -209,32 +264,58 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
                       ) as pool:
             keep_sigint_blocked()  # the pool's start may have unblocked it (interrupt.py)
             for outcome in pool.results(tasks(), should_stop=interrupted):
-                name, seed = outcome.key
+                name, seed, draw = outcome.key
+                running.discard((name, seed))
+                final = draw_path(name, seed, 0)
+                row: LayoutRow | None = None
+                layout: Layout | None = None
+                entry: dict[str, Any] = {}
                 if outcome.error is None:
                     row_data, layout_json = outcome.result
                     row = LayoutRow.model_validate(row_data)
                     layout = Layout.model_validate_json(layout_json)
-                    journal.write(json.dumps({"row": row_data, "layout": json.loads(layout_json)})
-                                  + "\n")
-                    journal.flush()
+                    entry = {"row": row_data, "layout": json.loads(layout_json)}
+                if draw == 0:
+                    if row is None or layout is None:
+                        settle(LayoutRow(brief=name, seed=seed, error=outcome.error), None, {})
+                    elif args.distinct and row.good and not tally.plans.is_new(layout):
+                        held[name, seed] = (row, layout, entry)
+                        redraw(name, seed, 1)
+                    else:
+                        settle(row, layout, entry)
+                    continue
+                drawn = draw_path(name, seed, draw)
+                if row is not None and layout is not None and row.good and (
+                        tally.plans.is_new(layout)):
+                    # A new plan: it replaces the first layout in the layout's file.
+                    drawn.replace(final)
+                    row.file = final.name
+                    entry = {"row": row.model_dump(mode="json"), "layout": entry["layout"]}
+                    held.pop((name, seed))
+                    settle(row, layout, entry)
+                    continue
+                drawn.unlink(missing_ok=True)
+                if draw < (args.draws or DISTINCT_DRAWS):
+                    redraw(name, seed, draw + 1)
                 else:
-                    row, layout = LayoutRow(brief=name, seed=seed, error=outcome.error), None
-                tally.add(row, layout)
-                best.add(row)
-                finished += 1
-                if bar is not None:
-                    bar.advance(row)
+                    settle(*held.pop((name, seed)))
+            # Stopped while layouts waited for another draw: their first layouts stand.
+            for key in list(held):
+                settle(*held.pop(key))
     finally:
         journal.close()
         if bar is not None:
             bar.stop()
+        for stray in out.glob(f".*.draw*.{extension}"):
+            stray.unlink(missing_ok=True)
     stopped = interrupted()
     summary = tally.summary(time.monotonic() - started, finished)
     _write_summary(out, summary.model_dump(mode="json"), summary.rows)
     if not args.quiet:
         print(f"{summary.layouts} of {total} layouts ({skipped} done before), "
               f"{summary.valid} valid, {summary.failed} failed; {summary.distinct_plans} "
-              f"distinct plans, {summary.distinct_graphs} adjacency graphs; "
+              f"distinct plans, {summary.distinct_graphs} adjacency graphs"
+              f"{f' ({summary.redraws} solves redrawn for new plans)' if args.distinct else ''}; "
               f"{summary.rate:.2f} layouts/s; summary in {out / SUMMARY_JSON}",
               file=sys.stderr)
     if stopped:

@@ -25,6 +25,9 @@ CLOSE_SECONDS = 2.0
 #: Seconds `results` waits for a message before it checks limits and stop flags again.
 POLL_SECONDS = 0.1
 
+#: What `next` gives for a task iterator that has ended.
+_EXHAUSTED = object()
+
 #: A task's function: run in a worker, it takes the task's argument and returns a
 #: picklable result. It must be a module-level function (workers are spawned).
 TaskFunction = Callable[[Any], Any]
@@ -100,7 +103,8 @@ class WarmPool:
         should_stop: Callable[[], bool] = lambda: False,
     ) -> Iterator[Outcome]:
         """Run (key, function, argument, hard limit in seconds) tasks, yielding each
-        outcome as it comes. Stops handing out tasks once `should_stop` is true and
+        outcome as it comes; `tasks` may yield None for "none yet" (a task that an
+        outcome still to come may add). Stops handing out tasks once `should_stop` is true and
         returns without waiting for the tasks still running (`close` ends them)."""
         pending = iter(tasks)
         exhausted = False
@@ -109,10 +113,12 @@ class WarmPool:
                 for slot in self._slots:
                     if slot.key is not None or not slot.ready:
                         continue
-                    task = next(pending, None)
-                    if task is None:
+                    task = next(pending, _EXHAUSTED)
+                    if task is _EXHAUSTED:
                         exhausted = True
                         break
+                    if task is None:
+                        break  # nothing to hand out yet: asked again after the next wait
                     key, function, argument, limit = task
                     slot.key, slot.started, slot.limit = key, time.monotonic(), limit
                     slot.conn.send((function, argument))

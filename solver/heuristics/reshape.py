@@ -19,6 +19,7 @@ straight stretch of a shared wall, as deep as a target or an existing corner ask
 
 from __future__ import annotations
 
+import functools
 import math
 import random
 import time
@@ -178,6 +179,18 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
     cost = {r: costs(r, p) for r, p in state.items()}
     # Each room's floor as rectangles (x0, y0, x1, y1), kept until the room changes.
     pieces: dict[str, list[Rect]] = {}
+
+    def within(changes: Mapping[str, tuple[Rect | None, float]], allowed: float) -> bool:
+        """Whether rooms of these bounds and areas could raise the cost by less than
+        `allowed`: if not, the step is refused before its shapes are built."""
+        floor = sum(lowest(r, bounds, area) - cost[r].total
+                    for r, (bounds, area) in changes.items())
+        return floor <= 0 or floor < allowed + BOUND_SLACK
+
+    def rectangles_in(room: str) -> list[Rect]:
+        if room not in pieces:
+            pieces[room] = [(p.x0, p.y0, p.x1, p.y1) for p in rectangles_of(state[room])]
+        return pieces[room]
     start = sum(c.size for c in cost.values())
     best = (sum(c.total for c in cost.values()), dict(state))
     rng = random.Random(seed)
@@ -199,13 +212,14 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
         heat = TEMPERATURE * (COOLED ** (candidates / planned))
         drawn = rng.random()
         allowed = math.inf if drawn <= 0.0 else -heat * math.log(drawn)
+        within_allowed = functools.partial(within, allowed=allowed)
         pick = rng.random()
         if pick < SWAP_SHARE:
             # Two rooms trade floors: the one step that moves a room across the plan.
             a, b = rng.sample(movable, 2)
             moved = {a: state[b], b: state[a]}
         elif pick < SWAP_SHARE + NEST_SHARE:
-            nested = _nest(state, needs, pairs, rng)
+            nested = _nest(state, needs, pairs, rng, rectangles_in, within_allowed)
             if nested is None:
                 continue
             moved = nested
@@ -218,9 +232,7 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
             if not strips[a, b]:
                 continue
             cut = rng.choice(strips[a, b])
-            if a not in pieces:
-                pieces[a] = [(p.x0, p.y0, p.x1, p.y1) for p in rectangles_of(state[a])]
-            taken = _strip_extent(pieces[a], cut)
+            taken = _strip_extent(rectangles_in(a), cut)
             if taken is None:
                 continue
             # Most strips are refused: a floor under their cost from areas and bounding
@@ -228,10 +240,9 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
             area, strip_bounds, rest_bounds = taken
             if rest_bounds is None and not a.startswith(GAP):
                 continue  # the strip would take the whole room
-            floor = (lowest(a, rest_bounds, state[a].area - area)
-                     + lowest(b, _hull(state[b].bounds, strip_bounds), state[b].area + area)
-                     - cost[a].total - cost[b].total)
-            if floor > 0 and floor >= allowed + BOUND_SLACK:
+            if not within_allowed({
+                    a: (rest_bounds, state[a].area - area),
+                    b: (_hull(state[b].bounds, strip_bounds), state[b].area + area)}):
                 continue
             strip = state[a].intersection(box(*cut))
             if strip.area <= JOG * JOG:
@@ -284,25 +295,33 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
 
 
 def _nest(state: Mapping[str, Polygon], needs: Mapping[str, _Needs],
-          pairs: Sequence[tuple[str, str]], rng: random.Random) -> dict[str, Polygon] | None:
+          pairs: Sequence[tuple[str, str]], rng: random.Random,
+          rectangles_in: Callable[[str], list[Rect]],
+          within_allowed: Callable[[Mapping[str, tuple[Rect | None, float]]], bool],
+          ) -> dict[str, Polygon] | None:
     """A room moves into a corner of another, at its target size, and a neighbour takes
     the floor it leaves: a bathroom set into the corner of a living room that thereby
     becomes an L, where strips alone would have to pass through worse layouts. The
-    host may be that neighbour itself. None when the drawn move does not fit."""
+    host may be that neighbour itself. None when the drawn move does not fit, or when
+    `within_allowed` refuses the rooms' bounds and areas before their shapes are built
+    (`rectangles_in`: a room's floor as rectangles)."""
     a, heir = rng.choice(pairs)
     if a.startswith(GAP) or heir.startswith(GAP):
         return None
     target = needs[a].room.target_size
     if target is None:
         return None
-    inherited = _clean(state[heir].union(state[a]))
-    if inherited is None:
-        return None
     hosts = [r for r in needs if r != a and state[r].area > target[0] * target[1]]
     if not hosts:
         return None
     host_id = rng.choice(hosts)
-    host = inherited if host_id == heir else state[host_id]
+    inherited: BaseGeometry | None = None
+    if host_id == heir:
+        inherited = _clean(state[heir].union(state[a]))
+        if inherited is None:
+            return None
+    host = inherited if inherited is not None else state[host_id]
+    host_pieces = rectangles_in(host_id) + (rectangles_in(a) if host_id == heir else [])
     width, depth = target if rng.random() < 0.5 else target[::-1]
     x0, y0, x1, y1 = host.bounds
     # Where the host would keep a sliver thinner than an arm, the room takes it all.
@@ -313,17 +332,29 @@ def _nest(state: Mapping[str, Polygon], needs: Mapping[str, _Needs],
     corners = list(dict.fromkeys(host.exterior.coords))
     vx, vy = rng.choice(corners)
     for sx, sy in rng.sample([(1, 1), (1, -1), (-1, 1), (-1, -1)], 4):
-        corner = box(min(vx, vx + sx * width), min(vy, vy + sy * depth),
-                     max(vx, vx + sx * width), max(vy, vy + sy * depth))
-        if corner.difference(host).area <= JOG * JOG:
-            break
+        corner = (min(vx, vx + sx * width), min(vy, vy + sy * depth),
+                  max(vx, vx + sx * width), max(vy, vy + sy * depth))
+        taken = _strip_extent(host_pieces, corner)
+        if taken is not None and taken[0] >= width * depth - JOG * JOG:
+            break  # the corner lies within the host
     else:
         return None
-    rest = _clean(host.difference(corner))
+    _, _, kept = taken
+    changes: dict[str, tuple[Rect | None, float]] = {
+        a: (corner, width * depth), host_id: (kept, host.area - width * depth)}
+    if host_id != heir:
+        changes[heir] = (_hull(state[heir].bounds, state[a].bounds),
+                         state[heir].area + state[a].area)
+    if kept is None or not within_allowed(changes):
+        return None
+    rest = _clean(host.difference(box(*corner)))
     if rest is None:
         return None
-    moved = {a: shapely.orient_polygons(corner), host_id: rest}
+    moved = {a: shapely.orient_polygons(box(*corner)), host_id: rest}
     if host_id != heir:
+        inherited = _clean(state[heir].union(state[a]))
+        if inherited is None:
+            return None
         moved[heir] = inherited
     return moved
 

@@ -92,6 +92,56 @@ def test_ctrl_c_stops_and_keeps_what_is_done(tmp_path: Path) -> None:
     assert "interrupted" in stderr
 
 
+#: One room filling its floor: every seed gives the same plan.
+ONE_PLAN: dict = {
+    "name": "one", "boundary": [[0, 0], [4, 0], [4, 3], [0, 3]],
+    "rooms": [{"id": "studio", "type": "living", "min_size": [4, 3], "max_size": [4, 3],
+               "target_size": [4, 3]}],
+}
+
+
+def test_distinct_draws_again_for_a_plan_the_batch_holds_and_keeps_the_first(
+        tmp_path: Path) -> None:
+    brief = write_problem(tmp_path, ONE_PLAN, "one.json")
+    done = floorplan("batch", brief, "-n", "3", "-o", "out", "--distinct", "--time-limit",
+                     "1", "--processes", "2", cwd=tmp_path)
+    assert done.returncode == EXIT_OK, done.stderr
+    out = tmp_path / "out"
+    summary = _summary(out)
+    # Layouts 2 and 3 repeat the first plan: each is drawn twice more, in vain, and
+    # keeps its first layout.
+    assert summary["valid"] == 3 and summary["distinct_plans"] == 1
+    assert summary["redraws"] == 4
+    assert [(r["seed"], r["draw"]) for r in summary["rows"]] == [(0, 0), (1, 0), (2, 0)]
+    assert sorted(p.name for p in out.iterdir() if p.suffix == ".json") == [
+        "one-000000.json", "one-000001.json", "one-000002.json", "summary.json"]
+    assert "4 solves redrawn for new plans" in done.stderr
+    with (out / "summary.csv").open() as f:
+        assert [r["draw"] for r in csv.DictReader(f)] == ["0", "0", "0"]
+    again = floorplan("batch", brief, "-n", "3", "-o", "out", "--distinct", "-q",
+                      cwd=tmp_path)
+    assert again.returncode == EXIT_OK and _summary(out)["layouts"] == 3
+    one_draw = floorplan("batch", brief, "-n", "2", "-o", "out1", "--distinct", "--draws",
+                         "1", "--time-limit", "1", "-q", cwd=tmp_path)
+    assert one_draw.returncode == EXIT_OK and _summary(tmp_path / "out1")["redraws"] == 1
+    alone = floorplan("batch", brief, "-n", "2", "-o", "out2", "--draws", "1", cwd=tmp_path)
+    assert alone.returncode == 2 and "--draws: only with --distinct" in alone.stderr
+
+
+def test_distinct_keeps_a_draw_with_a_new_plan_in_the_layout_s_file(tmp_path: Path) -> None:
+    brief = write_problem(tmp_path, TINY, "tiny.json")
+    done = floorplan("batch", brief, "-n", "6", "-o", "out", "--distinct", "--time-limit",
+                     "1", "-q", cwd=tmp_path)
+    assert done.returncode == EXIT_OK, done.stderr
+    out = tmp_path / "out"
+    rows = _summary(out)["rows"]
+    assert len(rows) == 6 and all(r["valid"] for r in rows)
+    assert not list(out.glob(".*.draw*"))
+    for row in rows:  # every file holds the layout its row describes
+        layout = json.loads((out / row["file"]).read_text())
+        assert layout["report"]["objective"] == pytest.approx(row["objective"], abs=1e-5)
+
+
 def test_invalid_brief_is_refused_before_anything_runs(tmp_path: Path) -> None:
     brief = write_problem(tmp_path, {**TINY, "rooms": []}, "bad.json")
     done = floorplan("batch", brief, "-n", "2", "-o", "out", cwd=tmp_path)
@@ -133,6 +183,25 @@ def test_pool_runs_every_task_on_warm_workers() -> None:
     assert {k: o.result for k, o in outcomes.items()} == {k: k * k for k in range(8)}
     pids = {o.result for o in _run(pid, range(10)).values()}
     assert len(pids) <= 2  # the same two processes served every task
+
+
+def test_a_task_added_while_others_run_is_handed_out() -> None:
+    # `floorplan batch --distinct` adds a task when an outcome asks for it; until then
+    # its task list says "none yet" (None) rather than ending.
+    asked: list[int] = []
+    seen: list[int] = []
+
+    def tasks():  # type: ignore[no-untyped-def]
+        yield (1, square, 1, 30.0)
+        while not seen:
+            yield None
+        yield (2, square, 2, 30.0)
+
+    with WarmPool(2, warm_up=__name__) as pool:
+        for outcome in pool.results(tasks()):
+            asked.append(outcome.key)
+            seen.append(outcome.result)
+    assert asked == [1, 2] and seen == [1, 4]
 
 
 def test_a_crash_fails_one_task_not_the_pool() -> None:
