@@ -193,13 +193,15 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     best = BestSoFar(tolerance)
     for row in tally.rows:
         best.add(row)
-    todo: list[tuple[str, int, Path]] = []
-    for name in briefs:
-        for seed in range(args.seed, args.seed + args.count):
-            path = out / f"{name}-{seed:06d}.{extension}"
-            if (name, seed) in done and path.exists():
-                continue
-            todo.append((name, seed, path))
+
+    def draw_path(name: str, seed: int, draw: int = 0) -> Path:
+        """A layout's file; a draw's own until it is kept (a hidden name)."""
+        final = out / f"{name}-{seed:06d}.{extension}"
+        return final if draw == 0 else final.with_name(f".{final.stem}.draw{draw}.{extension}")
+
+    todo = [(name, seed) for name in briefs
+            for seed in range(args.seed, args.seed + args.count)
+            if (name, seed) not in done or not draw_path(name, seed).exists()]
     limits = {name: args.time_limit or Problem.model_validate(brief).options.time_limit
               or batch_time_limit(Problem.model_validate(brief)) for name, brief in briefs.items()}
     total = len(briefs) * args.count
@@ -216,18 +218,13 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
                           vary_sizes="sizes" in args.vary,
                           good_enough=best.good_enough(name), draw=draw)
 
-    def draw_path(name: str, seed: int, draw: int) -> Path:
-        """A layout's file; a draw's own until it is kept (a hidden name)."""
-        final = out / f"{name}-{seed:06d}.{extension}"
-        return final if draw == 0 else final.with_name(f".{final.stem}.draw{draw}.{extension}")
-
     def tasks() -> Iterator[tuple[Any, Any, Any, float] | None]:
         queued = iter(todo)
         while True:
             if draws:
                 name, task = draws.popleft()
             elif (item := next(queued, None)) is not None:
-                name, seed, _ = item
+                name, seed = item
                 task = task_of(name, seed)
             elif running:
                 yield None  # a layout still running may ask for another draw
@@ -266,7 +263,7 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
             for outcome in pool.results(tasks(), should_stop=interrupted):
                 name, seed, draw = outcome.key
                 running.discard((name, seed))
-                final = draw_path(name, seed, 0)
+                final = draw_path(name, seed)
                 row: LayoutRow | None = None
                 layout: Layout | None = None
                 entry: dict[str, Any] = {}

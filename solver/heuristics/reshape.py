@@ -386,11 +386,8 @@ def _cost(needs: _Needs | None, shape: Polygon) -> _Cost:
     corners = CORNER_WEIGHT * (_corners(shape) - 4)
     if needs is None or needs.room.target_size is None:
         return _Cost(0.0, corners)
-    tw, td = needs.room.target_size
-    x0, y0, x1, y1 = shape.bounds
-    size = (x1 - x0 - tw) ** 2 + (y1 - y0 - td) ** 2
-    area = (shape.area - tw * td) / max(tw * td, TOL)
-    return _Cost(size, size + AREA_WEIGHT * abs(area) + corners)
+    size, area = _size_terms(needs.room.target_size, shape.bounds, shape.area)
+    return _Cost(size, size + area + corners)
 
 
 def _cost_floor(needs: _Needs | None, bounds: Rect | None, area: float) -> float:
@@ -398,10 +395,16 @@ def _cost_floor(needs: _Needs | None, bounds: Rect | None, area: float) -> float
     corners' price is at least 0)."""
     if needs is None or needs.room.target_size is None or bounds is None:
         return 0.0
-    tw, td = needs.room.target_size
+    return sum(_size_terms(needs.room.target_size, bounds, area))
+
+
+def _size_terms(target: tuple[float, float], bounds: Rect, area: float
+                ) -> tuple[float, float]:
+    """E_size of a room with these bounds, and its weighted relative area error."""
+    tw, td = target
     x0, y0, x1, y1 = bounds
     size = (x1 - x0 - tw) ** 2 + (y1 - y0 - td) ** 2
-    return size + AREA_WEIGHT * abs(area - tw * td) / max(tw * td, TOL)
+    return size, AREA_WEIGHT * abs(area - tw * td) / max(tw * td, TOL)
 
 
 def _strip_extent(pieces: Sequence[Rect], cut: Rect
