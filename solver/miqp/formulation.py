@@ -199,10 +199,12 @@ def c_boundary(lm: LevelModel) -> None:
             tag = f"{r.name},{e.index}"
             m.addCons(along >= lo - m_along * off, name=f"edge_lo[{tag}]")
             m.addCons(along + length <= hi + m_along * off, name=f"edge_hi[{tag}]")
-            if e.facing in ("south", "west"):
-                m.addCons(across <= e.line + m_across * off, name=f"edge_on[{tag}]")
-            else:
-                m.addCons(across + extent >= e.line - m_across * off, name=f"edge_on[{tag}]")
+            # The side on the line from both sides: C_inside alone keeps a rectangle on
+            # the inner side of an edge on the outline's bounding box only, not of one
+            # in a notch (a U's inner wall), where "x <= line" also holds far from it.
+            side = across if e.facing in ("south", "west") else across + extent
+            m.addCons(side <= e.line + m_across * off, name=f"edge_on[{tag}]")
+            m.addCons(side >= e.line - m_across * off, name=f"edge_at[{tag}]")
 
 
 def _soft_boundary(lm: LevelModel, r: RectSpec) -> None:
@@ -225,11 +227,9 @@ def _soft_boundary(lm: LevelModel, r: RectSpec) -> None:
         m.addCons(along + length >= lo + margin - slack - m_along * off,
                   name=f"edge_lo[{tag}]")
         m.addCons(along <= hi - margin + slack + m_along * off, name=f"edge_hi[{tag}]")
-        if e.facing in ("south", "west"):
-            m.addCons(across <= e.line + slack + m_across * off, name=f"edge_on[{tag}]")
-        else:
-            m.addCons(across + extent >= e.line - slack - m_across * off,
-                      name=f"edge_on[{tag}]")
+        side = across if e.facing in ("south", "west") else across + extent
+        m.addCons(side <= e.line + slack + m_across * off, name=f"edge_on[{tag}]")
+        m.addCons(side >= e.line - slack - m_across * off, name=f"edge_at[{tag}]")
 
 
 def c_adj(lm: LevelModel) -> None:

@@ -339,3 +339,24 @@ def test_c_boundary_any_of_two_edges_solved_holds_one(sense: int) -> None:
     on_north = a.y1 == pytest.approx(4, abs=TOL) and a.x1 <= 4 + TOL
     assert on_east or on_north
     assert (on_east, on_north) == ((True, False) if sense == 1 else (False, True))
+
+
+# A U: the 6 x 4 box with a notch (2, 2)-(4, 4) cut from its top. The notch's sides are
+# exterior walls facing each other across it, each with the other arm of the U beyond.
+U_EDGES = boundary_edges([(0, 0), (6, 0), (6, 4), (4, 4), (4, 2), (2, 2), (2, 4), (0, 4)])
+U_BLOCKED = (Box(2, 2, 4, 4),)
+
+
+@pytest.mark.parametrize(("edge", "x", "feasible"), [
+    (U_EDGES[3], 4.0, True), (U_EDGES[3], 0.5, False),
+    (U_EDGES[5], 1.0, True), (U_EDGES[5], 4.5, False),
+], ids=["west-wall-on", "west-wall-other-arm", "east-wall-on", "east-wall-other-arm"])
+def test_c_boundary_holds_a_notch_wall_from_both_sides(edge: Edge, x: float,
+                                                       feasible: bool) -> None:
+    # A rectangle in the U's other arm lies on the wall's inner side of its line and
+    # within its span, yet nowhere near it: C_inside does not rule it out there.
+    assert (edge.facing, edge.line) in {("west", 4.0), ("east", 2.0)}
+    spec = level(rect("a", edges=(edge,)), blocked=U_BLOCKED)
+    lm = build(spec, c_inside, c_boundary)
+    fix(lm, "a", x=x, y=2.5, w=1, d=1)
+    assert (solve(lm).status in SOLVED) is feasible
