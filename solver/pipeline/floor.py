@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 from models import Infeasibility, Layout, Problem, Termination
 from solver.budget import default_time_limit
@@ -53,6 +54,9 @@ RESHAPE_SECONDS = 1.0
 RESHAPE_SECONDS_PER_ROOM = 0.1
 #: Time kept per room for closing the last gaps and checking the layout.
 FINISH_SECONDS_PER_ROOM = 0.01
+#: Seconds a diverse solve stopped when good spends moving its walls toward the seed's
+#: drawn sizes (`_drawn_proportions`).
+DRAWN_RESHAPE_SECONDS = 0.1
 
 
 def solve_floor(
@@ -74,6 +78,7 @@ def solve_floor(
     # The doors every room needs, as adjacencies the MIQP must honour.
     problem = connection_demands(problem)
     good: GoodEnough | None = None
+    user_stop = should_stop
     if problem.options.stop_when_good:
         good = GoodEnough(problem, math.inf)
         on_event, should_stop = _stop_when_good(good, on_event, should_stop)
@@ -123,7 +128,10 @@ def solve_floor(
         return failure
     if good is not None and good.rooms is not None:
         # Stopped when good: that layout, not whatever SCIP reported after it.
-        return final_layout(run, domain, as_pieces(good.rooms), 1)
+        pieces = as_pieces(good.rooms)
+        if problem.options.diverse:
+            pieces = _drawn_proportions(run, domain, pieces, user_stop)
+        return final_layout(run, domain, pieces, 1)
     pieces, levels = refine(run, domain, pieces, subdomains)
     pieces = run.better_of(domain, absorb_gaps(problem, domain, pieces))
     run.deadline = end
@@ -132,6 +140,19 @@ def solve_floor(
     if good is not None and good.rooms is not None:
         pieces = as_pieces(good.rooms)  # good during the refinement or the reshaping
     return final_layout(run, domain, pieces, levels)
+
+
+def _drawn_proportions(run: Run, domain: Domain, pieces: list[Piece],
+                       should_stop: StopFlag | None) -> list[Piece]:
+    """A diverse solve's good layout with its walls moved toward the seed's own sizes
+    (issue 23): the reshaping for `DRAWN_RESHAPE_SECONDS`, on the drawn problem. Seeds
+    whose first layouts share an arrangement then differ in its proportions, as the
+    sizes they drew do; kept only when valid, covering and no worse for those sizes."""
+    if should_stop is not None and should_stop():
+        return pieces
+    # Not the solve's stop flag, which says "good" now; no events, the layout is final.
+    quiet = replace(run, should_stop=should_stop, on_event=None)
+    return reshaped(quiet, domain, pieces, time.monotonic() + DRAWN_RESHAPE_SECONDS)
 
 
 def _stop_when_good(good: GoodEnough, on_event: EventSink | None,
