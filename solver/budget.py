@@ -1,5 +1,5 @@
 """Time limits (paper Sec. 5.4, which gives 5 s up to 20 rooms): 5 s for small floors,
-more for a flat's dozen rooms, growing in proportion beyond."""
+more for a flat's dozen rooms, growing in proportion on large floors."""
 
 from __future__ import annotations
 
@@ -7,15 +7,19 @@ from __future__ import annotations
 BASE_TIME = 5.0
 BASE_ROOMS = 20
 #: ... from `MID_ROOMS` rooms on, `PER_MID_ROOM` s more for each room up to
-#: `BASE_ROOMS`: briefs of 9 to 14 rooms extracted from real plans often need L rooms
+#: `MID_TOP` rooms: briefs of 9 to 14 rooms extracted from real plans often need L rooms
 #: and found no valid layout in 5 s (bench/NOTES.md, "Tilings over subtrees, halves
-#: swapped, and time for a dozen rooms").
+#: swapped, and time for a dozen rooms"). 1.2 s rather than 0.6 s a room: on a 2-core
+#: Xeon about half as fast as the EPYC the first figure was measured on, 86 planted
+#: briefs gave 77-78 valid and covering and 61-65 within 2x their plan's area error,
+#: and 80 and 68 with the extra time (bench/NOTES.md, "Time for a dozen rooms, again").
 MID_ROOMS = 8
-PER_MID_ROOM = 0.6
+PER_MID_ROOM = 1.2
+MID_TOP = 14
 
 
 def default_time_limit(rooms: int) -> float:
-    """5 s up to 8 rooms, 0.6 s more a room up to 20 (12.2 s), then in proportion to
-    the room count once that gives more (49 rooms on)."""
-    mid = BASE_TIME + PER_MID_ROOM * max(0, min(rooms, BASE_ROOMS) - MID_ROOMS)
+    """5 s up to 8 rooms, 1.2 s more a room up to 14 (12.2 s), then 12.2 s until the
+    proportional 0.25 s a room gives more (49 rooms on)."""
+    mid = BASE_TIME + PER_MID_ROOM * max(0, min(rooms, MID_TOP) - MID_ROOMS)
     return max(mid, BASE_TIME * rooms / BASE_ROOMS)
