@@ -148,8 +148,6 @@ def _drawn_proportions(run: Run, domain: Domain, pieces: list[Piece],
     (issue 23): the reshaping for `DRAWN_RESHAPE_SECONDS`, on the drawn problem. Seeds
     whose first layouts share an arrangement then differ in its proportions, as the
     sizes they drew do; kept only when valid, covering and no worse for those sizes."""
-    if should_stop is not None and should_stop():
-        return pieces
     # Not the solve's stop flag, which says "good" now; no events, the layout is final.
     quiet = replace(run, should_stop=should_stop, on_event=None)
     return reshaped(quiet, domain, pieces, time.monotonic() + DRAWN_RESHAPE_SECONDS)

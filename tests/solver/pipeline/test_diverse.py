@@ -168,7 +168,6 @@ def test_stop_when_good_ends_the_solve_at_its_first_good_layout() -> None:
     assert layout.report.solve_time < 2  # of its 4 s
 
 
-
 def test_a_good_layout_takes_the_seeds_proportions(monkeypatch: pytest.MonkeyPatch) -> None:
     import solver.pipeline.floor as floor
     from solver.distinct import DistinctPlans
@@ -183,8 +182,7 @@ def test_a_good_layout_takes_the_seeds_proportions(monkeypatch: pytest.MonkeyPat
         layout = solve(problem)
         assert layout.report.valid and layout.report.coverage >= 0.99
         # E_size against the sizes the seed drew, toward which the walls move.
-        rooms = {r.id: [Box(b.x, b.y, b.x + b.width, b.y + b.depth) for b in r.rectangles]
-                 for r in layout.rooms}
+        rooms = {r.id: [Box.of(b) for b in r.rectangles] for r in layout.rooms}
         return sum(check_layout(diverse_problem(problem, seed), rooms).size_error.values()), \
             layout
 
