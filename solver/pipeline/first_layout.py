@@ -38,7 +38,7 @@ from solver.miqp.formulation import active_families, build_level
 from solver.miqp.objective import e_band_shortfall
 from solver.miqp.scip_run import LevelResult, LevelStatus
 from solver.pipeline.assemble import explained, no_layout
-from solver.pipeline.hierarchy import Piece, absorbed, as_pieces, room_boxes
+from solver.pipeline.hierarchy import Piece, absorb_gaps, absorbed, as_pieces, room_boxes
 from solver.pipeline.improve import improve_level_one
 from solver.pipeline.run import Run, covers, layout_objective
 from solver.pipeline.subdomains import (
@@ -167,21 +167,25 @@ def awaited(second: Future[LevelOneOutcome], run: Run, deadline: float) -> Level
 
 def better_final(run: Run, domain: Domain, pieces: list[Piece],
                  candidate: LevelOneOutcome | None) -> list[Piece]:
-    """The finished layout, or the guillotine search's when that covers and has the
-    lower Eq. 12 (it passed the checker already)."""
+    """The finished layout, or the second search's (gaps absorbed, as the answer will
+    be) when the finished one misses the coverage goal or fails the checker, or when
+    the second has the lower Eq. 12 and passes the checker. A second level-1 search's
+    pieces are level 1's, with its gaps: compared and returned as they will be."""
     if candidate is None or candidate.pieces is None:
         return pieces
     mine = absorbed(run.problem, domain, room_boxes(pieces))
-    theirs = room_boxes(candidate.pieces)
-    if covers(domain, mine) and check_layout(run.problem, mine).valid and (
-            layout_objective(run.problem, domain, mine, soft=run.soft)
-            <= layout_objective(run.problem, domain, theirs)):
+    theirs_pieces = absorb_gaps(run.problem, domain, candidate.pieces)
+    theirs = room_boxes(theirs_pieces)
+    if pieces and (not check_layout(run.problem, theirs).valid or (
+            covers(domain, mine) and check_layout(run.problem, mine).valid and (
+                layout_objective(run.problem, domain, mine, soft=run.soft)
+                <= layout_objective(run.problem, domain, theirs)))):
         return pieces
     run.wings, run.extra, run.window, run.soft = {}, candidate.extra, None, False
     run.relaxations.append(f"{candidate.found_by} ended better")
     run.emit(Phase.LEVEL, detail=f"{candidate.found_by} ended better")
     run.incumbent(domain, theirs)
-    return candidate.pieces
+    return theirs_pieces
 
 
 def guillotine_alone(
