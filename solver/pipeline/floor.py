@@ -38,7 +38,7 @@ from solver.pipeline.first_layout import (
 )
 from solver.pipeline.hierarchy import Piece, absorb_gaps, absorbed, as_pieces, room_boxes
 from solver.pipeline.refine import refine, reshaped
-from solver.pipeline.run import Run, covered
+from solver.pipeline.run import Run, covered, covers
 from solver.pipeline.subdomains import LevelOneOutcome, SubdomainExecutor
 from solver.stopping import GoodEnough
 from solver.verify.precheck import find_impossibilities
@@ -57,6 +57,9 @@ FINISH_SECONDS_PER_ROOM = 0.01
 #: Seconds a diverse solve stopped when good spends moving its walls toward the seed's
 #: drawn sizes (`_drawn_proportions`).
 DRAWN_RESHAPE_SECONDS = 0.1
+#: Share of the reshaping's time it keeps when the refinement ends short of the coverage
+#: goal: the rest goes to another round of refinement levels first.
+SHORT_RESHAPE_SHARE = 0.25
 
 
 def solve_floor(
@@ -132,7 +135,8 @@ def solve_floor(
         if problem.options.diverse:
             pieces = _drawn_proportions(run, domain, pieces, user_stop)
         return final_layout(run, domain, pieces, 1)
-    pieces, levels = refine(run, domain, pieces, subdomains)
+    pieces, levels = _refined(run, domain, pieces, subdomains,
+                              end - SHORT_RESHAPE_SHARE * reshaping)
     pieces = run.better_of(domain, absorb_gaps(problem, domain, pieces))
     run.deadline = end
     pieces = reshaped(run, domain, pieces, end)
@@ -140,6 +144,20 @@ def solve_floor(
     if good is not None and good.rooms is not None:
         pieces = as_pieces(good.rooms)  # good during the refinement or the reshaping
     return final_layout(run, domain, pieces, levels)
+
+
+def _refined(run: Run, domain: Domain, pieces: list[Piece],
+             subdomains: SubdomainExecutor | None, later: float) -> tuple[list[Piece], int]:
+    """The hierarchy's levels; when they end short of the coverage goal (level 1 took
+    most of the time), a second round until `later`, taken from the reshaping: coverage
+    decides whether the layout is valid, the reshaping only polishes its sizes."""
+    pieces, levels = refine(run, domain, pieces, subdomains)
+    if run.stopped() or covers(domain, absorbed(run.problem, domain, room_boxes(pieces))):
+        return pieces, levels
+    run.deadline = max(run.deadline, later)
+    run.emit(Phase.LEVEL, detail="the levels ended short of the coverage goal: another round")
+    pieces, more = refine(run, domain, pieces, subdomains)
+    return pieces, max(levels, more)
 
 
 def _drawn_proportions(run: Run, domain: Domain, pieces: list[Piece],
