@@ -349,6 +349,39 @@ def test_a_second_level_one_search_that_ends_better_is_returned_with_its_gaps_ab
     full = [Piece("a", "a", Box(0, 0, 2, 2)), Piece("b", "b", Box(2, 0, 4, 2))]
     assert better_final(run, domain, full, second) == full
 
+def test_levels_that_end_short_of_coverage_get_a_second_round_from_the_reshaping() -> None:
+    from solver.pipeline.floor import _refined
+    from solver.pipeline.hierarchy import Piece, absorbed, room_boxes
+    from solver.pipeline.run import Run, covers
+
+    # The search time is spent (level 1 took it), so the first round of levels does
+    # nothing. `a` is at its largest width and leaves a strip on the west that no room
+    # can absorb: the second round has until `later` to work on it.
+    two = problem(
+        name="two", boundary=[[0, 0], [4, 0], [4, 2], [0, 2]],
+        rooms=[{"id": "a", "type": "bedroom", "min_size": [1, 1], "max_size": [2, 2],
+                "target_size": [2, 2]},
+               {"id": "b", "type": "bedroom", "min_size": [1, 1], "max_size": [2, 2],
+                "target_size": [2, 2]}])
+    domain = make_domain(two)
+    pieces = [Piece("a", "a", Box(0.5, 0, 2.5, 2)), Piece("b", "b", Box(2.5, 0, 4, 2))]
+    assert not covers(domain, absorbed(two, domain, room_boxes(pieces)))
+    announced: list[SolveEvent] = []
+    run = Run(two, deadline=time.monotonic(), started=time.monotonic(),
+              on_event=announced.append, should_stop=None)
+    later = time.monotonic() + 3
+    refined, levels = _refined(run, domain, pieces, None, later)
+    assert any("another round" in e.detail for e in announced)
+    assert run.deadline == later and levels >= 2
+    assert {p.room for p in refined} == {"a", "b"}
+    # Pieces that cover get no second round and keep the deadline.
+    run = Run(two, deadline=time.monotonic(), started=time.monotonic(), on_event=None,
+              should_stop=None)
+    full = [Piece("a", "a", Box(0, 0, 2, 2)), Piece("b", "b", Box(2, 0, 4, 2))]
+    before = run.deadline
+    assert _refined(run, domain, full, None, time.monotonic() + 3) == (full, 1)
+    assert run.deadline == before
+
 def test_a_gap_side_bordered_by_a_room_over_part_of_its_length_is_absorbed_there() -> None:
     from solver.geometry import make_domain
     from solver.pipeline.hierarchy import Piece, absorb_gaps, room_boxes
