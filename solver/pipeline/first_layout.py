@@ -131,7 +131,7 @@ def tilings_first(run: Run, domain: Domain) -> LevelOneOutcome | None:
         return None
     seconds = EARLY_TILING_SHARE * max(0.0, run.deadline - time.monotonic())
     return guillotine_alone(_second_task(run.problem, seconds), should_stop=run.should_stop,
-                            untiled=False)
+                            untiled=False, then_level_one=False)
 
 
 def guillotine_here(run: Run, domain: Domain) -> LevelOneOutcome | None:
@@ -142,7 +142,7 @@ def guillotine_here(run: Run, domain: Domain) -> LevelOneOutcome | None:
         return None
     seconds = INLINE_GUILLOTINE_SHARE * max(0.0, run.deadline - time.monotonic())
     return guillotine_alone(_second_task(run.problem, seconds), should_stop=run.should_stop,
-                            tiled=False)
+                            tiled=False, then_level_one=False)
 
 
 def _second_task(problem: Problem, seconds: float) -> LevelOneTask:
@@ -190,18 +190,20 @@ def better_final(run: Run, domain: Domain, pieces: list[Piece],
 
 def guillotine_alone(
     task: LevelOneTask, should_stop: Callable[[], bool] | None = None, *,
-    tiled: bool = True, untiled: bool = True,
+    tiled: bool = True, untiled: bool = True, then_level_one: bool = True,
 ) -> LevelOneOutcome:
     """The guillotine search (solver/heuristics/guillotine.py) on `task.problem` in
     whatever process the executor uses: a whole layout, its L and T rooms chosen by the
-    search, ending by `task.deadline` (epoch)."""
+    search, ending by `task.deadline` (epoch). With `then_level_one` (a search alongside
+    level 1), a floor too large for it that has no tiling gets a second level-1 search
+    instead; in the solve's own process level 1 itself has that time."""
     deadline = time.monotonic() + (task.deadline - time.time())
     problem = task.problem
     found = guillotine_layout(problem, make_domain(problem), seed=problem.options.seed,
                               deadline=deadline, should_stop=should_stop,
                               accept=lambda rooms: check_layout(problem, rooms).valid,
                               tiled=tiled, untiled=untiled)
-    if found is None and len(problem.rooms) > GUILLOTINE_MAX_ROOMS and should_stop is None:
+    if found is None and len(problem.rooms) > GUILLOTINE_MAX_ROOMS and then_level_one:
         # Beyond that size only an exact tiling seeds it, and there was none: the rest
         # of the time goes to a second level-1 search, as where it does not apply.
         return level_one_alone(task)
