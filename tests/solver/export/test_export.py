@@ -80,17 +80,19 @@ def test_dxf_by_room_type_opens_in_ezdxf_with_a_layer_per_room_type(
 
 
 def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) -> None:
+    # The file's format is under test, not the layout: one second a solve.
     out = tmp_path / "plan.dxf"
     done = subprocess.run(
         [sys.executable, "-m", "service", "solve", str(EXAMPLES / "apartment-5.json"),
-         "-o", str(out), "--quiet"], capture_output=True, text=True, timeout=60,
+         "-o", str(out), "--time-limit", "1", "--quiet"], capture_output=True, text=True,
+        timeout=60,
     )
     assert done.returncode == 0, done.stderr
     assert ezdxf.readfile(out).modelspace()
     geo = tmp_path / "plan.json"
     done = subprocess.run(
         [sys.executable, "-m", "service", "solve", str(EXAMPLES / "apartment-5.json"),
-         "-o", str(geo), "--format", "geojson", "--quiet"],
+         "-o", str(geo), "--format", "geojson", "--time-limit", "1", "--quiet"],
         capture_output=True, text=True, timeout=60,
     )
     assert done.returncode == 0, done.stderr
@@ -98,7 +100,7 @@ def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) 
     ifc = tmp_path / "plan.ifc"
     done = subprocess.run(
         [sys.executable, "-m", "service", "solve", str(EXAMPLES / "apartment-5.json"),
-         "-o", str(ifc), "--storey-height", "2.8", "--quiet"],
+         "-o", str(ifc), "--storey-height", "2.8", "--time-limit", "1", "--quiet"],
         capture_output=True, text=True, timeout=60,
     )
     assert done.returncode == 0, done.stderr
