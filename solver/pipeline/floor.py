@@ -156,8 +156,7 @@ def _refined(run: Run, domain: Domain, pieces: list[Piece],
         return pieces, levels
     run.deadline = max(run.deadline, later)
     run.emit(Phase.LEVEL, detail="the levels ended short of the coverage goal: another round")
-    pieces, more = refine(run, domain, pieces, subdomains)
-    return pieces, max(levels, more)
+    return refine(run, domain, pieces, subdomains, after=levels)
 
 
 def _drawn_proportions(run: Run, domain: Domain, pieces: list[Piece],

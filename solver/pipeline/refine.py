@@ -39,17 +39,19 @@ PLAN_SECONDS_PER_ROOM = 0.002
 
 def refine(
     run: Run, domain: Domain, pieces: list[Piece],
-    subdomains: SubdomainExecutor | None = None,
+    subdomains: SubdomainExecutor | None = None, *, after: int = 1,
 ) -> tuple[list[Piece], int]:
-    """The hierarchy (Sec. 5.3): refine sub-domains level by level while time is left;
-    returns the pieces and the number of levels used."""
+    """The hierarchy (Sec. 5.3): refine sub-domains level by level while time is left,
+    `options.max_levels` - 1 levels numbered from `after` + 1 (a second round goes on
+    from the first's last); returns the pieces and the number of the last level used."""
     problem = run.problem
-    levels = 1
+    levels = after
+    last = after + problem.options.max_levels - 1
     rng = random.Random(problem.options.seed)
     # Planning a sub-domain costs Python time in proportion to the rooms: do not
     # start one that cannot finish.
     overhead = 0.05 + PLAN_SECONDS_PER_ROOM * len(problem.rooms)
-    for level in range(2, problem.options.max_levels + 1):
+    for level in range(after + 1, last + 1):
         if run.remaining() <= overhead or run.stopped():
             break
         subs = select_subdomains(problem, domain, pieces)
@@ -58,7 +60,7 @@ def refine(
         run.level = levels = level
         run.emit(Phase.LEVEL, subdomains=len(subs),
                  detail=f"level {level}: {len(subs)} sub-domain(s)")
-        levels_left = problem.options.max_levels - level + 1
+        levels_left = last - level + 1
         if subdomains is not None and len(subs) > 1:
             level_seconds = run.remaining() / levels_left
             for batch in _disjoint_batches(subs):
