@@ -558,7 +558,7 @@ def test_a_full_data_dir_is_not_ready_and_accepts_nothing(small_disk: Path,
         with httpx.Client(base_url=server.url, timeout=30) as client:
             done = client.post("/v1/layouts", json={**SMALL, "options": {"time_limit": 1}})
             wait(client, done.json()["id"])
-            running = client.post("/v1/layouts", json={**LONG, "options": {"time_limit": 6}})
+            running = client.post("/v1/layouts", json={**LONG, "options": {"time_limit": 3}})
             wait(client, running.json()["id"], until={"running"})
             queued = client.post("/v1/layouts", json={**SMALL, "options": {"time_limit": 1}})
             assert queued.json()["status"] == "queued"
@@ -582,7 +582,7 @@ def test_a_full_data_dir_is_not_ready_and_accepts_nothing(small_disk: Path,
 
             # The running job ends, and waits for the store to take its end (holding its
             # slot: the queued job waits too), without a traceback twice a second.
-            time.sleep(10)
+            time.sleep(6)
             text = log_path.read_text()
             assert text.count("Traceback") <= 2, text[-3000:]
             assert text.count("the end not recorded yet") <= 5, text[-3000:]
@@ -616,10 +616,10 @@ def test_the_dispatcher_backs_off_while_the_store_refuses_writes(
     with caplog.at_level(logging.INFO, logger="floorplan.runner"):
         runner.start()
         try:
-            time.sleep(8)
+            time.sleep(5)
             failures = [r for r in caplog.records if "dispatcher error" in r.getMessage()]
-            # 0.5 s polls: 16 in 8 s; backing off (1, 2, 4 s): 4.
-            assert 2 <= len(failures) <= 5, [r.getMessage() for r in failures]
+            # 0.5 s polls: 10 in 5 s; backing off (1, 2, 4 s): 3.
+            assert 2 <= len(failures) <= 4, [r.getMessage() for r in failures]
             assert sum(r.exc_info is not None for r in failures) == 1
             filler.unlink()
             deadline = time.monotonic() + 40
