@@ -137,7 +137,7 @@ def solve_floor(
         return final_layout(run, domain, pieces, 1)
     pieces, levels = _refined(run, domain, pieces, subdomains,
                               end - SHORT_RESHAPE_SHARE * reshaping)
-    pieces = run.better_of(domain, absorb_gaps(problem, domain, pieces))
+    pieces = run.better_of(domain, pieces)
     run.deadline = end
     pieces = reshaped(run, domain, pieces, end)
     pieces = better_final(run, domain, pieces, candidate)
@@ -148,15 +148,18 @@ def solve_floor(
 
 def _refined(run: Run, domain: Domain, pieces: list[Piece],
              subdomains: SubdomainExecutor | None, later: float) -> tuple[list[Piece], int]:
-    """The hierarchy's levels; when they end short of the coverage goal (level 1 took
-    most of the time), a second round until `later`, taken from the reshaping: coverage
-    decides whether the layout is valid, the reshaping only polishes its sizes."""
+    """The hierarchy's levels, their last gaps absorbed; when they end short of the
+    coverage goal (level 1 took most of the time), a second round until `later`, taken
+    from the reshaping: coverage decides whether the layout is valid, the reshaping only
+    polishes its sizes."""
     pieces, levels = refine(run, domain, pieces, subdomains)
-    if run.stopped() or covers(domain, absorbed(run.problem, domain, room_boxes(pieces))):
-        return pieces, levels
+    filled = absorb_gaps(run.problem, domain, pieces)
+    if run.stopped() or covers(domain, room_boxes(filled)):
+        return filled, levels
     run.deadline = max(run.deadline, later)
     run.emit(Phase.LEVEL, detail="the levels ended short of the coverage goal: another round")
-    return refine(run, domain, pieces, subdomains, after=levels)
+    pieces, levels = refine(run, domain, pieces, subdomains, after=levels)
+    return absorb_gaps(run.problem, domain, pieces), levels
 
 
 def _drawn_proportions(run: Run, domain: Domain, pieces: list[Piece],
