@@ -298,15 +298,20 @@ def test_every_incumbent_is_announced_as_it_would_be_returned_and_the_end_keeps_
     assert layout.report.valid
 
 
+def two_bedrooms(**room: Any) -> Problem:
+    """Bedrooms `a` and `b` with 2 x 2 m targets on a 4 x 2 m floor, each with `room`'s
+    fields too."""
+    return problem(
+        name="two", boundary=[[0, 0], [4, 0], [4, 2], [0, 2]],
+        rooms=[{"id": r, "type": "bedroom", "min_size": [1, 1], "target_size": [2, 2], **room}
+               for r in ("a", "b")])
+
 def test_the_best_covering_incumbent_replaces_a_final_layout_that_lost_coverage() -> None:
     from solver.geometry import make_domain
     from solver.pipeline.hierarchy import Piece
     from solver.pipeline.run import Run
 
-    two = problem(
-        name="two", boundary=[[0, 0], [4, 0], [4, 2], [0, 2]],
-        rooms=[{"id": "a", "type": "bedroom", "min_size": [1, 1], "target_size": [2, 2]},
-               {"id": "b", "type": "bedroom", "min_size": [1, 1], "target_size": [2, 2]}])
+    two = two_bedrooms()
     domain = make_domain(two)
     run = Run(two, deadline=time.monotonic() + 1, started=time.monotonic(), on_event=None,
                should_stop=None)
@@ -331,10 +336,7 @@ def test_a_second_level_one_search_that_ends_better_is_returned_with_its_gaps_ab
     # A second level-1 search's pieces leave the gaps level 1 leaves; the incumbent it
     # announced had them absorbed, and so must the answer (CI once returned 86 % for
     # an announced 99 %).
-    two = problem(
-        name="two", boundary=[[0, 0], [4, 0], [4, 2], [0, 2]],
-        rooms=[{"id": "a", "type": "bedroom", "min_size": [1, 1], "target_size": [2, 2]},
-               {"id": "b", "type": "bedroom", "min_size": [1, 1], "target_size": [2, 2]}])
+    two = two_bedrooms()
     domain = make_domain(two)
     announced: list[SolveEvent] = []
     run = Run(two, deadline=time.monotonic() + 1, started=time.monotonic(),
@@ -349,6 +351,7 @@ def test_a_second_level_one_search_that_ends_better_is_returned_with_its_gaps_ab
     full = [Piece("a", "a", Box(0, 0, 2, 2)), Piece("b", "b", Box(2, 0, 4, 2))]
     assert better_final(run, domain, full, second) == full
 
+
 def test_levels_that_end_short_of_coverage_get_a_second_round_from_the_reshaping() -> None:
     from solver.pipeline.floor import _refined
     from solver.pipeline.hierarchy import Piece, absorbed, room_boxes
@@ -357,12 +360,7 @@ def test_levels_that_end_short_of_coverage_get_a_second_round_from_the_reshaping
     # The search time is spent (level 1 took it), so the first round of levels does
     # nothing. `a` is at its largest width and leaves a strip on the west that no room
     # can absorb: the second round has until `later` to work on it.
-    two = problem(
-        name="two", boundary=[[0, 0], [4, 0], [4, 2], [0, 2]],
-        rooms=[{"id": "a", "type": "bedroom", "min_size": [1, 1], "max_size": [2, 2],
-                "target_size": [2, 2]},
-               {"id": "b", "type": "bedroom", "min_size": [1, 1], "max_size": [2, 2],
-                "target_size": [2, 2]}])
+    two = two_bedrooms(max_size=[2, 2])
     domain = make_domain(two)
     pieces = [Piece("a", "a", Box(0.5, 0, 2.5, 2)), Piece("b", "b", Box(2.5, 0, 4, 2))]
     assert not covers(domain, absorbed(two, domain, room_boxes(pieces)))
@@ -381,6 +379,7 @@ def test_levels_that_end_short_of_coverage_get_a_second_round_from_the_reshaping
     before = run.deadline
     assert _refined(run, domain, full, None, time.monotonic() + 3) == (full, 1)
     assert run.deadline == before
+
 
 def test_a_gap_side_bordered_by_a_room_over_part_of_its_length_is_absorbed_there() -> None:
     from solver.geometry import make_domain
