@@ -44,7 +44,7 @@ def client(server: Server) -> Iterator[httpx.Client]:
 def job_id(client: httpx.Client) -> str:
     """A job of apartment-5 with three variants asked, ended."""
     problem = copy.deepcopy(APARTMENT)
-    problem["options"] = {"time_limit": 10, "variants": 3}
+    problem["options"] = {"time_limit": 5, "variants": 3}
     response = client.post("/v1/layouts", json=problem)
     assert response.status_code == 202, response.text
     job_id = str(response.json()["id"])
@@ -123,7 +123,7 @@ def test_the_command_line_writes_one_file_per_variant(tmp_path: Path) -> None:
     out = tmp_path / "variants"
     done = subprocess.run(
         [sys.executable, "-m", "service", "solve", str(ROOT / "examples" / "apartment-5.json"),
-         "--variants", "2", "--time-limit", "8", "-o", f"{out}/", "--svg", f"{out}/", "-q"],
+         "--variants", "2", "--time-limit", "4", "-o", f"{out}/", "--svg", f"{out}/", "-q"],
         capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     written = sorted(p.name for p in out.iterdir())
