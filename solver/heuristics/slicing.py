@@ -36,8 +36,16 @@ ROW_TRIES = (0, -1, 1)
 #: Passes of the dealing's hill-climb; each tries every loose room in every other row.
 BALANCE_PASSES = 4
 
-#: Rooms up to which adjacency and boundary demands are sliced too.
+#: Rooms up to which adjacency and boundary demands are sliced too ...
 DEMANDS_UP_TO = 40
+#: ... and up to which a door tree is: every room but a few tied to another
+#: (adjacencies at least `DOOR_TREE_SHARE` of the rooms). Rows seldom hold a tree of
+#: doors on ten rooms or more: of 57 planted briefs of 10-14 rooms, rows were found
+#: for 2 (both also tiled), and house-13 and residential-15 get none; each failure cost
+#: 0.35-0.7 s of level 1. Without it their first valid layouts come 0.5-1.1 s sooner,
+#: Eq. 12 unchanged (bench/NOTES.md, session 20).
+DOOR_TREE_UP_TO = 9
+DOOR_TREE_SHARE = 0.5
 
 #: Row plans (each with every demand able to hold) sized by the QP; the best is kept.
 PLANS_WANTED = 1
@@ -107,8 +115,13 @@ def slicing_has_demands(problem: Problem) -> bool:
 
 def slicing_applies(problem: Problem) -> bool:
     """Slicing honours sizes, aspect ratios and guide points at any size; adjacency and
-    boundary demands up to `DEMANDS_UP_TO` rooms (the row search is a Python annealing)."""
-    return not slicing_has_demands(problem) or len(problem.rooms) <= DEMANDS_UP_TO
+    boundary demands up to `DEMANDS_UP_TO` rooms (the row search is a Python annealing),
+    a tree of doors up to `DOOR_TREE_UP_TO`."""
+    rooms = len(problem.rooms)
+    if not slicing_has_demands(problem):
+        return True
+    door_tree = len(problem.adjacency) >= DOOR_TREE_SHARE * rooms
+    return rooms <= (DOOR_TREE_UP_TO if door_tree else DEMANDS_UP_TO)
 
 
 def slicing_layout(

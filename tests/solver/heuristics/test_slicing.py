@@ -10,7 +10,12 @@ import pytest
 from models import Adjacency, Problem, Termination
 from solver import solve
 from solver.geometry import make_domain
-from solver.heuristics.slicing import DEMANDS_UP_TO, slicing_applies, slicing_layout
+from solver.heuristics.slicing import (
+    DEMANDS_UP_TO,
+    DOOR_TREE_UP_TO,
+    slicing_applies,
+    slicing_layout,
+)
 from solver.verify.checker import check_layout
 
 
@@ -105,6 +110,18 @@ def test_demands_are_sliced_up_to_a_size_and_sizes_alone_at_any_size() -> None:
     assert slicing_applies(many)
     assert not slicing_applies(many.model_copy(update={"adjacency": [
         Adjacency(a="o0", b="o1")]}))
+
+
+def test_a_tree_of_doors_is_sliced_only_on_small_floors() -> None:
+    def door_tree(rooms: int) -> Problem:
+        return offices(rooms).model_copy(update={"adjacency": [
+            Adjacency(a=f"o{k}", b=f"o{k + 1}") for k in range(rooms - 1)]})
+
+    assert slicing_applies(door_tree(DOOR_TREE_UP_TO))
+    assert not slicing_applies(door_tree(DOOR_TREE_UP_TO + 1))
+    # A few doors among many rooms still slice (offices along a corridor).
+    assert slicing_applies(offices(24).model_copy(update={"adjacency": [
+        Adjacency(a="o0", b="o1"), Adjacency(a="o2", b="o3")]}))
 
 
 def flat(**fields: Any) -> Problem:
