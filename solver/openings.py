@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from shapely.geometry import LineString, Point, Polygon
+from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 
 from models import OUTSIDE, Adjacency, Circulation, Door, Problem, Window
@@ -38,6 +39,10 @@ ENTRANCE_INSET = 0.05
 #: inner corner of the outline the other facade wall's end stands this deep into the
 #: wall beside it, so no window or front door goes there.
 FACADE_THICKNESS = 0.25
+#: A window lies only where its room is at least this deep behind the facade (metres):
+#: a sliver of a room along the facade (gap absorption may leave one a centimetre deep)
+#: has an interior wall in its depth, and a window there would open onto that wall.
+WINDOW_MIN_DEPTH = 0.3
 #: Windows on one straight exterior wall at most: a facade of 64 windows (some 190 m at
 #: the default spacing) is already more than any room of a building has.
 MAX_WINDOWS_PER_WALL = 64
@@ -239,8 +244,14 @@ def place_windows(
     for room_id, polygon in rooms.items():
         if problem.room(room_id).type in openings.windowless:
             continue
+        # The room without its parts thinner than `WINDOW_MIN_DEPTH` (an opening: eroded,
+        # then grown back; square corners keep a union of rectangles exact).
+        half = WINDOW_MIN_DEPTH / 2
+        deep = polygon.buffer(-half, join_style="mitre").buffer(half + EPS, join_style="mitre")
         walls = polygon.exterior.intersection(outline)
-        for stretch in straight_stretches(walls):
+        stretches = [piece for stretch in straight_stretches(walls)
+                     for piece in _lines(stretch.intersection(deep))]
+        for stretch in stretches:
             wall = clear_of_corners(stretch, inner)
             if wall is None:
                 continue
@@ -256,6 +267,12 @@ def place_windows(
                     continue
                 windows.append(Window(room=room_id, segment=segment))
     return windows
+
+
+def _lines(geometry: BaseGeometry) -> list[LineString]:
+    """The line pieces of a clipped stretch, longer than `EPS`."""
+    parts = getattr(geometry, "geoms", [geometry])
+    return [p for p in parts if isinstance(p, LineString) and p.length > EPS]
 
 
 def inner_corners(outline: Polygon) -> list[Point]:

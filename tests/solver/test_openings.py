@@ -192,3 +192,15 @@ def test_windows_keep_the_facades_thickness_from_an_inner_corner() -> None:
     # The wall beside it keeps its window: only the corner's end is cut.
     assert any(w.room == "bed" and w.segment[0][1] == 4 for w in windows)
     assert not any(w.room == "dining" and w.segment[0][1] == 4 for w in windows)
+
+
+def test_no_window_on_a_sliver_of_a_room_along_the_facade() -> None:
+    # The bath stops 1 cm short of the north facade and the bed takes that 1 cm strip
+    # above it (as gap absorption can leave one): the bed's windows stay on its own
+    # 6 m of north wall, none on the strip, whose depth is all interior wall.
+    rooms = {**ROOMS, "bed": box(0, 4, 6, 8).union(box(6, 7.99, 8, 8)),
+             "bath": box(6, 4, 8, 7.99)}
+    windows = [LineString(w.segment) for w in add_openings(problem(), rooms).windows
+               if w.room == "bed"]
+    assert windows
+    assert all(line.bounds[2] <= 6 + 1e-9 for line in windows)
