@@ -15,7 +15,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from shapely.geometry import LineString, Point, Polygon
-from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 
 from models import OUTSIDE, Adjacency, Circulation, Door, Problem, Window
@@ -248,10 +247,8 @@ def place_windows(
         # then grown back; square corners keep a union of rectangles exact).
         half = WINDOW_MIN_DEPTH / 2
         deep = polygon.buffer(-half, join_style="mitre").buffer(half + EPS, join_style="mitre")
-        walls = polygon.exterior.intersection(outline)
-        stretches = [piece for stretch in straight_stretches(walls)
-                     for piece in _lines(stretch.intersection(deep))]
-        for stretch in stretches:
+        walls = polygon.exterior.intersection(outline).intersection(deep)
+        for stretch in straight_stretches(walls):
             wall = clear_of_corners(stretch, inner)
             if wall is None:
                 continue
@@ -267,12 +264,6 @@ def place_windows(
                     continue
                 windows.append(Window(room=room_id, segment=segment))
     return windows
-
-
-def _lines(geometry: BaseGeometry) -> list[LineString]:
-    """The line pieces of a clipped stretch, longer than `EPS`."""
-    parts = getattr(geometry, "geoms", [geometry])
-    return [p for p in parts if isinstance(p, LineString) and p.length > EPS]
 
 
 def inner_corners(outline: Polygon) -> list[Point]:

@@ -306,6 +306,7 @@ def two_bedrooms(**room: Any) -> Problem:
         rooms=[{"id": r, "type": "bedroom", "min_size": [1, 1], "target_size": [2, 2], **room}
                for r in ("a", "b")])
 
+
 def test_the_best_covering_incumbent_replaces_a_final_layout_that_lost_coverage() -> None:
     from solver.geometry import make_domain
     from solver.pipeline.hierarchy import Piece
