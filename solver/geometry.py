@@ -504,6 +504,54 @@ def snap_rooms(
     }
 
 
+def wall_runs(fixed: Iterable[float], walls: Iterable[tuple[float, float]], tol: float
+              ) -> dict[float, float]:
+    """Map each wall coordinate of `walls` ((coordinate, length) pairs) to one value per
+    run of coordinates spanning at most `tol`: the fixed line within `tol` of the whole
+    run when there is one, else the run's coordinate with the most wall on it (the wall
+    the others line up with). A run near two fixed lines is left as it is.
+
+    >>> wall_runs([0.0, 6.8], [(6.77, 2.0), (6.83, 3.8), (4.9, 1.0), (4.95, 4.0)], 0.1)
+    {4.9: 4.95, 4.95: 4.95, 6.77: 6.8, 6.83: 6.8}
+    """
+    lines = sorted(set(fixed))
+    length: dict[float, float] = {}
+    for value, extent in walls:
+        length[value] = length.get(value, 0.0) + extent
+    runs: list[list[float]] = []
+    for value in sorted(length):
+        if runs and value - runs[-1][0] <= tol:
+            runs[-1].append(value)
+        else:
+            runs.append([value])
+    mapping: dict[float, float] = {}
+    for run in runs:
+        k = bisect.bisect_left(lines, run[-1] - tol)
+        near = [w for w in lines[k:] if w <= run[0] + tol]
+        if len(near) > 1:  # two walls of the outline this close: each keeps its own
+            mapping.update({v: v for v in run})
+            continue
+        target = near[0] if near else max(run, key=lambda v: (length[v], -v))
+        mapping.update(dict.fromkeys(run, target))
+    return mapping
+
+
+def straightened_rooms(
+    rooms: Mapping[str, Sequence[Box]], xs: Iterable[float], ys: Iterable[float], tol: float
+) -> dict[str, list[Box]]:
+    """Rooms with every run of wall coordinates at most `tol` apart moved onto one line
+    (`wall_runs`; the outline's `xs` and `ys` stay), rectangles left without area dropped.
+    The map keeps the coordinates' order, so rooms that did not overlap still do not, and
+    rooms that covered the floor still do."""
+    boxes = [b for rects in rooms.values() for b in rects]
+    sx = wall_runs(xs, [(v, b.depth) for b in boxes for v in (b.x0, b.x1)], tol)
+    sy = wall_runs(ys, [(v, b.width) for b in boxes for v in (b.y0, b.y1)], tol)
+    moved = {room_id: [Box(sx[b.x0], sy[b.y0], sx[b.x1], sy[b.y1]) for b in rects]
+             for room_id, rects in rooms.items()}
+    return {room_id: [b for b in rects if b.width > EPS and b.depth > EPS]
+            for room_id, rects in moved.items()}
+
+
 def domain_lines(problem: Problem) -> tuple[list[float], list[float]]:
     """The x and y coordinates of the outline's and the obstacles' walls."""
     xs = [x for x, _ in problem.boundary]
