@@ -119,7 +119,10 @@ def solve_floor(
         else:
             pieces = better_start(run, domain, pieces, other)
     elif (candidate is None or candidate.pieces is None) and (
-            failure is None or failure.report.termination is not Termination.INFEASIBLE):
+            failure is None or failure.report.termination is not Termination.INFEASIBLE
+    ) and not (good is not None and problem.options.diverse):
+        # (Not for a batch's layout, which stops when good: when level 1 gave none,
+        # another draw of level 1 (`_redrawn`) gives one sooner than this search.)
         candidate = guillotine_here(run, domain)
     if good is not None and problem.options.diverse:
         run, pieces, failure = _redrawn(run, domain, pieces, failure, good, level_one_end)
