@@ -418,30 +418,30 @@ def _deepest_strip(
 ) -> Box | None:
     """The deepest strip of `part`, growing away from the room on `side` of it, that
     keeps the room within bounds (the whole part when it can)."""
-
-    def strip(t: float) -> Box:
-        return {
-            "south": Box(part.x0, part.y0, part.x1, part.y0 + t),
-            "north": Box(part.x0, part.y1 - t, part.x1, part.y1),
-            "west": Box(part.x0, part.y0, part.x0 + t, part.y1),
-            "east": Box(part.x1 - t, part.y0, part.x1, part.y1),
-        }[side]
+    grow = {"south": lambda t: Box(part.x0, part.y0, part.x1, part.y0 + t),
+            "north": lambda t: Box(part.x0, part.y1 - t, part.x1, part.y1),
+            "west": lambda t: Box(part.x0, part.y0, part.x0 + t, part.y1),
+            "east": lambda t: Box(part.x1 - t, part.y0, part.x1, part.y1)}[side]
 
     now = bounding_box(own)
     # The room's bounds as they stand now: the same for every depth tried.
     max_size, aspect_ratio = relaxed_bounds(problem, room_id, now, (math.inf, math.inf))
 
     def fits(t: float) -> bool:
-        return _box_within(bounding_box((now, strip(t))), max_size, aspect_ratio)
+        # The bounding box of the room and the strip, in plain arithmetic: this runs
+        # some thirty times a strip, for every incumbent of a solve.
+        s = grow(t)
+        return _box_within(Box(min(now.x0, s.x0), min(now.y0, s.y0),
+                               max(now.x1, s.x1), max(now.y1, s.y1)), max_size, aspect_ratio)
 
     full = part.depth if side in ("south", "north") else part.width
     if fits(full):
-        return strip(full)
+        return grow(full)
     lo, hi = 0.0, full
     for _ in range(30):  # bisection to ~1e-9 of the depth
         mid = (lo + hi) / 2
         lo, hi = (mid, hi) if fits(mid) else (lo, mid)
-    return strip(lo) if lo >= MIN_STRIP and fits(lo) else None
+    return grow(lo) if lo >= MIN_STRIP and fits(lo) else None
 
 
 def _cuts_along(pieces: Sequence[Piece], cell: Box, side: str) -> list[tuple[str, Box]] | None:
