@@ -36,11 +36,20 @@ from solver.pipeline.first_layout import (
     second_start,
     tilings_first,
 )
-from solver.pipeline.hierarchy import Piece, absorb_gaps, absorbed, as_pieces, room_boxes
+from solver.pipeline.hierarchy import (
+    GAP_AREA,
+    Piece,
+    absorb_gaps,
+    absorbed,
+    as_pieces,
+    room_boxes,
+    slides,
+)
 from solver.pipeline.refine import refine, reshaped
 from solver.pipeline.run import Run, covered, covers
 from solver.pipeline.subdomains import LevelOneOutcome, SubdomainExecutor
 from solver.stopping import GoodEnough
+from solver.verify.checker import check_layout
 from solver.verify.precheck import find_impossibilities
 
 #: Share of the time limit level 1 may use.
@@ -57,6 +66,9 @@ FINISH_SECONDS_PER_ROOM = 0.01
 #: Seconds a diverse solve stopped when good spends moving its walls toward the seed's
 #: drawn sizes (`_drawn_proportions`).
 DRAWN_RESHAPE_SECONDS = 0.1
+#: Rooms moved across gaps at most, when the levels end short of the coverage goal
+#: (`_slid`).
+SLIDES = 3
 #: Share of the reshaping's time it keeps when the refinement ends short of the coverage
 #: goal: the rest goes to another round of refinement levels first.
 SHORT_RESHAPE_SHARE = 0.25
@@ -156,13 +168,31 @@ def _refined(run: Run, domain: Domain, pieces: list[Piece],
     from the reshaping: coverage decides whether the layout is valid, the reshaping only
     polishes its sizes."""
     pieces, levels = refine(run, domain, pieces, subdomains)
-    filled = absorb_gaps(run.problem, domain, pieces)
+    filled = _slid(run, domain, absorb_gaps(run.problem, domain, pieces))
     if run.stopped() or covers(domain, room_boxes(filled)):
         return filled, levels
     run.deadline = max(run.deadline, later)
     run.emit(Phase.LEVEL, detail="the levels ended short of the coverage goal: another round")
     pieces, levels = refine(run, domain, pieces, subdomains, after=levels)
-    return absorb_gaps(run.problem, domain, pieces), levels
+    return _slid(run, domain, absorb_gaps(run.problem, domain, pieces)), levels
+
+
+def _slid(run: Run, domain: Domain, pieces: list[Piece]) -> list[Piece]:
+    """`pieces` short of the coverage goal with rooms moved across the gaps no
+    neighbour may grow into (`slides`), one move at a time while one covers more and
+    passes the checker, at most `SLIDES` moves."""
+    for _ in range(SLIDES):
+        if run.stopped() or covers(domain, room_boxes(pieces)):
+            break
+        now = covered(domain, room_boxes(pieces))
+        better = next((moved for moved in slides(run.problem, domain, pieces)
+                       if covered(domain, room_boxes(moved)) > now + GAP_AREA
+                       and check_layout(run.problem, room_boxes(moved)).valid), None)
+        if better is None:
+            break
+        run.incumbent(domain, room_boxes(better))
+        pieces = better
+    return pieces
 
 
 def _drawn_proportions(run: Run, domain: Domain, pieces: list[Piece],

@@ -13,7 +13,7 @@ from __future__ import annotations
 import itertools
 import math
 import random
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
 
 import shapely
@@ -395,6 +395,38 @@ def absorbed(problem: Problem, domain: Domain, rooms: dict[str, list[Box]]
              ) -> dict[str, list[Box]]:
     """`absorb_gaps` on a layout given as room id -> rectangles."""
     return room_boxes(absorb_gaps(problem, domain, as_pieces(rooms)))
+
+
+def slides(problem: Problem, domain: Domain, pieces: Sequence[Piece]
+           ) -> Iterator[list[Piece]]:
+    """Layouts with one room of a single rectangle moved across a gap that borders the
+    whole of one of its sides, by the gap's depth there, and the strip it leaves
+    absorbed by the rooms beyond (`absorb_gaps`): for a gap whose bordering rooms are
+    all at their largest. The room keeps its size and moves only over floor no room
+    covers, so nothing overlaps; what else it must keep (contacts, walls, guide points)
+    is for the caller's checker."""
+    shift = {"south": (0.0, 1.0), "north": (0.0, -1.0), "west": (1.0, 0.0),
+             "east": (-1.0, 0.0)}
+    for gap in uncovered_gaps(domain, pieces):
+        for cell in rectangles_of(gap):
+            for side, (fx, fy) in shift.items():
+                cuts = _cuts_along(pieces, cell, side)
+                if cuts is None or len(cuts) != 1:
+                    continue
+                room_id, part = cuts[0]
+                own = [p for p in pieces if p.room == room_id]
+                if len(own) != 1:
+                    continue
+                b = own[0].box
+                whole = (abs(part.x0 - b.x0) <= EPS and abs(part.x1 - b.x1) <= EPS
+                         if side in ("south", "north") else
+                         abs(part.y0 - b.y0) <= EPS and abs(part.y1 - b.y1) <= EPS)
+                if not whole:
+                    continue
+                dx, dy = fx * cell.width, fy * cell.depth
+                moved = replace(own[0], box=Box(b.x0 + dx, b.y0 + dy, b.x1 + dx, b.y1 + dy))
+                yield absorb_gaps(problem, domain,
+                                  [moved if p is own[0] else p for p in pieces])
 
 
 def _absorb_cell(problem: Problem, pieces: list[Piece], cell: Box) -> list[Piece]:
