@@ -543,10 +543,37 @@ def straightened_rooms(
     (`wall_runs`; the outline's `xs` and `ys` stay), rectangles left without area dropped.
     The map keeps the coordinates' order, so rooms that did not overlap still do not, and
     rooms that covered the floor still do."""
+    return walls_moved(rooms, wall_moves(rooms, xs, ys, tol))
+
+
+def wall_moves(
+    rooms: Mapping[str, Sequence[Box]], xs: Iterable[float], ys: Iterable[float], tol: float
+) -> list[tuple[int, dict[float, float]]]:
+    """The runs of `wall_runs` that move a wall, each as (axis: 0 for x, 1 for y, the
+    map of its coordinates), to be applied together or one at a time (`walls_moved`)."""
     boxes = [b for rects in rooms.values() for b in rects]
-    sx = wall_runs(xs, [(v, b.depth) for b in boxes for v in (b.x0, b.x1)], tol)
-    sy = wall_runs(ys, [(v, b.width) for b in boxes for v in (b.y0, b.y1)], tol)
-    moved = {room_id: [Box(sx[b.x0], sy[b.y0], sx[b.x1], sy[b.y1]) for b in rects]
+    moves: list[tuple[int, dict[float, float]]] = []
+    for axis, fixed, walls in (
+            (0, xs, [(v, b.depth) for b in boxes for v in (b.x0, b.x1)]),
+            (1, ys, [(v, b.width) for b in boxes for v in (b.y0, b.y1)])):
+        runs: dict[float, dict[float, float]] = {}
+        for value, target in wall_runs(fixed, walls, tol).items():
+            runs.setdefault(target, {})[value] = target
+        moves += [(axis, run) for run in runs.values()
+                  if any(value != target for value, target in run.items())]
+    return moves
+
+
+def walls_moved(rooms: Mapping[str, Sequence[Box]],
+                moves: Iterable[tuple[int, dict[float, float]]]) -> dict[str, list[Box]]:
+    """`rooms` with the wall coordinates of `moves` (`wall_moves`) moved, rectangles left
+    without area dropped."""
+    sx: dict[float, float] = {}
+    sy: dict[float, float] = {}
+    for axis, run in moves:
+        (sx if axis == 0 else sy).update(run)
+    moved = {room_id: [Box(sx.get(b.x0, b.x0), sy.get(b.y0, b.y0),
+                           sx.get(b.x1, b.x1), sy.get(b.y1, b.y1)) for b in rects]
              for room_id, rects in rooms.items()}
     return {room_id: [b for b in rects if b.width > EPS and b.depth > EPS]
             for room_id, rects in moved.items()}

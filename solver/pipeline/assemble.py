@@ -24,7 +24,8 @@ from solver.geometry import (
     polygon_coords,
     room_polygon,
     snap_rooms,
-    straightened_rooms,
+    wall_moves,
+    walls_moved,
 )
 from solver.miqp.scip_run import LevelStatus
 from solver.openings import add_openings
@@ -46,6 +47,9 @@ STRAIGHTEN_TOLERANCE = 0.1
 #: The straightened layout is the answer when it passes the checker, covers as much
 #: and its Eq. 12 is at most this share above the layout's.
 STRAIGHTEN_COST = 0.02
+#: When lining up every run of walls at once fails, at most this many runs are tried
+#: one at a time (a check each).
+STRAIGHTEN_RUNS = 12
 
 
 def termination(run: Run) -> Termination:
@@ -128,23 +132,40 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
 def straight_walls(problem: Problem, rooms: dict[str, list[Box]], check: CheckResult
                    ) -> tuple[dict[str, list[Box]], CheckResult]:
     """A valid layout with its walls less than `STRAIGHTEN_TOLERANCE` apart lined up
-    (`straightened_rooms`; the outline's and fixed rooms' walls stay), with its check,
-    when that stays valid, covers as much and costs at most `STRAIGHTEN_COST` of Eq. 12;
-    else the layout as it is. Slivers of rooms a few centimetres wide go with the jogs."""
+    (`wall_moves`; the outline's and fixed rooms' walls stay), with its check: all of
+    them at once when that stays valid, covers as much and costs at most
+    `STRAIGHTEN_COST` of Eq. 12, else each run of walls on its own that does (a room at
+    its maximum size keeps its jog, the others go). Slivers of rooms a few centimetres
+    wide go with their jogs."""
     if not check.valid:
         return rooms, check
     xs, ys = domain_lines(problem)
     for room in problem.rooms:
         xs += [x for x, _ in room.fixed or []]
         ys += [y for _, y in room.fixed or []]
-    lined = straightened_rooms(rooms, xs, ys, STRAIGHTEN_TOLERANCE)
-    if lined == rooms:
+    moves = wall_moves(rooms, xs, ys, STRAIGHTEN_TOLERANCE)
+    bound = _eq12(problem, check) * (1 + STRAIGHTEN_COST) + 1e-9
+
+    def passing(kept: list[tuple[int, dict[float, float]]]
+                ) -> tuple[dict[str, list[Box]], CheckResult] | None:
+        lined = walls_moved(rooms, kept)
+        again = check_layout(problem, lined)
+        if again.valid and again.coverage >= check.coverage - 1e-9 and _eq12(
+                problem, again) <= bound:
+            return lined, again
+        return None
+
+    if not moves:
         return rooms, check
-    again = check_layout(problem, lined)
-    if (again.valid and again.coverage >= check.coverage - 1e-9
-            and _eq12(problem, again) <= _eq12(problem, check) * (1 + STRAIGHTEN_COST) + 1e-9):
-        return lined, again
-    return rooms, check
+    if (every := passing(moves)) is not None:
+        return every
+    best: tuple[dict[str, list[Box]], CheckResult] = (rooms, check)
+    kept: list[tuple[int, dict[float, float]]] = []
+    for move in moves[:STRAIGHTEN_RUNS]:
+        if (found := passing([*kept, move])) is not None:
+            kept.append(move)
+            best = found
+    return best
 
 
 def _eq12(problem: Problem, check: CheckResult) -> float:

@@ -51,3 +51,18 @@ def test_walls_stay_where_lining_them_up_breaks_the_brief() -> None:
     assert check.valid
     rooms, again = straight_walls(brief, ROOMS, check)
     assert rooms is ROOMS and again is check
+
+
+def test_each_jog_that_can_go_goes_when_not_all_of_them_can() -> None:
+    # The living room split in two 3 cm off the bed's wall above: that jog goes, though
+    # the bath (no deeper than 3.99 m) keeps the bed's 1 cm strip beside it.
+    brief = Problem.model_validate({**problem(bath_depth=3.99).model_dump(), "rooms": [
+        *problem(bath_depth=3.99).model_dump()["rooms"],
+        {"id": "hall", "min_size": [1.5, 1.5], "max_size": [3, 4], "target_size": [2, 4]}]})
+    rooms = {**ROOMS, "living": [Box(0, 0, 6.03, 4)], "hall": [Box(6.03, 0, 8, 4)]}
+    check = check_layout(brief, rooms)
+    assert check.valid
+    lined, again = straight_walls(brief, rooms, check)
+    assert again.valid
+    assert {b.x0 for b in lined["hall"]} == {b.x1 for b in lined["living"]} == {6.0}
+    assert lined["bath"] == ROOMS["bath"] and lined["bed"] == ROOMS["bed"]
