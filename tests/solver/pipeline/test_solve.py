@@ -359,9 +359,12 @@ def test_levels_that_end_short_of_coverage_get_a_second_round_from_the_reshaping
     from solver.pipeline.run import Run, covers
 
     # The search time is spent (level 1 took it), so the first round of levels does
-    # nothing. `a` is at its largest width and leaves a strip on the west that no room
-    # can absorb: the second round has until `later` to work on it.
+    # nothing. `a` and `b` are at their largest widths and leave a strip on the west
+    # that no room can absorb, nor `a` moved across it (`b` could not take what `a`
+    # leaves): the second round has until `later` to work on it.
     two = two_bedrooms(max_size=[2, 2])
+    b = two.rooms[1].model_copy(update={"max_size": (1.5, 2), "target_size": (1.5, 2)})
+    two = two.model_copy(update={"rooms": [two.rooms[0], b]})
     domain = make_domain(two)
     pieces = [Piece("a", "a", Box(0.5, 0, 2.5, 2)), Piece("b", "b", Box(2.5, 0, 4, 2))]
     assert not covers(domain, absorbed(two, domain, room_boxes(pieces)))
