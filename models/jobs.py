@@ -185,8 +185,10 @@ class BatchRequest(WireModel):
     seed: int = Field(0, ge=0, le=2**31 - 1 - MAX_BATCH_COUNT,
                       description="the first layout's seed")
     time_limit: float | None = Field(
-        None, gt=0, le=86400, description="seconds per layout (default: the brief's "
-        "options.time_limit, else 0.4 s per room, at least 1 s)")
+        None, gt=0, le=86400, description="seconds per draw of a layout (default: the "
+        "brief's options.time_limit, else 0.4 s per room, at least 1 s); a layout that is "
+        "not good (valid, covering 99 %) is laid out again under another draw, twice at "
+        "most (options.redraws), so its job's limit is three times this")
     vary_program: bool = Field(False, description="draw room counts and sizes from a "
                                "templated brief's template, per seed")
     name: str | None = Field(None, max_length=200, description="default: the brief's name")

@@ -39,6 +39,8 @@ MAX_ROOM_RECTS = 4
 TOLERANCE = 1e-6
 #: The most design variants a job may ask for (`Options.variants`).
 MAX_VARIANTS = 12
+#: The most whole redraws a diverse solve that stops when good may make (`Options.redraws`).
+MAX_REDRAWS = 5
 #: The most vertices a fixed room's polygon may have (`Room.fixed`).
 MAX_FIXED_VERTICES = 100
 #: The most rooms and the most rectangles per room a warm start may give
@@ -326,6 +328,12 @@ class Options(_Strict):
         "and covers 99 % of the floor, instead of improving Eq. 12 to the time limit (a "
         "batch wants many good plans, not each one's best; batches turn it on, issue 23); "
         "the report's termination is then interrupted. Single-floor problems only",
+    )
+    redraws: Annotated[int, Field(ge=0, le=MAX_REDRAWS)] = Field(
+        0, description="with diverse and stop_when_good: a solve that ends without a good "
+        "layout is laid out again whole under another draw of the seed, at most this many "
+        "times (0-5); time_limit is the draws' total, each draw an equal share of what is "
+        "left, and the report's solve_time counts them all (batches through the API set 2)",
     )
     strict: bool = Field(
         True, description="false: every constraint that can be relaxed (sizes, aspect "

@@ -160,6 +160,23 @@ def task_problem(task: LayoutTask, seed: int | None = None) -> Problem:
     return problem.with_options(**changes)
 
 
+def job_problem(task: LayoutTask) -> Problem:
+    """The problem of a batch's layout run as a job of the service (issue 23):
+    `task_problem`, laid out again whole under another draw by the solver itself when it
+    ends without a good layout (`options.redraws` = `REDRAWS`, what `lay_out` does
+    between solves for `floorplan batch`), its time limit the draws' total. A brief
+    solved by regions or by storeys, which does not stop when good, keeps one draw and
+    its limit."""
+    problem = task_problem(task)
+    above = problem.options.regions_above
+    if (problem.floors is not None or problem.regions is not None
+            or (above > 0 and len(problem.rooms) > above)):
+        return problem
+    assert problem.options.time_limit is not None  # task_problem sets one
+    return problem.with_options(redraws=REDRAWS,
+                                time_limit=problem.options.time_limit * (REDRAWS + 1))
+
+
 def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
     """Solve one layout of a batch (in the calling process): the problem solved, its
     layout, and whether the solve stopped at a good-enough incumbent (`GoodEnough`). A

@@ -48,7 +48,7 @@ from solver.pipeline.hierarchy import (
 from solver.pipeline.refine import refine, reshaped
 from solver.pipeline.run import Run, covered, covers
 from solver.pipeline.subdomains import LevelOneOutcome, SubdomainExecutor
-from solver.stopping import GoodEnough
+from solver.stopping import DEFAULT_COVERAGE, GoodEnough
 from solver.verify.checker import check_layout
 from solver.verify.precheck import find_impossibilities
 
@@ -66,6 +66,9 @@ FINISH_SECONDS_PER_ROOM = 0.01
 #: Seconds a diverse solve stopped when good spends moving its walls toward the seed's
 #: drawn sizes (`_drawn_proportions`).
 DRAWN_RESHAPE_SECONDS = 0.1
+#: The seed of a whole redraw (`options.redraws`): the solve's plus this times the draw
+#: (the step `floorplan batch` takes between solves, so both draw the same sizes).
+WHOLE_REDRAW_SEED_STEP = 1_000_003
 #: Rooms moved across gaps at most, when the levels end short of the coverage goal
 #: (`_slid`).
 SLIDES = 3
@@ -84,6 +87,9 @@ def solve_floor(
     """Lay out a single-floor `problem` without regions: a valid layout, or a report
     saying why there is none. With `subdomains`, the sub-domains of each refinement level
     are solved at the same time on its executor; without, one after the other."""
+    if problem.options.redraws and problem.options.diverse and problem.options.stop_when_good:
+        return _drawn_until_good(problem, on_event=on_event, should_stop=should_stop,
+                                 subdomains=subdomains)
     started = time.monotonic()
     asked = problem
     if problem.options.diverse:
@@ -159,6 +165,42 @@ def solve_floor(
     if good is not None and good.rooms is not None:
         pieces = as_pieces(good.rooms)  # good during the refinement or the reshaping
     return final_layout(run, domain, pieces, levels)
+
+
+def _drawn_until_good(
+    problem: Problem, *, on_event: EventSink | None, should_stop: StopFlag | None,
+    subdomains: SubdomainExecutor | None,
+) -> Layout:
+    """`options.redraws` (issue 23: a batch's layout as a job of the service): the solve
+    laid out again whole under another draw of the seed (`WHOLE_REDRAW_SEED_STEP`) while
+    it ends without a good layout, each draw an equal share of the time left, as
+    `floorplan batch` does between solves. The first good layout, else the best of the
+    draws (valid first, then the most floor covered); its solve_time counts every draw."""
+    started = time.monotonic()
+    limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
+    draws = problem.options.redraws + 1
+    best: Layout | None = None
+    for k in range(draws):
+        share = (limit - (time.monotonic() - started)) / (draws - k)
+        if best is not None and (share < 0.5 * limit / draws
+                                 or (should_stop is not None and should_stop())):
+            break
+        seed = (problem.options.seed + k * WHOLE_REDRAW_SEED_STEP) % 2**31
+        layout = solve_floor(problem.with_options(seed=seed, redraws=0, time_limit=share),
+                             on_event=on_event, should_stop=should_stop, subdomains=subdomains)
+        if best is None or _good_rank(layout) > _good_rank(best):
+            best = layout
+        if _good_rank(layout)[0]:
+            break
+    assert best is not None
+    return best.model_copy(update={"report": best.report.model_copy(
+        update={"solve_time": time.monotonic() - started})})
+
+
+def _good_rank(layout: Layout) -> tuple[bool, bool, float]:
+    """Good (valid, covering `DEFAULT_COVERAGE`) first, then valid, then coverage."""
+    r = layout.report
+    return (r.valid and r.coverage >= DEFAULT_COVERAGE, r.valid, r.coverage)
 
 
 def _refined(run: Run, domain: Domain, pieces: list[Piece],

@@ -24,7 +24,7 @@ from service.api.deps import BackendDep, OwnerDep, SettingsDep, StoreDep
 from service.api.errors import STORE_RETRY_AFTER, ApiError
 from service.api.limits import too_many
 from service.api.routes.layouts import RETRY_AFTER, effective_time_limit
-from service.batch import GOOD_COVERAGE, LayoutTask, task_problem
+from service.batch import GOOD_COVERAGE, LayoutTask, job_problem
 from service.records import Batch, BatchLayout
 from service.store import JobStore
 
@@ -78,7 +78,7 @@ def submit_batch(
     for index in range(body.count):
         task = LayoutTask(body.problem, body.seed + index, body.time_limit, body.vary_program,
                           good_enough=math.inf)  # each job ends at its first good layout
-        problem, time_limit = effective_time_limit(task_problem(task), settings.max_time_limit)
+        problem, time_limit = effective_time_limit(job_problem(task), settings.max_time_limit)
         problems.append((problem.model_dump_json(), time_limit))
     name = body.name or str(body.problem.get("name") or "batch")
     batch, made = store.create_batch(owner=owner, name=name[:200], seed=body.seed,

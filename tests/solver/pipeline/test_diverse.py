@@ -196,3 +196,32 @@ def test_a_good_layout_takes_the_seeds_proportions(monkeypatch: pytest.MonkeyPat
         plans.add(b)
         differ += plans.plans == 2
     assert differ >= 2
+
+
+def _level_ones(problem: Problem) -> tuple[Layout, int]:
+    from solver.events import Phase, SolveEvent
+
+    events: list[SolveEvent] = []
+    layout = solve(problem, on_event=events.append)
+    starts = sum(1 for e in events if e.phase is Phase.LEVEL
+                 and e.detail == "level 1: one rectangle per room")
+    return layout, starts
+
+
+def test_redraws_lay_out_again_whole_until_good_within_the_time_limit() -> None:
+    # Two rooms of at most 2 m on a 5 m floor: no draw is ever good (covering 99 %).
+    never = Problem.model_validate({
+        "boundary": [[0, 0], [5, 0], [5, 2], [0, 2]],
+        "rooms": [{"id": r, "min_size": [1, 1], "max_size": [2, 2], "target_size": [2, 2]}
+                  for r in ("a", "b")],
+        "options": {"diverse": True, "stop_when_good": True, "time_limit": 3, "redraws": 2}})
+    layout, draws = _level_ones(never)
+    assert draws == 3
+    assert layout.report.valid and layout.report.coverage < 0.99
+    assert 1.0 < layout.report.solve_time <= 3.5  # every draw counted, within the limit
+    assert _level_ones(never.with_options(redraws=0))[1] == 1
+    # A brief that is good at once is laid out once.
+    good = Problem.model_validate(APARTMENT).with_options(
+        diverse=True, stop_when_good=True, time_limit=6, redraws=2, seed=3)
+    layout, draws = _level_ones(good)
+    assert draws == 1 and layout.report.valid and layout.report.coverage >= 0.99
