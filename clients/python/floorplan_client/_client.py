@@ -134,8 +134,8 @@ class Client(BaseClient):
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> BatchInfo:
         """Queue `count` layouts of one brief, seeds `seed`, `seed` + 1, ..., each its own
         plan (``options.diverse``); with `vary_program` each its own programme drawn from
-        a templated brief. `time_limit` is per layout. `RateLimited` when the queue
-        cannot take them all."""
+        a templated brief. `time_limit` is per draw of a layout (one that is not good is
+        drawn again, twice at most). `RateLimited` when the queue cannot take them all."""
         options = self._batch_options(problem, count, seed, time_limit, vary_program, timeout)
         return self._parse(self._send(options), BatchInfo)
 
