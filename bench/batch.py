@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from models import Layout, Problem, Report, RoomLayout
+from models.parts import REDRAW_SEED_STEP
 from solver.distinct import DistinctPlans
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -39,7 +40,6 @@ GOOD_COVERAGE = 0.99
 #: As service.batch: a layout that is not good is laid out again this many times at
 #: most, the redraw's seed the layout's plus `REDRAW_SEED_STEP` times the attempt.
 REDRAWS = 2
-REDRAW_SEED_STEP = 1_000_003
 
 
 def per_layout_limit(problem: Problem) -> float:

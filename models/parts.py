@@ -41,6 +41,9 @@ TOLERANCE = 1e-6
 MAX_VARIANTS = 12
 #: The most whole redraws a diverse solve that stops when good may make (`Options.redraws`).
 MAX_REDRAWS = 5
+#: A whole redraw's seed is the layout's plus this times the draw (`Options.redraws`, and
+#: `floorplan batch` between solves: both draw the same sizes).
+REDRAW_SEED_STEP = 1_000_003
 #: The most vertices a fixed room's polygon may have (`Room.fixed`).
 MAX_FIXED_VERTICES = 100
 #: The most rooms and the most rectangles per room a warm start may give

@@ -172,6 +172,13 @@ class Problem(ProblemFields):
         floors = self.floors or []
         return len(self.rooms) + sum(len(f.rooms) for f in floors) + len(self.vertical)
 
+    @property
+    def by_regions(self) -> bool:
+        """Whether the floor is laid out by regions and aisles: it names regions, or has
+        more rooms than `options.regions_above` (0: never)."""
+        above = self.options.regions_above
+        return self.regions is not None or (above > 0 and len(self.rooms) > above)
+
     def with_options(self, **changes: Any) -> Problem:
         """This problem with the given options changed, as the solver derives its own
         sub-problems (not validated again: the values are the solver's, not a user's)."""

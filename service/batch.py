@@ -20,6 +20,7 @@ from pydantic import BaseModel, Field
 
 from models import Layout, Problem, Termination
 from models.formats import FormatName
+from models.parts import REDRAW_SEED_STEP
 
 #: A batch's layouts get this per-layout time limit by default, seconds per room (and at
 #: least `BATCH_MIN_SECONDS`): a batch is many plans, each good rather than the best.
@@ -44,8 +45,6 @@ DEFAULT_TOLERANCE = math.inf
 #: A layout that is not good (valid, covering `GOOD_COVERAGE`) is laid out again under
 #: another draw of sizes, at most this many times; the better of the tries is kept.
 REDRAWS = 2
-#: The seed of a redraw: the layout's seed plus this times the attempt.
-REDRAW_SEED_STEP = 1_000_003
 #: With `floorplan batch --distinct`, a good layout whose plan the batch already holds
 #: is laid out again under another draw (`LayoutTask.draw`), this many times at most;
 #: the first new plan is kept, else the first layout. A draw's seed is the layout's
@@ -168,9 +167,7 @@ def job_problem(task: LayoutTask) -> Problem:
     solved by regions or by storeys, which does not stop when good, keeps one draw and
     its limit."""
     problem = task_problem(task)
-    above = problem.options.regions_above
-    if (problem.floors is not None or problem.regions is not None
-            or (above > 0 and len(problem.rooms) > above)):
+    if problem.floors is not None or problem.by_regions:
         return problem
     assert problem.options.time_limit is not None  # task_problem sets one
     return problem.with_options(redraws=REDRAWS,
@@ -184,7 +181,7 @@ def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
     and, with `vary_program`, the programme: a drawn programme the outline cannot take
     well is drawn anew), `REDRAWS` times at most; the best of the tries is kept."""
     from solver import solve
-    from solver.stopping import GoodEnough
+    from solver.stopping import GoodEnough, good_rank
 
     best: tuple[Problem, Layout, bool] | None = None
     for attempt in range(REDRAWS + 1):
@@ -198,18 +195,12 @@ def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
             good = GoodEnough(problem, task.good_enough, coverage=GOOD_COVERAGE)
             layout = solve(problem, on_event=good, should_stop=good.is_reached)
             stopped = good.reached
-        if best is None or _rank(layout) > _rank(best[1]):
+        if best is None or good_rank(layout) > good_rank(best[1]):
             best = (problem, layout, stopped)
-        if _rank(layout)[0]:
+        if good_rank(layout)[0]:
             break
     assert best is not None
     return best
-
-
-def _rank(layout: Layout) -> tuple[bool, bool, float]:
-    """Good first, then valid, then the larger coverage."""
-    r = layout.report
-    return (r.valid and r.coverage >= GOOD_COVERAGE, r.valid, r.coverage)
 
 
 def lay_out_to_file(args: tuple[LayoutTask, str, FormatName, str]) -> tuple[dict[str, Any], str]:

@@ -536,21 +536,14 @@ def wall_runs(fixed: Iterable[float], walls: Iterable[tuple[float, float]], tol:
     return mapping
 
 
-def straightened_rooms(
-    rooms: Mapping[str, Sequence[Box]], xs: Iterable[float], ys: Iterable[float], tol: float
-) -> dict[str, list[Box]]:
-    """Rooms with every run of wall coordinates at most `tol` apart moved onto one line
-    (`wall_runs`; the outline's `xs` and `ys` stay), rectangles left without area dropped.
-    The map keeps the coordinates' order, so rooms that did not overlap still do not, and
-    rooms that covered the floor still do."""
-    return walls_moved(rooms, wall_moves(rooms, xs, ys, tol))
-
-
 def wall_moves(
     rooms: Mapping[str, Sequence[Box]], xs: Iterable[float], ys: Iterable[float], tol: float
 ) -> list[tuple[int, dict[float, float]]]:
-    """The runs of `wall_runs` that move a wall, each as (axis: 0 for x, 1 for y, the
-    map of its coordinates), to be applied together or one at a time (`walls_moved`)."""
+    """The runs of wall coordinates at most `tol` apart that `wall_runs` moves onto one
+    line (the outline's `xs` and `ys` stay), each as (axis: 0 for x, 1 for y, the map of
+    its coordinates), to be applied together or one at a time (`walls_moved`). All of
+    them together keep the coordinates' order, so rooms that did not overlap still do
+    not, and rooms that covered the floor still do."""
     boxes = [b for rects in rooms.values() for b in rects]
     moves: list[tuple[int, dict[float, float]]] = []
     for axis, fixed, walls in (

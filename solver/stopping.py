@@ -12,7 +12,7 @@ then ends as if interrupted, and its answer is checked again as any answer is.
 
 from __future__ import annotations
 
-from models import Problem
+from models import Layout, Problem
 from solver.events import Phase, SolveEvent
 from solver.geometry import Box
 from solver.verify.checker import check_layout
@@ -58,3 +58,10 @@ class GoodEnough:
         if self.reached:
             # SCIP may report one more incumbent before it stops, not necessarily good.
             self.rooms = event.rooms
+
+
+def good_rank(layout: Layout) -> tuple[bool, bool, float]:
+    """How a finished layout ranks among tries of one brief: good (valid, covering
+    `DEFAULT_COVERAGE`) first, then valid, then the larger coverage."""
+    r = layout.report
+    return (r.valid and r.coverage >= DEFAULT_COVERAGE, r.valid, r.coverage)

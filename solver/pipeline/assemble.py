@@ -3,6 +3,8 @@ checked report; the report of why there is none; drafts of incumbents for progre
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import shapely
 
 from models import (
@@ -13,6 +15,7 @@ from models import (
     Report,
     RoomLayout,
     Termination,
+    Weights,
 )
 from models.storeys import draft_floor, floor_view
 from solver.events import Phase
@@ -114,8 +117,7 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
         w = run.asked.weights
     violations = [c for c in constraints if c.soft and not c.satisfied]
     shortfall = sum(c.shortfall for c in violations)
-    objective = (w.cover * check.uncovered_area + w.size * sum(size_errors.values())
-                 + w.violation * shortfall)
+    objective = _objective(w, check.uncovered_area, size_errors, shortfall)
     report = Report(
         coverage=check.coverage, uncovered_area=check.uncovered_area,
         constraints=constraints, size_error=size_errors,
@@ -170,10 +172,15 @@ def straight_walls(problem: Problem, rooms: dict[str, list[Box]], check: CheckRe
 
 def _eq12(problem: Problem, check: CheckResult) -> float:
     """Eq. 12 of a checked layout, soft constraints' shortfall priced."""
-    w = problem.weights
     shortfall = sum(c.shortfall for c in check.constraints if c.soft and not c.satisfied)
-    return (w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
-            + w.violation * shortfall)
+    return _objective(problem.weights, check.uncovered_area, check.size_error, shortfall)
+
+
+def _objective(w: Weights, uncovered: float, size_errors: Mapping[str, float],
+               shortfall: float) -> float:
+    """Eq. 12 as the report gives it: lambda_cover * uncovered area + lambda_size * E_size,
+    plus the soft constraints' shortfall at lambda_violation."""
+    return w.cover * uncovered + w.size * sum(size_errors.values()) + w.violation * shortfall
 
 
 def outline_of(boxes: list[Box]) -> shapely.Polygon:

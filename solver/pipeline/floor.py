@@ -15,6 +15,7 @@ import time
 from dataclasses import replace
 
 from models import Infeasibility, Layout, Problem, Termination
+from models.parts import REDRAW_SEED_STEP as WHOLE_REDRAW_SEED_STEP
 from solver.budget import default_time_limit
 from solver.events import EventSink, Phase, SolveEvent, StopFlag
 from solver.geometry import Domain, make_domain
@@ -48,7 +49,7 @@ from solver.pipeline.hierarchy import (
 from solver.pipeline.refine import refine, reshaped
 from solver.pipeline.run import Run, covered, covers
 from solver.pipeline.subdomains import LevelOneOutcome, SubdomainExecutor
-from solver.stopping import DEFAULT_COVERAGE, GoodEnough
+from solver.stopping import GoodEnough, good_rank
 from solver.verify.checker import check_layout
 from solver.verify.precheck import find_impossibilities
 
@@ -66,9 +67,6 @@ FINISH_SECONDS_PER_ROOM = 0.01
 #: Seconds a diverse solve stopped when good spends moving its walls toward the seed's
 #: drawn sizes (`_drawn_proportions`).
 DRAWN_RESHAPE_SECONDS = 0.1
-#: The seed of a whole redraw (`options.redraws`): the solve's plus this times the draw
-#: (the step `floorplan batch` takes between solves, so both draw the same sizes).
-WHOLE_REDRAW_SEED_STEP = 1_000_003
 #: Rooms moved across gaps at most, when the levels end short of the coverage goal
 #: (`_slid`).
 SLIDES = 3
@@ -172,8 +170,8 @@ def _drawn_until_good(
     subdomains: SubdomainExecutor | None,
 ) -> Layout:
     """`options.redraws` (issue 23: a batch's layout as a job of the service): the solve
-    laid out again whole under another draw of the seed (`WHOLE_REDRAW_SEED_STEP`) while
-    it ends without a good layout, each draw an equal share of the time left, as
+    laid out again whole under another draw of the seed (`models.parts.REDRAW_SEED_STEP`)
+    while it ends without a good layout, each draw an equal share of the time left, as
     `floorplan batch` does between solves. The first good layout, else the best of the
     draws (valid first, then the most floor covered); its solve_time counts every draw."""
     started = time.monotonic()
@@ -188,19 +186,13 @@ def _drawn_until_good(
         seed = (problem.options.seed + k * WHOLE_REDRAW_SEED_STEP) % 2**31
         layout = solve_floor(problem.with_options(seed=seed, redraws=0, time_limit=share),
                              on_event=on_event, should_stop=should_stop, subdomains=subdomains)
-        if best is None or _good_rank(layout) > _good_rank(best):
+        if best is None or good_rank(layout) > good_rank(best):
             best = layout
-        if _good_rank(layout)[0]:
+        if good_rank(layout)[0]:
             break
     assert best is not None
     return best.model_copy(update={"report": best.report.model_copy(
         update={"solve_time": time.monotonic() - started})})
-
-
-def _good_rank(layout: Layout) -> tuple[bool, bool, float]:
-    """Good (valid, covering `DEFAULT_COVERAGE`) first, then valid, then coverage."""
-    r = layout.report
-    return (r.valid and r.coverage >= DEFAULT_COVERAGE, r.valid, r.coverage)
 
 
 def _refined(run: Run, domain: Domain, pieces: list[Piece],

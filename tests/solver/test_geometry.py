@@ -6,7 +6,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from solver.geometry import Box, rectangles_of, straightened_rooms, unusable_space
+from solver.geometry import Box, rectangles_of, unusable_space, wall_moves, walls_moved
 
 REGION = Box(0, 0, 10, 10)
 
@@ -58,15 +58,15 @@ cuts = st.lists(st.floats(0.01, 9.99), min_size=1, max_size=6)
 
 @settings(max_examples=150, deadline=None)
 @given(cuts, cuts, st.floats(0.01, 0.5))
-def test_straightened_rooms_still_tile_the_floor(xs: list[float], ys: list[float],
-                                                 tol: float) -> None:
+def test_walls_lined_up_still_tile_the_floor(xs: list[float], ys: list[float],
+                                             tol: float) -> None:
     # A grid of rooms, some of its lines a few centimetres apart: lining them up keeps
     # the floor covered once, and the outline's lines where they are.
     gx, gy = [0.0, *sorted(xs), 10.0], [0.0, *sorted(ys), 10.0]
     rooms = {f"{i},{j}": [Box(gx[i], gy[j], gx[i + 1], gy[j + 1])]
              for i in range(len(gx) - 1) for j in range(len(gy) - 1)
              if gx[i + 1] > gx[i] and gy[j + 1] > gy[j]}
-    lined = straightened_rooms(rooms, [0.0, 10.0], [0.0, 10.0], tol)
+    lined = walls_moved(rooms, wall_moves(rooms, [0.0, 10.0], [0.0, 10.0], tol))
     boxes = [b for rects in lined.values() for b in rects]
     assert abs(sum(b.area for b in boxes) - 100.0) < 1e-6  # no overlap ...
     assert abs(_union(boxes).area - 100.0) < 1e-6  # ... and no gap

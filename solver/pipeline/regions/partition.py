@@ -37,8 +37,7 @@ def regions_apply(problem: Problem) -> bool:
     `options.regions_above` (0: never), entrance or not: a floor that large needs
     walking space to reach its rooms. Without an entrance the aisles form one network
     touching every region and the facade (its ends are the exits)."""
-    above = problem.options.regions_above
-    return problem.regions is not None or (above > 0 and len(problem.rooms) > above)
+    return problem.by_regions
 
 
 def room_adjacency(problem: Problem) -> list[Adjacency]:
