@@ -12,8 +12,10 @@ laid out again under another draw (`REDRAWS`)."""
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from pydantic import BaseModel, Field
@@ -51,6 +53,11 @@ REDRAWS = 2
 #: plus `DRAW_SEED_STEP` times the draw.
 DISTINCT_DRAWS = 2
 DRAW_SEED_STEP = 7_000_003
+#: A good layout whose plan the batch holds already has its walls moved apart from the
+#: plans near it (`spread_to_file`) for at most this many seconds: those that differ
+#: from it on at most `SPREAD_NEAR` of the floor (a move of walls changes less).
+SPREAD_SECONDS = 0.3
+SPREAD_NEAR = 0.25
 #: The summary's termination of a layout stopped at a good-enough incumbent.
 GOOD_ENOUGH = "good-enough"
 
@@ -129,6 +136,8 @@ class LayoutRow(BaseModel):
     error: str | None = Field(None, description="why the layout failed, if it did")
     draw: int = Field(0, description="0, or with --distinct the draw that gave a plan the "
                       "batch did not hold yet (solved under seed + draw * 7000003)")
+    spread: bool = Field(False, description="the solve's plan was one the batch held; its "
+                         "walls were moved apart from it (solver/pipeline/spread.py)")
 
     @property
     def good(self) -> bool:
@@ -203,16 +212,60 @@ def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
     return best
 
 
-def lay_out_to_file(args: tuple[LayoutTask, str, FormatName, str]) -> tuple[dict[str, Any], str]:
+def lay_out_to_file(args: tuple[LayoutTask, str, FormatName, str]
+                    ) -> tuple[dict[str, Any], str, str]:
     """`lay_out` then write the layout to `path` in `fmt` (write then rename): the task of a
-    `floorplan batch` worker. Returns the summary row (as JSON data) and the layout
-    JSON, for the distinct-plan count."""
-    import os
-    from pathlib import Path
-
+    `floorplan batch` worker. Returns the summary row (as JSON data), the layout JSON,
+    for the distinct-plan count, and the problem solved's JSON, for `spread_to_file`."""
     task, path, fmt, name = args
     started = time.monotonic()
     problem, layout, stopped_early = lay_out(task)
+    target = _write(problem, layout, path, fmt)
+    row = row_of(name, task.seed, layout, time.monotonic() - started, file=target.name)
+    row.draw = task.draw
+    if stopped_early:
+        row.termination = GOOD_ENOUGH
+    return row.model_dump(mode="json"), layout.model_dump_json(), problem.model_dump_json()
+
+
+@dataclass(frozen=True)
+class SpreadTask:
+    """A good layout of a batch whose plan the batch holds already, to be moved apart
+    from the plans near it (`others`: `solver.distinct` grids) by `spread_to_file`."""
+
+    problem: str  #: the problem solved, JSON
+    layout: str  #: its layout, JSON
+    row: dict[str, Any]  #: its summary row, JSON data
+    others: Any  #: numpy array, one row a plan's grid
+    path: str
+    fmt: FormatName
+
+
+def spread_to_file(task: SpreadTask) -> tuple[dict[str, Any], str] | None:
+    """The layout of `task` with its walls moved apart from `task.others`
+    (solver/pipeline/spread.py), written to `task.path` in `task.fmt`, with its summary
+    row (the solve's time plus the move's) and JSON; None when it cannot be moved so
+    far in `SPREAD_SECONDS`. The task of a `floorplan batch` worker."""
+    from solver.pipeline.spread import spread_layout
+
+    started = time.monotonic()
+    problem = Problem.model_validate_json(task.problem)
+    row = LayoutRow.model_validate(task.row)
+    moved = spread_layout(problem, Layout.model_validate_json(task.layout), task.others,
+                          seconds=SPREAD_SECONDS, seed=row.seed)
+    if moved is None:
+        return None
+    target = _write(problem, moved, task.path, task.fmt)
+    r = moved.report
+    row = row.model_copy(update={
+        "file": target.name, "valid": r.valid, "coverage": round(r.coverage, 6),
+        "objective": None if r.objective is None else round(r.objective, 6),
+        "time": round(row.time + time.monotonic() - started, 4), "spread": True})
+    return row.model_dump(mode="json"), moved.model_dump_json()
+
+
+def _write(problem: Problem, layout: Layout, path: str, fmt: FormatName) -> Path:
+    """`layout` written to `path` in `fmt`, whole or not at all (write then rename)."""
     if fmt == "json":
         data = (layout.model_dump_json(indent=2) + "\n").encode()
     else:
@@ -226,11 +279,7 @@ def lay_out_to_file(args: tuple[LayoutTask, str, FormatName, str]) -> tuple[dict
         tmp.replace(target)
     finally:
         tmp.unlink(missing_ok=True)
-    row = row_of(name, task.seed, layout, time.monotonic() - started, file=target.name)
-    row.draw = task.draw
-    if stopped_early:
-        row.termination = GOOD_ENOUGH
-    return row.model_dump(mode="json"), layout.model_dump_json()
+    return target
 
 
 def row_of(name: str, seed: int, layout: Layout, seconds: float,
@@ -256,6 +305,8 @@ class BatchSummary(BaseModel):
     redraws: int = Field(0, description="solves of this run that laid a good layout out "
                          "again for a plan the batch did not hold (`floorplan batch "
                          "--distinct`)")
+    spread: int = Field(0, description="layouts of the batch whose solve gave a plan it held, "
+                        "made a new plan by moving their walls apart from it")
     seconds: float = Field(0.0, description="wall-clock seconds of this run")
     rate: float = Field(0.0, description="layouts per second in this run")
     rows: list[LayoutRow] = Field(default_factory=list)
@@ -282,6 +333,6 @@ class Tally:
             layouts=len(rows), valid=sum(r.good for r in rows),
             failed=sum(r.error is not None for r in rows),
             distinct_plans=self.plans.plans, distinct_graphs=self.plans.graphs,
-            redraws=self.redraws,
+            redraws=self.redraws, spread=sum(r.spread for r in rows),
             seconds=round(seconds, 3), rate=round(done_here / seconds, 3) if seconds else 0.0,
             rows=rows)

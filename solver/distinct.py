@@ -39,25 +39,30 @@ def raster(layout: Layout, *, cell: float = CELL) -> tuple[tuple[str, ...], np.n
     """The plan as a grid of room numbers (0: no room), floor after floor, with the room
     ids the numbers stand for (1-based, sorted) and the grid's origin at the lower left
     of the rooms' bounds."""
-    rooms = layout.all_rooms
-    ids = tuple(sorted({r.id for r in rooms}))
+    ids = tuple(sorted({r.id for r in layout.all_rooms}))
     number = {room_id: k + 1 for k, room_id in enumerate(ids)}
-    grids = []
-    for floor in _floors(layout):
-        boxes = [(number[r.id], b) for r in floor for b in r.rectangles]
-        if not boxes:
-            continue
-        x0 = min(b.x for _, b in boxes)
-        y0 = min(b.y for _, b in boxes)
-        nx = round(max(b.x + b.width for _, b in boxes) / cell - x0 / cell)
-        ny = round(max(b.y + b.depth for _, b in boxes) / cell - y0 / cell)
-        grid = np.zeros((max(ny, 1), max(nx, 1)), dtype=np.int32)
-        for k, b in boxes:
-            i0, i1 = round((b.y - y0) / cell), round((b.y + b.depth - y0) / cell)
-            j0, j1 = round((b.x - x0) / cell), round((b.x + b.width - x0) / cell)
-            grid[i0:i1, j0:j1] = k
-        grids.append(grid.ravel())
+    grids = [floor_grid([(number[r.id], b.x, b.y, b.x + b.width, b.y + b.depth)
+                         for r in floor for b in r.rectangles], cell=cell)
+             for floor in _floors(layout)]
+    grids = [g for g in grids if g.size]
     return ids, np.concatenate(grids) if grids else np.zeros(0, dtype=np.int32)
+
+
+def floor_grid(boxes: Sequence[tuple[int, float, float, float, float]], *, cell: float = CELL
+               ) -> np.ndarray:
+    """One floor's rectangles (room number, x0, y0, x1, y1) as a flat grid of room
+    numbers (`raster`); empty without rectangles."""
+    if not boxes:
+        return np.zeros(0, dtype=np.int32)
+    x0 = min(b[1] for b in boxes)
+    y0 = min(b[2] for b in boxes)
+    nx = round(max(b[3] for b in boxes) / cell - x0 / cell)
+    ny = round(max(b[4] for b in boxes) / cell - y0 / cell)
+    grid = np.zeros((max(ny, 1), max(nx, 1)), dtype=np.int32)
+    for k, bx0, by0, bx1, by1 in boxes:
+        grid[round((by0 - y0) / cell):round((by1 - y0) / cell),
+             round((bx0 - x0) / cell):round((bx1 - x0) / cell)] = k
+    return grid.ravel()
 
 
 def adjacency_graph(layout: Layout, *, min_contact: float = MIN_CONTACT
@@ -96,6 +101,16 @@ class DistinctPlans:
     def is_new(self, layout: Layout) -> bool:
         """Whether `layout`'s plan differs from every plan counted (it is not counted)."""
         return self._is_new(*raster(layout, cell=self.cell))
+
+    def near(self, layout: Layout, within: float) -> np.ndarray:
+        """The grids of the plans counted that differ from `layout`'s on at most `within`
+        of its cells (a stack, one row a plan; no rows when none)."""
+        ids, grid = raster(layout, cell=self.cell)
+        same_shape = self._plans.get((ids, grid.size))
+        if not same_shape:
+            return np.zeros((0, grid.size), dtype=np.int32)
+        stack = np.stack(same_shape)
+        return stack[(stack != grid).sum(axis=1) <= within * grid.size]
 
     def _is_new(self, ids: tuple[str, ...], grid: np.ndarray) -> bool:
         same_shape = self._plans.get((ids, grid.size))

@@ -92,6 +92,10 @@ def add_batch(commands: Any) -> None:
     p.add_argument("--draws", type=_positive, default=None, metavar="K",
                    help="with --distinct, the draws a layout may have beyond its first "
                    "(default 2)")
+    p.add_argument("--no-spread", dest="spread", action="store_false",
+                   help="keep a good layout as its solve gave it when the batch already "
+                   "holds its plan (by default its walls are moved apart from the plans "
+                   "near it: solver/pipeline/spread.py)")
     p.add_argument("--full", action="store_true",
                    help="never stop a solve early: each layout gets its whole time limit")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
@@ -175,13 +179,16 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     from service.batch import (
         DEFAULT_TOLERANCE,
         DISTINCT_DRAWS,
+        SPREAD_NEAR,
         BestSoFar,
         LayoutRow,
         LayoutTask,
+        SpreadTask,
         Tally,
         batch_time_limit,
         hard_limit,
         lay_out_to_file,
+        spread_to_file,
     )
     from service.cli.pool import WarmPool
 
@@ -193,6 +200,10 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     best = BestSoFar(tolerance)
     for row in tally.rows:
         best.add(row)
+
+    def spread_path(tried: Path) -> Path:
+        """Where a try's layout with its walls moved is written until it is kept."""
+        return tried.with_name(f".{tried.stem.lstrip('.')}.spread{tried.suffix}")
 
     def draw_path(name: str, seed: int, draw: int = 0) -> Path:
         """A layout's file; a draw's own until it is kept (a hidden name)."""
@@ -207,10 +218,11 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     total = len(briefs) * args.count
     skipped = total - len(todo)
 
-    # Layouts waiting for another draw (--distinct): the first layout, kept in its
-    # file until a draw gives a new plan, and its row; the draws to try, and what runs.
+    # Layouts waiting for a new plan (their walls moved apart, or --distinct's draws): the
+    # first layout, kept in its file until a new plan replaces it, and its row; the
+    # tasks to hand out before new layouts, and the layouts running.
     held: dict[tuple[str, int], tuple[LayoutRow, Layout, dict[str, Any]]] = {}
-    draws: deque[tuple[str, LayoutTask]] = deque()
+    queued_first: deque[tuple[tuple[str, int, int, bool], Any, Any]] = deque()
     running: set[tuple[str, int]] = set()
 
     def task_of(name: str, seed: int, draw: int = 0) -> LayoutTask:
@@ -218,23 +230,24 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
                           vary_sizes="sizes" in args.vary,
                           good_enough=best.good_enough(name), draw=draw)
 
+    def solve_task(name: str, task: LayoutTask) -> tuple[tuple[str, int, int, bool], Any, Any]:
+        return ((name, task.seed, task.draw, False), lay_out_to_file,
+                (task, str(draw_path(name, task.seed, task.draw)), args.format, name))
+
     def tasks() -> Iterator[tuple[Any, Any, Any, float] | None]:
         queued = iter(todo)
         while True:
-            if draws:
-                name, task = draws.popleft()
+            if queued_first:
+                key, function, argument = queued_first.popleft()
             elif (item := next(queued, None)) is not None:
-                name, seed = item
-                task = task_of(name, seed)
+                key, function, argument = solve_task(item[0], task_of(*item))
             elif running:
-                yield None  # a layout still running may ask for another draw
+                yield None  # a layout still running may ask for another step
                 continue
             else:
                 return
-            running.add((name, task.seed))
-            yield ((name, task.seed, task.draw), lay_out_to_file,
-                   (task, str(draw_path(name, task.seed, task.draw)), args.format, name),
-                   hard_limit(limits[name]))
+            running.add(key[:2])
+            yield key, function, argument, hard_limit(limits[key[0]])
 
     def settle(row: LayoutRow, layout: Layout | None, entry: dict[str, Any]) -> None:
         """Count a finished layout, journalled with `entry` unless it failed (empty)."""
@@ -248,9 +261,25 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
         if bar is not None:
             bar.advance(row)
 
-    def redraw(name: str, seed: int, draw: int) -> None:
-        tally.redraws += 1
-        draws.append((name, task_of(name, seed, draw)))
+    def next_try(name: str, seed: int, draw: int) -> None:
+        """A layout whose try `draw` gave no new plan: another draw (--distinct), else
+        its first layout stands."""
+        if args.distinct and draw < (args.draws or DISTINCT_DRAWS):
+            tally.redraws += 1
+            queued_first.append(solve_task(name, task_of(name, seed, draw + 1)))
+        else:
+            settle(*held.pop((name, seed)))
+
+    def keep_new(name: str, seed: int, drawn: Path, row: LayoutRow, layout: Layout,
+                 layout_json: str) -> None:
+        """A try that gave a new plan: it replaces the first layout in the layout's file."""
+        final = draw_path(name, seed)
+        if drawn != final:
+            drawn.replace(final)
+        row.file = final.name
+        held.pop((name, seed), None)
+        settle(row, layout, {"row": row.model_dump(mode="json"),
+                             "layout": json.loads(layout_json)})
 
     started = time.monotonic()
     finished = 0
@@ -261,49 +290,49 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
                       ) as pool:
             keep_sigint_blocked()  # the pool's start may have unblocked it (interrupt.py)
             for outcome in pool.results(tasks(), should_stop=interrupted):
-                name, seed, draw = outcome.key
+                name, seed, draw, spread = outcome.key
                 running.discard((name, seed))
-                final = draw_path(name, seed)
-                row: LayoutRow | None = None
-                layout: Layout | None = None
-                entry: dict[str, Any] = {}
-                if outcome.error is None:
-                    row_data, layout_json = outcome.result
-                    row = LayoutRow.model_validate(row_data)
-                    layout = Layout.model_validate_json(layout_json)
-                    entry = {"row": row_data, "layout": json.loads(layout_json)}
-                if draw == 0:
-                    if row is None or layout is None:
+                tried = spread_path(draw_path(name, seed, draw)) if spread else draw_path(
+                    name, seed, draw)
+                if outcome.error is not None or outcome.result is None:
+                    # A failed solve, or walls that could not be moved far enough.
+                    if draw or spread:
+                        tried.unlink(missing_ok=True)
+                    if draw == 0 and not spread:
                         settle(LayoutRow(brief=name, seed=seed, error=outcome.error), None, {})
-                    elif args.distinct and row.good and not tally.plans.is_new(layout):
-                        held[name, seed] = (row, layout, entry)
-                        redraw(name, seed, 1)
                     else:
+                        next_try(name, seed, draw)
+                    continue
+                row_data, layout_json, *problem_json = outcome.result
+                row = LayoutRow.model_validate(row_data)
+                layout = Layout.model_validate_json(layout_json)
+                if row.good and tally.plans.is_new(layout):
+                    keep_new(name, seed, tried, row, layout, layout_json)
+                    continue
+                if draw == 0 and not spread:
+                    entry = {"row": row_data, "layout": json.loads(layout_json)}
+                    if not row.good or not (args.spread or args.distinct):
                         settle(row, layout, entry)
-                    continue
-                drawn = draw_path(name, seed, draw)
-                if row is not None and layout is not None and row.good and (
-                        tally.plans.is_new(layout)):
-                    # A new plan: it replaces the first layout in the layout's file.
-                    drawn.replace(final)
-                    row.file = final.name
-                    entry = {"row": row.model_dump(mode="json"), "layout": entry["layout"]}
-                    held.pop((name, seed))
-                    settle(row, layout, entry)
-                    continue
-                drawn.unlink(missing_ok=True)
-                if draw < (args.draws or DISTINCT_DRAWS):
-                    redraw(name, seed, draw + 1)
+                        continue
+                    held[name, seed] = (row, layout, entry)
+                elif draw or spread:
+                    tried.unlink(missing_ok=True)
+                if row.good and not spread and args.spread:
+                    # The batch holds this plan: move its walls apart from those near it.
+                    queued_first.appendleft(((name, seed, draw, True), spread_to_file, SpreadTask(
+                        problem_json[0], layout_json, row_data,
+                        tally.plans.near(layout, SPREAD_NEAR),
+                        str(spread_path(draw_path(name, seed, draw))), args.format)))
                 else:
-                    settle(*held.pop((name, seed)))
-            # Stopped while layouts waited for another draw: their first layouts stand.
+                    next_try(name, seed, draw)
+            # Stopped while layouts waited for a new plan: their first layouts stand.
             for key in list(held):
                 settle(*held.pop(key))
     finally:
         journal.close()
         if bar is not None:
             bar.stop()
-        for stray in out.glob(f".*.draw*.{extension}"):
+        for stray in [*out.glob(f".*.draw*.{extension}"), *out.glob(f".*.spread.{extension}")]:
             stray.unlink(missing_ok=True)
     stopped = interrupted()
     summary = tally.summary(time.monotonic() - started, finished)
@@ -311,7 +340,8 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     if not args.quiet:
         print(f"{summary.layouts} of {total} layouts ({skipped} done before), "
               f"{summary.valid} valid, {summary.failed} failed; {summary.distinct_plans} "
-              f"distinct plans, {summary.distinct_graphs} adjacency graphs"
+              f"distinct plans ({summary.spread} with walls moved apart), "
+              f"{summary.distinct_graphs} adjacency graphs"
               f"{f' ({summary.redraws} solves redrawn for new plans)' if args.distinct else ''}; "
               f"{summary.rate:.2f} layouts/s; summary in {out / SUMMARY_JSON}",
               file=sys.stderr)

@@ -31,7 +31,7 @@ from solver.geometry import (
     walls_moved,
 )
 from solver.miqp.scip_run import LevelStatus
-from solver.openings import add_openings
+from solver.openings import Openings, add_openings
 from solver.pipeline.hierarchy import Piece, room_boxes
 from solver.pipeline.run import OUTPUT_SNAP, Run
 from solver.soft import hard_part
@@ -77,28 +77,8 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
         # covering incumbent that passes was found.
         rooms, check = passing
     rooms, check = straight_walls(problem, rooms, check)
-    polygons = {room.id: outline_of(rooms[room.id]) for room in problem.rooms}
-    out = [
-        RoomLayout(id=room.id, type=room.type, polygon=polygon_coords(polygons[room.id]),
-                   rectangles=[b.to_rect() for b in rooms[room.id]],
-                   area=round(float(polygons[room.id].area), 6))
-        for room in problem.rooms
-    ]
-    openings = add_openings(problem, polygons)
-    constraints, valid = check.constraints, check.valid
-    if problem.options.require_connected:
-        connected = openings.circulation is not None and openings.circulation.reachable
-        unreachable = openings.circulation.unreachable if openings.circulation else []
-        constraints = [*constraints, ConstraintCheck(
-            kind="circulation", rooms=unreachable, satisfied=connected,
-            detail="every room reachable from the entrance" if connected else
-            ("no entrance to start from" if openings.circulation is None else
-             f"unreachable: {', '.join(unreachable)}"),
-        )]
-        if not problem.options.strict:
-            # Soft, like the adjacencies require_connected added, which carry the shortfall.
-            constraints[-1] = constraints[-1].model_copy(update={"soft": True})
-        valid = valid and (connected or not problem.options.strict)
+    out, openings = _drawn_rooms(problem, rooms)
+    constraints, valid = _with_circulation(problem, check, openings)
     ended, why = termination(run), None
     if not valid and ended is not Termination.INTERRUPTED:
         # Issue 19: a layout breaking a hard constraint is no answer; it is kept as a
@@ -129,6 +109,60 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
     run.emit(Phase.DONE, objective=objective, detail=f"coverage {check.coverage:.1%}")
     return Layout(name=problem.name, rooms=out, doors=openings.doors, windows=openings.windows,
                   report=report)
+
+
+def relaid(problem: Problem, layout: Layout, rooms: dict[str, list[Box]],
+           check: CheckResult) -> Layout:
+    """`layout` (the answer of `problem`, single floor) with its rooms moved to `rooms`,
+    checked as `check`: polygons, doors, windows and the report's verdicts drawn anew,
+    its termination and solve record kept (solver/pipeline/spread.py)."""
+    out, openings = _drawn_rooms(problem, rooms)
+    constraints, valid = _with_circulation(problem, check, openings)
+    violations = [c for c in constraints if c.soft and not c.satisfied]
+    shortfall = sum(c.shortfall for c in violations)
+    report = layout.report.model_copy(update={
+        "coverage": check.coverage, "uncovered_area": check.uncovered_area,
+        "constraints": constraints, "size_error": check.size_error,
+        "objective": _objective(problem.weights, check.uncovered_area, check.size_error,
+                                shortfall),
+        "valid": valid, "circulation": openings.circulation, "violations": violations,
+        "total_shortfall": round(shortfall, 6)})
+    return layout.model_copy(update={"rooms": out, "doors": openings.doors,
+                                     "windows": openings.windows, "report": report})
+
+
+def _drawn_rooms(problem: Problem, rooms: dict[str, list[Box]]
+                 ) -> tuple[list[RoomLayout], Openings]:
+    """The rooms of the answer as polygons, with the doors and windows between them."""
+    polygons = {room.id: outline_of(rooms[room.id]) for room in problem.rooms}
+    out = [
+        RoomLayout(id=room.id, type=room.type, polygon=polygon_coords(polygons[room.id]),
+                   rectangles=[b.to_rect() for b in rooms[room.id]],
+                   area=round(float(polygons[room.id].area), 6))
+        for room in problem.rooms
+    ]
+    return out, add_openings(problem, polygons)
+
+
+def _with_circulation(problem: Problem, check: CheckResult, openings: Openings
+                      ) -> tuple[list[ConstraintCheck], bool]:
+    """The checked constraints and verdict, with `options.require_connected`'s own check
+    that every room is reachable through the doors."""
+    constraints, valid = check.constraints, check.valid
+    if problem.options.require_connected:
+        connected = openings.circulation is not None and openings.circulation.reachable
+        unreachable = openings.circulation.unreachable if openings.circulation else []
+        constraints = [*constraints, ConstraintCheck(
+            kind="circulation", rooms=unreachable, satisfied=connected,
+            detail="every room reachable from the entrance" if connected else
+            ("no entrance to start from" if openings.circulation is None else
+             f"unreachable: {', '.join(unreachable)}"),
+        )]
+        if not problem.options.strict:
+            # Soft, like the adjacencies require_connected added, which carry the shortfall.
+            constraints[-1] = constraints[-1].model_copy(update={"soft": True})
+        valid = valid and (connected or not problem.options.strict)
+    return constraints, valid
 
 
 def straight_walls(problem: Problem, rooms: dict[str, list[Box]], check: CheckResult
