@@ -6,7 +6,9 @@ Each brief (default: apartment-5 and house-13 of the shared cases, and the templ
 7-room flat of examples/) is laid out `--count` times on a warm pool of `--processes`
 processes, by our solver as `floorplan batch` runs it (``options.diverse``, the batch's
 per-layout time limit, each solve stopped at its first good layout, options.stop_when_good,
-and laid out again under another draw when it is not good, `REDRAWS` times at most)
+and laid out again under another draw when it is not good, `REDRAWS` times at most; a
+good layout whose plan the batch holds has its walls moved apart from the plans near it,
+solver/pipeline/spread.py)
 and by the annealing baseline (bench/anneal.py) given the same time per layout, in the
 same run. Reported per brief and solver: layouts per second (wall clock), the share
 valid with coverage >= 0.99, the share of distinct plans (solver.distinct), the
@@ -21,13 +23,13 @@ import json
 import statistics
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
 from models import Layout, Problem, Report, RoomLayout
 from models.parts import REDRAW_SEED_STEP
-from solver.distinct import DistinctPlans
+from solver.distinct import NEAR_SHARE, DistinctPlans
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = ROOT.parent / "shared" / "bench" / "cases"
@@ -50,7 +52,7 @@ def _warm() -> None:
     import solver.pipeline.dispatch  # noqa: F401  (SCIP, once per process)
 
 
-def _ours(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None, str]:
+def _ours(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None, str, str]:
     from solver import solve
 
     brief, seed, limit = args
@@ -68,7 +70,18 @@ def _ours(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None, 
             break
     assert best is not None
     (ok, _, _), layout = best
-    return ok, layout.report.objective, layout.model_dump_json()
+    return ok, layout.report.objective, layout.model_dump_json(), problem.model_dump_json()
+
+
+def _spread(args: tuple[str, str, Any, int]) -> str | None:
+    """A good layout's walls moved apart from the plans near it (`others`), as JSON; None
+    when they cannot be moved far enough."""
+    from solver.pipeline.spread import spread_layout
+
+    problem_json, layout_json, others, seed = args
+    moved = spread_layout(Problem.model_validate_json(problem_json),
+                          Layout.model_validate_json(layout_json), others, seed=seed)
+    return None if moved is None else moved.model_dump_json()
 
 
 def _anneal(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None, str]:
@@ -95,22 +108,73 @@ def _anneal(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None
             layout.model_dump_json())
 
 
-def measure(pool: ProcessPoolExecutor, solver: str, brief: dict[str, Any], count: int,
-            limit: float) -> dict[str, Any]:
-    function = _ours if solver == "ours" else _anneal
+def measure(pool: ProcessPoolExecutor, processes: int, solver: str, brief: dict[str, Any],
+            count: int, limit: float) -> dict[str, Any]:
     started = time.monotonic()
-    outcomes = list(pool.map(function, [(brief, seed, limit) for seed in range(count)]))
-    seconds = time.monotonic() - started
     plans = DistinctPlans()
-    for _, _, layout_json in outcomes:
-        plans.add(Layout.model_validate_json(layout_json))
+    if solver == "ours":
+        outcomes, spread = _ours_batch(pool, processes, brief, count, limit, plans)
+    else:
+        outcomes = list(pool.map(_anneal, [(brief, seed, limit) for seed in range(count)]))
+        spread = 0
+        for _, _, layout_json in outcomes:
+            plans.add(Layout.model_validate_json(layout_json))
+    seconds = time.monotonic() - started
     objectives = [objective for _, objective, _ in outcomes if objective is not None]
     return {"solver": solver, "layouts": count, "seconds": round(seconds, 2),
             "per_second": round(count / seconds, 2),
             "good": round(sum(g for g, _, _ in outcomes) / count, 3),
             "distinct": round(plans.plans / count, 3), "graphs": plans.graphs,
+            "spread": spread,
             "eq12_median": round(statistics.median(objectives), 2) if objectives else None,
             "time_limit": limit}
+
+
+def _ours_batch(pool: ProcessPoolExecutor, processes: int, brief: dict[str, Any], count: int,
+                limit: float, plans: DistinctPlans
+                ) -> tuple[list[tuple[bool, float | None, str]], int]:
+    """`count` layouts of `brief` as `floorplan batch` makes them: solves handed out as
+    processes free up, and a good layout whose plan `plans` holds (as counted when it
+    finished) moved apart from the plans near it by another task, kept when its plan is
+    then new. Returns each layout's (good, Eq. 12, JSON) and how many were moved."""
+    outcomes: list[tuple[bool, float | None, str]] = []
+    running: dict[Future[Any], tuple[int, tuple[bool, float | None, str, Layout] | None]] = {}
+    seeds = iter(range(count))
+    spread = 0
+
+    def keep(ok: bool, objective: float | None, layout_json: str, layout: Layout) -> None:
+        outcomes.append((ok, objective, layout_json))
+        plans.add(layout)
+
+    def hand_out() -> None:
+        while len(running) < 2 * processes and (seed := next(seeds, None)) is not None:
+            running[pool.submit(_ours, (brief, seed, limit))] = (seed, None)
+
+    hand_out()
+    while running:
+        finished, _ = wait(running, return_when=FIRST_COMPLETED)
+        for future in finished:
+            seed, held = running.pop(future)
+            if held is None:  # a solve
+                ok, objective, layout_json, problem_json = future.result()
+                layout = Layout.model_validate_json(layout_json)
+                if ok and not plans.is_new(layout):
+                    others = plans.near(layout, NEAR_SHARE)
+                    running[pool.submit(_spread, (problem_json, layout_json, others, seed))] = (
+                        seed, (ok, objective, layout_json, layout))
+                else:
+                    keep(ok, objective, layout_json, layout)
+                continue
+            moved_json = future.result()
+            moved = None if moved_json is None else Layout.model_validate_json(moved_json)
+            if moved is not None and moved.report.valid and (
+                    moved.report.coverage >= GOOD_COVERAGE) and plans.is_new(moved):
+                spread += 1
+                keep(True, moved.report.objective, moved_json, moved)
+            else:
+                keep(*held)
+        hand_out()
+    return outcomes, spread
 
 
 def table(rows: list[dict[str, Any]]) -> str:
@@ -156,7 +220,7 @@ def main(argv: list[str]) -> int:
             limit = per_layout_limit(problem)
             for solver in ("ours", "anneal"):
                 row = {"brief": path.stem, "rooms": len(problem.rooms),
-                       **measure(pool, solver, brief, args.count, limit)}
+                       **measure(pool, args.processes, solver, brief, args.count, limit)}
                 rows.append(row)
                 print(f"{row['brief']:18} {solver:6} {row['per_second']:6.2f} layouts/s  "
                       f"good {row['good']:.0%}  distinct {row['distinct']:.0%}  "

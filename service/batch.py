@@ -53,11 +53,6 @@ REDRAWS = 2
 #: plus `DRAW_SEED_STEP` times the draw.
 DISTINCT_DRAWS = 2
 DRAW_SEED_STEP = 7_000_003
-#: A good layout whose plan the batch holds already has its walls moved apart from the
-#: plans near it (`spread_to_file`) for at most this many seconds: those that differ
-#: from it on at most `SPREAD_NEAR` of the floor (a move of walls changes less).
-SPREAD_SECONDS = 0.3
-SPREAD_NEAR = 0.25
 #: The summary's termination of a layout stopped at a good-enough incumbent.
 GOOD_ENOUGH = "good-enough"
 
@@ -236,7 +231,7 @@ class SpreadTask:
     problem: str  #: the problem solved, JSON
     layout: str  #: its layout, JSON
     row: dict[str, Any]  #: its summary row, JSON data
-    others: Any  #: numpy array, one row a plan's grid
+    others: Any  #: numpy array, one row a plan's grid (`DistinctPlans.near`)
     path: str
     fmt: FormatName
 
@@ -245,14 +240,14 @@ def spread_to_file(task: SpreadTask) -> tuple[dict[str, Any], str] | None:
     """The layout of `task` with its walls moved apart from `task.others`
     (solver/pipeline/spread.py), written to `task.path` in `task.fmt`, with its summary
     row (the solve's time plus the move's) and JSON; None when it cannot be moved so
-    far in `SPREAD_SECONDS`. The task of a `floorplan batch` worker."""
+    far. The task of a `floorplan batch` worker."""
     from solver.pipeline.spread import spread_layout
 
     started = time.monotonic()
     problem = Problem.model_validate_json(task.problem)
     row = LayoutRow.model_validate(task.row)
     moved = spread_layout(problem, Layout.model_validate_json(task.layout), task.others,
-                          seconds=SPREAD_SECONDS, seed=row.seed)
+                          seed=row.seed)
     if moved is None:
         return None
     target = _write(problem, moved, task.path, task.fmt)

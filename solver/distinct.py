@@ -27,6 +27,9 @@ from models import Layout, RoomLayout
 CELL = 0.1
 #: Plans differing on at most this share of their floor's cells are the same plan.
 SAME_PLAN_SHARE = 0.05
+#: Plans differing from a plan on at most this share of the floor are the ones moving its
+#: walls (solver/pipeline/spread.py) may land on or near: what a spread is given.
+NEAR_SHARE = 0.25
 #: Two rooms are adjacent in the graph when they share this much wall, metres.
 MIN_CONTACT = 0.5
 

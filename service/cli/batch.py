@@ -41,7 +41,7 @@ JOURNAL = ".batch.jsonl"
 SUMMARY_JSON = "summary.json"
 SUMMARY_CSV = "summary.csv"
 #: The columns of summary.csv, in order.
-CSV_COLUMNS = ("brief", "seed", "draw", "file", "valid", "coverage", "objective", "time",
+CSV_COLUMNS = ("brief", "seed", "draw", "spread", "file", "valid", "coverage", "objective", "time",
                "rooms", "termination", "error")
 #: Files in an input folder that are outputs, not briefs.
 NOT_BRIEFS = (".layout.json", ".expanded.json")
@@ -179,7 +179,6 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     from service.batch import (
         DEFAULT_TOLERANCE,
         DISTINCT_DRAWS,
-        SPREAD_NEAR,
         BestSoFar,
         LayoutRow,
         LayoutTask,
@@ -191,6 +190,7 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
         spread_to_file,
     )
     from service.cli.pool import WarmPool
+    from solver.distinct import NEAR_SHARE
 
     extension = next(f.extension for f in FORMATS if f.name == args.format)
     tally = Tally()
@@ -321,7 +321,7 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
                     # The batch holds this plan: move its walls apart from those near it.
                     queued_first.appendleft(((name, seed, draw, True), spread_to_file, SpreadTask(
                         problem_json[0], layout_json, row_data,
-                        tally.plans.near(layout, SPREAD_NEAR),
+                        tally.plans.near(layout, NEAR_SHARE),
                         str(spread_path(draw_path(name, seed, draw))), args.format)))
                 else:
                     next_try(name, seed, draw)

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import replace
 
 from models import Infeasibility, Layout, Problem, Termination
 from models.parts import REDRAW_SEED_STEP as WHOLE_REDRAW_SEED_STEP
@@ -64,9 +63,6 @@ RESHAPE_SECONDS = 1.0
 RESHAPE_SECONDS_PER_ROOM = 0.1
 #: Time kept per room for closing the last gaps and checking the layout.
 FINISH_SECONDS_PER_ROOM = 0.01
-#: Seconds a diverse solve stopped when good spends moving its walls toward the seed's
-#: drawn sizes (`_drawn_proportions`).
-DRAWN_RESHAPE_SECONDS = 0.1
 #: Rooms moved across gaps at most, when the levels end short of the coverage goal
 #: (`_slid`).
 SLIDES = 3
@@ -97,7 +93,6 @@ def solve_floor(
     # The doors every room needs, as adjacencies the MIQP must honour.
     problem = connection_demands(problem)
     good: GoodEnough | None = None
-    user_stop = should_stop
     if problem.options.stop_when_good:
         good = GoodEnough(problem, math.inf)
         on_event, should_stop = _stop_when_good(good, on_event, should_stop)
@@ -151,8 +146,6 @@ def solve_floor(
     if good is not None and good.rooms is not None:
         # Stopped when good: that layout, not whatever SCIP reported after it.
         pieces = as_pieces(good.rooms)
-        if problem.options.diverse:
-            pieces = _drawn_proportions(run, domain, pieces, user_stop)
         return final_layout(run, domain, pieces, 1)
     pieces, levels = _refined(run, domain, pieces, subdomains,
                               end - SHORT_RESHAPE_SHARE * reshaping)
@@ -227,17 +220,6 @@ def _slid(run: Run, domain: Domain, pieces: list[Piece]) -> list[Piece]:
         run.incumbent(domain, room_boxes(better))
         pieces = better
     return pieces
-
-
-def _drawn_proportions(run: Run, domain: Domain, pieces: list[Piece],
-                       should_stop: StopFlag | None) -> list[Piece]:
-    """A diverse solve's good layout with its walls moved toward the seed's own sizes
-    (issue 23): the reshaping for `DRAWN_RESHAPE_SECONDS`, on the drawn problem. Seeds
-    whose first layouts share an arrangement then differ in its proportions, as the
-    sizes they drew do; kept only when valid, covering and no worse for those sizes."""
-    # Not the solve's stop flag, which says "good" now; no events, the layout is final.
-    quiet = replace(run, should_stop=should_stop, on_event=None)
-    return reshaped(quiet, domain, pieces, time.monotonic() + DRAWN_RESHAPE_SECONDS)
 
 
 def _stop_when_good(good: GoodEnough, on_event: EventSink | None,

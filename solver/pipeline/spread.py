@@ -25,11 +25,17 @@ import numpy as np
 
 from models import Layout, Problem
 from solver.distinct import CELL, SAME_PLAN_SHARE, floor_grid
-from solver.geometry import Box, domain_lines
+from solver.geometry import Box, domain_lines, make_domain
+from solver.heuristics.reshape import reshape
+from solver.heuristics.variety import diverse_problem
+from solver.openings import connection_demands
 from solver.pipeline.assemble import relaid
 from solver.soft import room_soft
 from solver.verify.checker import CheckResult, check_layout
 
+#: Seconds a layout's spreading takes at most (it ends sooner when it succeeds, 30 ms
+#: on apartment-5, or finds no move).
+SPREAD_SECONDS = 0.3
 #: A wall line moves in steps of this many metres (the grid plans are compared on).
 STEP = CELL
 #: A line moved leaves at least this much (metres) to its neighbouring lines, or what it
@@ -43,14 +49,19 @@ SPREAD_SHARE = 1.2 * SAME_PLAN_SHARE
 #: Wall lines less than this apart (metres) move together: the strip between them is a
 #: gap or a jog the search left, which a move should neither widen nor close.
 BAND = 0.25
+#: Seconds the reshaping toward other sizes may take when wall lines alone do not move
+#: a plan apart (`_toward_other_sizes`), and the step its draw's seed takes from the
+#: layout's.
+RESHAPE_SECONDS = 0.1
+SPREAD_SEED_STEP = 15_485_863
 #: Coordinates this close (metres) are one wall line.
 SAME_LINE = 1e-6
 
 Rooms = dict[str, list[Box]]
 
 
-def spread_layout(problem: Problem, layout: Layout, others: np.ndarray, *, seconds: float,
-                  seed: int) -> Layout | None:
+def spread_layout(problem: Problem, layout: Layout, others: np.ndarray, *, seed: int,
+                  seconds: float = SPREAD_SECONDS) -> Layout | None:
     """`layout` (a valid single-floor answer of `problem`) with wall lines moved until it
     differs from every plan of `others` (`solver.distinct` grids of the same floor, one
     row a plan) by more than `SAME_PLAN_SHARE`, in at most `seconds`; None when it
@@ -61,9 +72,30 @@ def spread_layout(problem: Problem, layout: Layout, others: np.ndarray, *, secon
     check = check_layout(problem, rooms)
     if not check.valid:
         return None
-    moved = spread_apart(problem, rooms, check, others,
-                         until=time.monotonic() + seconds, rng=random.Random(seed))
+    until = time.monotonic() + seconds
+    rng = random.Random(seed)
+    moved = spread_apart(problem, rooms, check, others, until=until, rng=rng)
+    if moved is None and (reshaped := _toward_other_sizes(problem, rooms, check, seed,
+                                                          until)) is not None:
+        moved = spread_apart(problem, *reshaped, others, until=until, rng=rng)
     return None if moved is None else relaid(problem, layout, *moved)
+
+
+def _toward_other_sizes(problem: Problem, rooms: Rooms, check: CheckResult, seed: int,
+                        until: float) -> tuple[Rooms, CheckResult] | None:
+    """`rooms` reshaped toward sizes drawn anew within the brief's bounds (as a diverse
+    solve draws them, under another seed): strips of floor traded between neighbours,
+    rooms becoming Ls, for `RESHAPE_SECONDS`; kept when valid and covering as much.
+    What wall lines alone cannot move apart, a new arrangement of floor often can."""
+    drawn = connection_demands(diverse_problem(problem, (seed + SPREAD_SEED_STEP) % 2**31))
+    result = reshape(drawn, make_domain(drawn), rooms,
+                     deadline=min(until, time.monotonic() + RESHAPE_SECONDS), seed=seed)
+    if result.steps == 0:
+        return None
+    again = check_layout(problem, result.rooms)
+    if not again.valid or again.coverage < check.coverage - 1e-9:
+        return None
+    return result.rooms, again
 
 
 def spread_apart(problem: Problem, rooms: Rooms, check: CheckResult, others: np.ndarray, *,

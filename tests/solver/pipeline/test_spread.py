@@ -16,7 +16,12 @@ from models import Problem
 from solver import solve
 from solver.distinct import SAME_PLAN_SHARE, floor_grid, raster
 from solver.geometry import Box
-from solver.pipeline.spread import _line_moves, spread_apart, spread_layout
+from solver.pipeline.spread import (
+    _line_moves,
+    _toward_other_sizes,
+    spread_apart,
+    spread_layout,
+)
 from solver.verify.checker import check_layout
 
 
@@ -79,6 +84,20 @@ def test_a_strip_between_two_rooms_moves_with_the_wall() -> None:
     for moved in _line_moves(rooms, ([0, 10], [0, 8])):
         left, right = moved["left"][0], moved["right"][0]
         assert right.x0 - left.x1 == pytest.approx(0.1)
+
+
+def test_rooms_reshaped_toward_other_sizes_stay_valid_and_covering() -> None:
+    # What wall lines alone cannot move apart: floor traded between neighbours toward
+    # sizes drawn under another seed.
+    brief = Problem.model_validate_json(Path("examples/apartment-5.json").read_text())
+    layout = solve(brief.with_options(time_limit=5, seed=3))
+    rooms = {r.id: [Box.of(b) for b in r.rectangles] for r in layout.rooms}
+    check = check_layout(brief, rooms)
+    found = _toward_other_sizes(brief, rooms, check, 0, time.monotonic() + 1)
+    assert found is not None
+    reshaped, again = found
+    assert again.valid and again.coverage >= check.coverage - 1e-9
+    assert grid(reshaped).tolist() != grid(rooms).tolist()
 
 
 def test_a_solved_layout_is_moved_apart_and_keeps_its_doors_and_report() -> None:
