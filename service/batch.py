@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import os
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -257,6 +258,33 @@ def spread_to_file(task: SpreadTask) -> tuple[dict[str, Any], str] | None:
         "objective": None if r.objective is None else round(r.objective, 6),
         "time": round(row.time + time.monotonic() - started, 4), "spread": True})
     return row.model_dump(mode="json"), moved.model_dump_json()
+
+
+def apart_from_held(problem: Problem, layout: Layout, held: Sequence[str]) -> Layout:
+    """A service batch's layout (solved from `problem`) moved apart from the batch's
+    finished layouts `held` (JSON) when it is good and its plan is one of theirs, as
+    `floorplan batch` moves a repeated plan (`spread_to_file`); else as solved. Run in
+    the solve's process."""
+    from solver.distinct import NEAR_SHARE, DistinctPlans
+    from solver.pipeline.spread import spread_layout
+
+    if not _good(layout):
+        return layout
+    plans = DistinctPlans(graphs=False)
+    for text in held:
+        plans.add(Layout.model_validate_json(text))
+    if plans.is_new(layout):
+        return layout
+    moved = spread_layout(problem, layout, plans.near(layout, NEAR_SHARE),
+                          seed=problem.options.seed)
+    if moved is None or not _good(moved) or not plans.is_new(moved):
+        return layout
+    return moved
+
+
+def _good(layout: Layout) -> bool:
+    r = layout.report
+    return r.valid and r.coverage >= GOOD_COVERAGE and bool(layout.all_rooms)
 
 
 def _write(problem: Problem, layout: Layout, path: str, fmt: FormatName) -> Path:

@@ -32,6 +32,8 @@ class Job:
     updated_at: float
     worker: str | None = None
     heartbeat_at: float | None = None
+    #: The batch the job is a layout of (issue 23), if any.
+    batch_id: str | None = None
 
 
 @dataclass(frozen=True)

@@ -175,6 +175,16 @@ class JobStore:
                                 row.result, json.loads(row.error) if row.error else None)
                     for row in conn.execute(query)]
 
+    def batch_plans(self, batch_id: str, *, limit: int) -> list[str]:
+        """The layouts (JSON) of the batch's succeeded jobs, the `limit` last finished:
+        the plans a new layout of the batch is moved apart from (service.batch)."""
+        query = (select(jobs.c.result)
+                 .where(jobs.c.batch_id == batch_id, jobs.c.status == JobStatus.SUCCEEDED,
+                        jobs.c.result.is_not(None))
+                 .order_by(jobs.c.finished_at.desc()).limit(limit))
+        with self._tx() as conn:
+            return [row.result for row in conn.execute(query)]
+
     def batch_unfinished(self, batch_id: str) -> list[str]:
         """The ids of the batch's jobs not yet finished."""
         with self._tx() as conn:
@@ -552,5 +562,5 @@ def _job(row: Any, *, light: bool = False) -> Job:
         idempotency_key=row.idempotency_key, body_hash=row.body_hash, attempts=row.attempts,
         cancel_requested=bool(row.cancel_requested), created_at=row.created_at,
         started_at=row.started_at, finished_at=row.finished_at, updated_at=row.updated_at,
-        worker=row.worker, heartbeat_at=row.heartbeat_at,
+        worker=row.worker, heartbeat_at=row.heartbeat_at, batch_id=row.batch_id,
     )

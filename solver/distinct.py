@@ -84,9 +84,13 @@ def adjacency_graph(layout: Layout, *, min_contact: float = MIN_CONTACT
 class DistinctPlans:
     """Counts the different plans and adjacency graphs among the layouts `add`ed."""
 
-    def __init__(self, *, share: float = SAME_PLAN_SHARE, cell: float = CELL) -> None:
+    def __init__(self, *, share: float = SAME_PLAN_SHARE, cell: float = CELL,
+                 graphs: bool = True) -> None:
         self.share = share
         self.cell = cell
+        #: Whether adjacency graphs are counted too (their geometry costs about 1 ms a
+        #: layout; a set of plans to compare against needs none).
+        self.count_graphs = graphs
         self._plans: dict[tuple[tuple[str, ...], int], list[np.ndarray]] = {}
         self._graphs: set[frozenset[tuple[str, str]]] = set()
         self.layouts = 0
@@ -94,7 +98,8 @@ class DistinctPlans:
     def add(self, layout: Layout) -> bool:
         """Count `layout`; True when its plan is new."""
         self.layouts += 1
-        self._graphs.add(adjacency_graph(layout))
+        if self.count_graphs:
+            self._graphs.add(adjacency_graph(layout))
         ids, grid = raster(layout, cell=self.cell)
         if not self._is_new(ids, grid):
             return False

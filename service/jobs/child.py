@@ -20,6 +20,11 @@ from typing import Any
 
 #: Seconds a standby process waits between looks at whether its parent still lives.
 STANDBY_POLL = 1.0
+#: The progress detail of a batch's layout whose walls were moved apart from the plans
+#: the batch held.
+MOVED_APART = "the batch held this plan: walls moved apart from it"
+#: Seconds a solved layout waits for the batch's plans it must differ from.
+HELD_WAIT = 10.0
 #: Seconds between two incumbent layouts sent to the parent: building one costs
 #: geometry, and the event stream shows at most two a second anyway.
 INCUMBENT_INTERVAL = 0.5
@@ -53,7 +58,7 @@ def end_executor(executor: Executor | None) -> None:
 def run_job(
     problem_json: str, messages: Queue[tuple[str, Any]], stop: Event, parent: int,
     subdomain_processes: int = 1, subdomain_tasks: bool = False,
-    warm_pool: ProcessPoolExecutor | None = None,
+    warm_pool: ProcessPoolExecutor | None = None, jobs: Connection | None = None,
 ) -> None:
     """Solve and send ("progress", dict), ("incumbent", (dict, layout_json)) and
     finally ("done", layout_json); an exception is sent as ("error", message).
@@ -61,7 +66,10 @@ def run_job(
     killed service must not leave orphans running). The sub-domains of a refinement
     level are solved at once as Celery tasks with `subdomain_tasks`, else in a pool of
     `subdomain_processes` when that is more than one: `warm_pool` if one was started
-    ahead (`standby`), else one started now."""
+    ahead (`standby`), else one started now. A diverse layout that stops when good (a
+    batch's) asks the parent, on `jobs`, for the layouts its batch has finished by now
+    and, when its plan is one of theirs, has its walls moved apart from them
+    (service.batch.apart_from_held)."""
 
     def should_stop() -> bool:
         return stop.is_set() or os.getppid() != parent
@@ -102,10 +110,30 @@ def run_job(
         layout = solve(problem, on_event=on_event, should_stop=should_stop,
                        subdomains=subdomains)
         end_executor(pool)
+        if (jobs is not None and problem.options.diverse and problem.options.stop_when_good
+                and not should_stop()):
+            from service.batch import apart_from_held
+
+            moved = apart_from_held(problem, layout, _held(messages, jobs))
+            if moved is not layout:
+                messages.put(("progress", {"phase": Phase.DONE.value, "detail": MOVED_APART}))
+            layout = moved
         messages.put(("done", layout.model_dump_json()))
     except Exception as err:
         end_executor(pool)
         messages.put(("error", f"{type(err).__name__}: {err}"))
+
+
+def _held(messages: Queue[tuple[str, Any]], jobs: Connection) -> list[str]:
+    """The plans the parent says this layout must differ from (none if it does not
+    answer within `HELD_WAIT`)."""
+    messages.put(("held", None))
+    try:
+        if jobs.poll(HELD_WAIT):
+            return list(jobs.recv())
+    except (EOFError, OSError):
+        pass
+    return []
 
 
 def standby(
@@ -135,4 +163,4 @@ def standby(
         end_executor(pool)
         return
     run_job(problem_json, messages, stop, parent, subdomain_processes, subdomain_tasks,
-            warm_pool=pool)
+            warm_pool=pool, jobs=jobs)

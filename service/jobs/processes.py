@@ -14,6 +14,7 @@ memory, kill) fails its own job with the reason; the service carries on.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import multiprocessing
@@ -34,6 +35,8 @@ from service.store import JobStore
 
 log = logging.getLogger("floorplan.runner")
 
+#: A batch's layout is moved apart from at most this many of its last finished layouts.
+HELD_PLANS = 200
 #: Seconds a child may take to start (imports of SCIP, shapely) before its clock runs.
 STARTUP_SECONDS = 10.0
 #: Progress and incumbent events are written at most this often per job (2 a second).
@@ -59,8 +62,9 @@ class Child:
     stop: Event
 
     def start(self, problem_json: str) -> None:
+        """Hand the process its job's problem. The pipe stays open: a batch's layout asks
+        for the batch's finished layouts once it is solved (`_Watch.receive`)."""
         self.jobs.send(problem_json)
-        self.jobs.close()
 
 
 class SolveProcesses:
@@ -207,8 +211,22 @@ class _Watch:
             progress, layout_json = payload
             _quietly(job, "incumbent", store.set_incumbent, job.id, layout_json, worker=worker)
             self.pending["incumbent"] = {"progress": progress, "layout": json.loads(layout_json)}
+        elif kind == "held":
+            self._send_held()
         elif kind in ("done", "error"):
             self.outcome = (kind, payload)
+
+    def _send_held(self) -> None:
+        """Answer a solved layout's ask for the plans it must differ from: for a batch's
+        layout, the batch's last `HELD_PLANS` finished layouts (JSON), as the store has
+        them now; none for other jobs or when the store cannot say (the layout then
+        stays as solved)."""
+        held: list[str] = []
+        if self.job.batch_id is not None:
+            held = _quietly(self.job, "batch plans", self.store.batch_plans,
+                            self.job.batch_id, limit=HELD_PLANS, failed=[])
+        with contextlib.suppress(OSError, ValueError):  # the solve is gone already
+            self.child.jobs.send(held)
 
     def flush(self, now: float) -> None:
         """Write the pending reports as events, at most every EVENT_INTERVAL, and at the
@@ -251,6 +269,7 @@ class _Watch:
         process.join(timeout=self.grace + 1)
         if process.is_alive():
             process.kill()
+        self.child.jobs.close()
 
     def record_end(self) -> None:
         """Record how the job ended. The result is worth waiting for: while the store

@@ -1,0 +1,95 @@
+"""A service batch's layout moved apart from the batch's finished plans (issue 23): the
+store gives the runner the batch's layouts, the solve's process moves a repeated plan's
+walls (service.batch.apart_from_held, solver/pipeline/spread.py)."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+from models import Layout, Problem
+from models.jobs import JobStatus
+from service.batch import LayoutTask, apart_from_held, job_problem
+from service.jobs.child import MOVED_APART
+from service.jobs.processes import Runner
+from service.settings import Settings
+from service.store import JobStore
+from solver import solve
+from solver.distinct import DistinctPlans
+
+APARTMENT = json.loads(Path("examples/apartment-5.json").read_text())
+
+
+def _store(tmp_path: Path) -> JobStore:
+    return JobStore(f"sqlite:///{tmp_path / 'jobs.db'}")
+
+
+def test_the_store_gives_a_batch_s_finished_layouts_newest_first(tmp_path: Path) -> None:
+    store = _store(tmp_path)
+    _, made = store.create_batch(owner="o", name="b", seed=0, vary_program=False,
+                                 problems=[("{}", 1.0)] * 4)
+    store.finish(made[0].id, JobStatus.SUCCEEDED, termination="optimal", result='"first"')
+    store.finish(made[1].id, JobStatus.FAILED, error={"code": "x", "message": "y"})
+    store.finish(made[2].id, JobStatus.SUCCEEDED, termination="optimal", result='"third"')
+    running = store.get(made[3].id, owner="o")
+    assert running is not None and running.batch_id == made[0].batch_id is not None
+    assert store.batch_plans(running.batch_id, limit=5) == ['"third"', '"first"']
+    assert store.batch_plans(running.batch_id, limit=1) == ['"third"']
+    lone, _ = store.create(problem="{}", time_limit=1, owner="o")
+    assert lone.batch_id is None
+
+
+def test_the_runner_moves_a_batch_layout_that_repeats_a_finished_one(tmp_path: Path) -> None:
+    # The same seed twice in one batch: the second solve finds the first one's plan,
+    # asks the runner for the batch's layouts and moves its walls apart from it.
+    settings = Settings(data_dir=tmp_path, workers=1, subdomain_processes=1)
+    store = JobStore(settings.store_url)
+    problem = job_problem(LayoutTask(APARTMENT, 4, 2.0, good_enough=math.inf))
+    _, made = store.create_batch(owner="", name="twice", seed=4, vary_program=False,
+                                 problems=[(problem.model_dump_json(), 10.0)] * 2)
+    runner = Runner(store, settings)
+    runner.start()
+    try:
+        deadline = time.monotonic() + 60
+        while store.count(JobStatus.SUCCEEDED) < 2:
+            assert time.monotonic() < deadline, "the batch did not finish"
+            time.sleep(0.2)
+    finally:
+        runner.stop()
+    # The jobs were made together: either may have run first.
+    first, second = sorted((store.get(job.id) for job in made),
+                           key=lambda job: job.finished_at if job else 0)
+    assert first is not None and second is not None
+    assert first.result is not None and second.result is not None
+    plans = DistinctPlans()
+    plans.add(Layout.model_validate_json(first.result))
+    moved = Layout.model_validate_json(second.result)
+    assert moved.report.valid and plans.is_new(moved)
+    details = [json.loads(e.data).get("detail") for e in store.events_after(second.id, 0)
+               if e.kind == "progress"]
+    assert MOVED_APART in details
+    assert second.finished_at is not None and second.started_at is not None
+    assert second.finished_at - second.started_at < 8  # no wait for an answer
+
+
+def test_a_repeated_plan_is_moved_apart_and_a_new_one_left_as_solved() -> None:
+    problem = Problem.model_validate(APARTMENT).with_options(
+        seed=4, time_limit=4, diverse=True, stop_when_good=True)
+    layout = solve(problem)
+    assert layout.report.valid and layout.report.coverage >= 0.99
+    assert apart_from_held(problem, layout, []) is layout
+    moved = apart_from_held(problem, layout, [layout.model_dump_json()])
+    assert moved is not layout
+    assert moved.report.valid and moved.report.coverage >= layout.report.coverage - 1e-9
+    plans = DistinctPlans()
+    plans.add(layout)
+    assert plans.is_new(moved)
+
+
+def test_a_layout_that_is_not_good_is_left_as_it_is() -> None:
+    problem = Problem.model_validate(APARTMENT)
+    bare = Layout.model_validate(
+        {"rooms": [], "report": {"coverage": 0.0, "uncovered_area": 84.0, "valid": False}})
+    assert apart_from_held(problem, bare, [bare.model_dump_json()]) is bare
