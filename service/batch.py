@@ -14,16 +14,19 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel, Field
 
 from models import Layout, Problem, Termination
 from models.formats import FormatName
 from models.parts import REDRAW_SEED_STEP
+
+if TYPE_CHECKING:
+    from solver.distinct import DistinctPlans
 
 #: A batch's layouts get this per-layout time limit by default, seconds per room (and at
 #: least `BATCH_MIN_SECONDS`): a batch is many plans, each good rather than the best.
@@ -54,6 +57,10 @@ REDRAWS = 2
 #: plus `DRAW_SEED_STEP` times the draw.
 DISTINCT_DRAWS = 2
 DRAW_SEED_STEP = 7_000_003
+#: The last progress detail of a service batch's layout whose plan the batch held, once
+#: its walls were moved apart from it, or once it was laid out again (`apart_from_held`).
+MOVED_APART = "the batch held this plan: walls moved apart from it"
+DRAWN_AGAIN = "the batch held this plan: laid out again under another draw"
 #: The summary's termination of a layout stopped at a good-enough incumbent.
 GOOD_ENOUGH = "good-enough"
 
@@ -260,26 +267,46 @@ def spread_to_file(task: SpreadTask) -> tuple[dict[str, Any], str] | None:
     return row.model_dump(mode="json"), moved.model_dump_json()
 
 
-def apart_from_held(problem: Problem, layout: Layout, held: Sequence[str]) -> Layout:
-    """A service batch's layout (solved from `problem`) moved apart from the batch's
-    finished layouts `held` (JSON) when it is good and its plan is one of theirs, as
-    `floorplan batch` moves a repeated plan (`spread_to_file`); else as solved. Run in
-    the solve's process."""
-    from solver.distinct import NEAR_SHARE, DistinctPlans
-    from solver.pipeline.spread import spread_layout
+def apart_from_held(problem: Problem, layout: Layout, held: Sequence[str], *,
+                    again: Callable[[Problem], Layout] | None = None
+                    ) -> tuple[Layout, str | None]:
+    """A service batch's layout (solved from `problem`) made a plan the batch's finished
+    layouts `held` (JSON) do not hold, when it is good and theirs: its walls moved apart
+    from them, as `floorplan batch` moves a repeated plan (`spread_to_file`); failing
+    that, with `again`, laid out anew by `again` under another draw (seed +
+    `DRAW_SEED_STEP`, as `floorplan batch --distinct` draws) and kept when that gives a
+    new plan, moved apart if need be. Returns the layout and what was done (None: it
+    stands as solved). Run in the solve's process."""
+    from solver.distinct import DistinctPlans
 
     if not _good(layout):
-        return layout
+        return layout, None
     plans = DistinctPlans(graphs=False)
     for text in held:
         plans.add(Layout.model_validate_json(text))
     if plans.is_new(layout):
-        return layout
+        return layout, None
+    if (moved := _moved_apart(problem, layout, plans)) is not None:
+        return moved, MOVED_APART
+    if again is not None:
+        redrawn = problem.with_options(seed=(problem.options.seed + DRAW_SEED_STEP) % 2**31)
+        other = again(redrawn)
+        if _good(other) and plans.is_new(other):
+            return other, DRAWN_AGAIN
+        if _good(other) and (moved := _moved_apart(redrawn, other, plans)) is not None:
+            return moved, DRAWN_AGAIN
+    return layout, None
+
+
+def _moved_apart(problem: Problem, layout: Layout, plans: DistinctPlans) -> Layout | None:
+    """`layout` with its walls moved apart from the plans of `plans` near it, when that
+    makes it a good layout of a new plan."""
+    from solver.distinct import NEAR_SHARE
+    from solver.pipeline.spread import spread_layout
+
     moved = spread_layout(problem, layout, plans.near(layout, NEAR_SHARE),
                           seed=problem.options.seed)
-    if moved is None or not _good(moved) or not plans.is_new(moved):
-        return layout
-    return moved
+    return moved if moved is not None and _good(moved) and plans.is_new(moved) else None
 
 
 def _good(layout: Layout) -> bool:

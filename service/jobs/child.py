@@ -20,9 +20,6 @@ from typing import Any
 
 #: Seconds a standby process waits between looks at whether its parent still lives.
 STANDBY_POLL = 1.0
-#: The progress detail of a batch's layout whose walls were moved apart from the plans
-#: the batch held.
-MOVED_APART = "the batch held this plan: walls moved apart from it"
 #: Seconds a solved layout waits for the batch's plans it must differ from.
 HELD_WAIT = 10.0
 #: Seconds between two incumbent layouts sent to the parent: building one costs
@@ -68,8 +65,8 @@ def run_job(
     `subdomain_processes` when that is more than one: `warm_pool` if one was started
     ahead (`standby`), else one started now. A diverse layout that stops when good (a
     batch's) asks the parent, on `jobs`, for the layouts its batch has finished by now
-    and, when its plan is one of theirs, has its walls moved apart from them
-    (service.batch.apart_from_held)."""
+    and, when its plan is one of theirs, has its walls moved apart from them, or is laid
+    out again under another draw (service.batch.apart_from_held)."""
 
     def should_stop() -> bool:
         return stop.is_set() or os.getppid() != parent
@@ -114,10 +111,11 @@ def run_job(
                 and not should_stop()):
             from service.batch import apart_from_held
 
-            moved = apart_from_held(problem, layout, _held(messages, jobs))
-            if moved is not layout:
-                messages.put(("progress", {"phase": Phase.DONE.value, "detail": MOVED_APART}))
-            layout = moved
+            layout, done = apart_from_held(
+                problem, layout, _held(messages, jobs),
+                again=lambda redrawn: solve(redrawn, should_stop=should_stop))
+            if done is not None:
+                messages.put(("progress", {"phase": Phase.DONE.value, "detail": done}))
         messages.put(("done", layout.model_dump_json()))
     except Exception as err:
         end_executor(pool)

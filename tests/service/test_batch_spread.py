@@ -11,8 +11,7 @@ from pathlib import Path
 
 from models import Layout, Problem
 from models.jobs import JobStatus
-from service.batch import LayoutTask, apart_from_held, job_problem
-from service.jobs.child import MOVED_APART
+from service.batch import MOVED_APART, LayoutTask, apart_from_held, job_problem
 from service.jobs.processes import Runner
 from service.settings import Settings
 from service.store import JobStore
@@ -79,9 +78,9 @@ def test_a_repeated_plan_is_moved_apart_and_a_new_one_left_as_solved() -> None:
         seed=4, time_limit=4, diverse=True, stop_when_good=True)
     layout = solve(problem)
     assert layout.report.valid and layout.report.coverage >= 0.99
-    assert apart_from_held(problem, layout, []) is layout
-    moved = apart_from_held(problem, layout, [layout.model_dump_json()])
-    assert moved is not layout
+    assert apart_from_held(problem, layout, []) == (layout, None)
+    moved, done = apart_from_held(problem, layout, [layout.model_dump_json()])
+    assert done == MOVED_APART
     assert moved.report.valid and moved.report.coverage >= layout.report.coverage - 1e-9
     plans = DistinctPlans()
     plans.add(layout)
@@ -92,4 +91,23 @@ def test_a_layout_that_is_not_good_is_left_as_it_is() -> None:
     problem = Problem.model_validate(APARTMENT)
     bare = Layout.model_validate(
         {"rooms": [], "report": {"coverage": 0.0, "uncovered_area": 84.0, "valid": False}})
-    assert apart_from_held(problem, bare, [bare.model_dump_json()]) is bare
+    assert apart_from_held(problem, bare, [bare.model_dump_json()]) == (bare, None)
+
+
+def test_a_plan_that_cannot_be_moved_is_laid_out_again_and_kept_when_no_better() -> None:
+    # One room filling its floor: no wall to move, and another draw gives the same plan.
+    studio = Problem.model_validate({
+        "boundary": [[0, 0], [4, 0], [4, 3], [0, 3]],
+        "rooms": [{"id": "studio", "min_size": [4, 3], "max_size": [4, 3],
+                   "target_size": [4, 3]}],
+    }).with_options(seed=1, time_limit=2, diverse=True, stop_when_good=True)
+    layout = solve(studio)
+    seeds: list[int] = []
+
+    def again(redrawn: Problem) -> Layout:
+        seeds.append(redrawn.options.seed)
+        return solve(redrawn)
+
+    assert apart_from_held(studio, layout, [layout.model_dump_json()], again=again) == (
+        layout, None)
+    assert seeds == [1 + 7_000_003]
