@@ -77,8 +77,8 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
         # covering incumbent that passes was found.
         rooms, check = passing
     rooms, check = straight_walls(problem, rooms, check)
-    out, openings = _drawn_rooms(problem, rooms)
-    constraints, valid = _with_circulation(problem, check, openings)
+    out, openings = drawn_rooms(problem, rooms)
+    constraints, valid = with_circulation(problem, check, openings)
     ended, why = termination(run), None
     if not valid and ended is not Termination.INTERRUPTED:
         # Issue 19: a layout breaking a hard constraint is no answer; it is kept as a
@@ -111,27 +111,35 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
                   report=report)
 
 
-def relaid(problem: Problem, layout: Layout, rooms: dict[str, list[Box]],
-           check: CheckResult) -> Layout:
+def with_rooms(problem: Problem, layout: Layout, rooms: dict[str, list[Box]],
+               check: CheckResult) -> Layout:
     """`layout` (the answer of `problem`, single floor) with its rooms moved to `rooms`,
     checked as `check`: polygons, doors, windows and the report's verdicts drawn anew,
     its termination and solve record kept (solver/pipeline/spread.py)."""
-    out, openings = _drawn_rooms(problem, rooms)
-    constraints, valid = _with_circulation(problem, check, openings)
+    out, openings = drawn_rooms(problem, rooms)
+    return layout.model_copy(update={
+        "rooms": out, "doors": openings.doors, "windows": openings.windows,
+        "report": remade_report(problem, layout.report, check, openings)})
+
+
+def remade_report(problem: Problem, report: Report, check: CheckResult,
+                  openings: Openings) -> Report:
+    """`report` with the verdicts of `check` (and of the circulation through
+    `openings`), coverage, size errors and Eq. 12 made again for `problem`; how the
+    solve ran and ended is kept."""
+    constraints, valid = with_circulation(problem, check, openings)
     violations = [c for c in constraints if c.soft and not c.satisfied]
     shortfall = sum(c.shortfall for c in violations)
-    report = layout.report.model_copy(update={
+    return report.model_copy(update={
         "coverage": check.coverage, "uncovered_area": check.uncovered_area,
         "constraints": constraints, "size_error": check.size_error,
         "objective": _objective(problem.weights, check.uncovered_area, check.size_error,
                                 shortfall),
         "valid": valid, "circulation": openings.circulation, "violations": violations,
         "total_shortfall": round(shortfall, 6)})
-    return layout.model_copy(update={"rooms": out, "doors": openings.doors,
-                                     "windows": openings.windows, "report": report})
 
 
-def _drawn_rooms(problem: Problem, rooms: dict[str, list[Box]]
+def drawn_rooms(problem: Problem, rooms: dict[str, list[Box]]
                  ) -> tuple[list[RoomLayout], Openings]:
     """The rooms of the answer as polygons, with the doors and windows between them."""
     polygons = {room.id: outline_of(rooms[room.id]) for room in problem.rooms}
@@ -144,7 +152,7 @@ def _drawn_rooms(problem: Problem, rooms: dict[str, list[Box]]
     return out, add_openings(problem, polygons)
 
 
-def _with_circulation(problem: Problem, check: CheckResult, openings: Openings
+def with_circulation(problem: Problem, check: CheckResult, openings: Openings
                       ) -> tuple[list[ConstraintCheck], bool]:
     """The checked constraints and verdict, with `options.require_connected`'s own check
     that every room is reachable through the doors."""

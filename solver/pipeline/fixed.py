@@ -33,20 +33,18 @@ from shapely.geometry import Polygon
 from models import (
     ConflictItem,
     ConflictSet,
-    ConstraintCheck,
     Infeasibility,
     Layout,
     Obstacle,
     Problem,
     Report,
-    RoomLayout,
     Termination,
 )
 from solver.budget import default_time_limit
 from solver.events import EventSink, Phase, SolveEvent, StopFlag
-from solver.geometry import Box, domain_lines, polygon_coords, rectangles_of, snap_rooms
-from solver.openings import add_openings, connection_demands
-from solver.pipeline.assemble import outline_of
+from solver.geometry import Box, domain_lines, rectangles_of, snap_rooms
+from solver.openings import connection_demands
+from solver.pipeline.assemble import drawn_rooms, remade_report
 from solver.pipeline.edit import edit_applies, solve_edit
 from solver.pipeline.run import OUTPUT_SNAP
 from solver.pipeline.subdomains import SubdomainExecutor
@@ -264,37 +262,14 @@ def fixed_layout(problem: Problem, placed: Mapping[str, list[Box]], report: Repo
     rooms.update(exact)
     checked = connection_demands(problem)
     check = check_layout(checked, rooms)
-    polygons = {room.id: outline_of(rooms[room.id]) for room in problem.rooms}
-    out = [RoomLayout(id=room.id, type=room.type, polygon=polygon_coords(polygons[room.id]),
-                      rectangles=[b.to_rect() for b in rooms[room.id]],
-                      area=round(float(polygons[room.id].area), 6))
-           for room in problem.rooms]
-    openings = add_openings(checked, polygons)
-    constraints, valid = check.constraints, check.valid
-    if problem.options.require_connected:
-        connected = openings.circulation is not None and openings.circulation.reachable
-        unreachable = openings.circulation.unreachable if openings.circulation else []
-        constraints = [*constraints, ConstraintCheck(
-            kind="circulation", rooms=unreachable, satisfied=connected,
-            soft=not problem.options.strict,
-            detail="every room reachable from the entrance" if connected else
-            f"unreachable: {', '.join(unreachable)}")]
-        valid = valid and (connected or not problem.options.strict)
-    w = problem.weights
-    violations = [c for c in constraints if c.soft and not c.satisfied]
-    shortfall = sum(c.shortfall for c in violations)
+    # The rooms and openings as the solve's own demands (doors) have them; the verdicts
+    # for the problem asked.
+    out, openings = drawn_rooms(checked, rooms)
     timed: dict[str, object] = {} if started is None else {
         "solve_time": time.monotonic() - started}
     before = report
-    report = report.model_copy(update={
-        **timed,
-        "coverage": check.coverage, "uncovered_area": check.uncovered_area,
-        "constraints": constraints, "size_error": check.size_error,
-        "objective": w.cover * check.uncovered_area + w.size * sum(check.size_error.values())
-        + w.violation * shortfall,
-        "valid": valid, "circulation": openings.circulation, "violations": violations,
-        "total_shortfall": round(shortfall, 6),
-    })
+    report = remade_report(problem, report, check, openings).model_copy(update=timed)
+    constraints, valid = report.constraints, report.valid
     if before.valid and not valid:
         broken = sorted({r for c in constraints if not c.satisfied and not c.soft
                          for r in c.rooms})

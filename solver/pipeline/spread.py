@@ -29,7 +29,7 @@ from solver.geometry import Box, domain_lines, make_domain
 from solver.heuristics.reshape import reshape
 from solver.heuristics.variety import diverse_problem
 from solver.openings import connection_demands
-from solver.pipeline.assemble import relaid
+from solver.pipeline.assemble import with_rooms
 from solver.soft import room_soft
 from solver.verify.checker import CheckResult, check_layout
 
@@ -78,7 +78,7 @@ def spread_layout(problem: Problem, layout: Layout, others: np.ndarray, *, seed:
     if moved is None and (reshaped := _toward_other_sizes(problem, rooms, check, seed,
                                                           until)) is not None:
         moved = spread_apart(problem, *reshaped, others, until=until, rng=rng)
-    return None if moved is None else relaid(problem, layout, *moved)
+    return None if moved is None else with_rooms(problem, layout, *moved)
 
 
 def _toward_other_sizes(problem: Problem, rooms: Rooms, check: CheckResult, seed: int,
