@@ -65,9 +65,9 @@ def spread_layout(problem: Problem, layout: Layout, others: np.ndarray, *, seed:
     """`layout` (a valid single-floor answer of `problem`) with wall lines moved until it
     differs from every plan of `others` (`solver.distinct` grids of the same floor, one
     row a plan) by more than `SAME_PLAN_SHARE`, in at most `seconds`; None when it
-    cannot be moved so far, or for a layout of several floors."""
-    if layout.floors is not None or not layout.report.valid:
-        return None
+    cannot be moved so far, or for a layout of several floors or of regions."""
+    if layout.floors is not None or problem.by_regions or not layout.report.valid:
+        return None  # several floors, or regions and aisles: whole lines cross them
     rooms = {r.id: [Box.of(b) for b in r.rectangles] for r in layout.rooms}
     check = check_layout(problem, rooms)
     if not check.valid:
@@ -127,6 +127,8 @@ def spread_apart(problem: Problem, rooms: Rooms, check: CheckResult, others: np.
     while distance <= SPREAD_SHARE * base.size and time.monotonic() < until:
         candidates = []
         for moved in _line_moves(current, fixed):
+            if time.monotonic() >= until:  # a large floor has thousands of moves
+                break
             if _area(moved) < floor or not _fits_bounds(problem, moved):
                 continue
             g = grid(moved)
