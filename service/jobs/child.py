@@ -108,7 +108,9 @@ def run_job(
                        subdomains=subdomains)
         end_executor(pool)
         if (jobs is not None and problem.options.diverse and problem.options.stop_when_good
-                and not should_stop()):
+                and problem.floors is None and not problem.by_regions and not should_stop()):
+            # (A floor of regions, or of several storeys, is not moved apart: whole wall
+            # lines cross its aisles and floors, and its layouts are large to send.)
             from service.batch import apart_from_held
 
             layout, done = apart_from_held(
