@@ -30,6 +30,7 @@ from typing import Any
 from models import Layout, Problem, Report, RoomLayout
 from models.parts import REDRAW_SEED_STEP
 from solver.distinct import NEAR_SHARE, DistinctPlans
+from solver.stopping import good_rank
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = ROOT.parent / "shared" / "bench" / "cases"
@@ -56,20 +57,19 @@ def _ours(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None, 
     from solver import solve
 
     brief, seed, limit = args
-    best: tuple[tuple[bool, bool, float], Layout] | None = None
+    best: tuple[tuple[bool, bool, float], Layout, Problem] | None = None
     for attempt in range(REDRAWS + 1):
         drawn = (seed + attempt * REDRAW_SEED_STEP) % 2**31
         problem = Problem.model_validate(brief).with_options(
             seed=drawn, time_limit=limit, diverse=True, stop_when_good=True)
         layout = solve(problem)
-        r = layout.report
-        rank = (r.valid and r.coverage >= GOOD_COVERAGE, r.valid, r.coverage)
+        rank = good_rank(layout)
         if best is None or rank > best[0]:
-            best = (rank, layout)
+            best = (rank, layout, problem)
         if rank[0]:
             break
     assert best is not None
-    (ok, _, _), layout = best
+    (ok, _, _), layout, problem = best
     return ok, layout.report.objective, layout.model_dump_json(), problem.model_dump_json()
 
 
@@ -167,8 +167,7 @@ def _ours_batch(pool: ProcessPoolExecutor, processes: int, brief: dict[str, Any]
                 continue
             moved_json = future.result()
             moved = None if moved_json is None else Layout.model_validate_json(moved_json)
-            if moved is not None and moved.report.valid and (
-                    moved.report.coverage >= GOOD_COVERAGE) and plans.is_new(moved):
+            if moved is not None and good_rank(moved)[0] and plans.is_new(moved):
                 spread += 1
                 keep(True, moved.report.objective, moved_json, moved)
             else:

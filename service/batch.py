@@ -310,8 +310,10 @@ def _moved_apart(problem: Problem, layout: Layout, plans: DistinctPlans) -> Layo
 
 
 def _good(layout: Layout) -> bool:
-    r = layout.report
-    return r.valid and r.coverage >= GOOD_COVERAGE and bool(layout.all_rooms)
+    """Good as `solver.stopping.good_rank` ranks it, with rooms (as `row_of` counts)."""
+    from solver.stopping import good_rank
+
+    return good_rank(layout)[0] and bool(layout.all_rooms)
 
 
 def _write(problem: Problem, layout: Layout, path: str, fmt: FormatName) -> Path:
