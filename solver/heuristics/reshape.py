@@ -97,7 +97,7 @@ Rect = tuple[float, float, float, float]
 
 
 @dataclass(frozen=True)
-class _Needs:
+class RoomNeeds:
     """What the brief asks of one room, for checking a changed shape quickly."""
 
     room: Room
@@ -147,12 +147,12 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
             should_stop: Callable[[], bool] | None) -> tuple[float, ReshapeResult]:
     """One annealing run of `reshape`: its best layout, with the total cost it lowers
     (Eq. 12's terms, the area error and the corners; infinite when nothing was found)."""
-    shapes = {r: _polygon(boxes) for r, boxes in rooms.items() if boxes}
+    shapes = {r: shape_of(boxes) for r, boxes in rooms.items() if boxes}
     unchanged = ReshapeResult({r: list(b) for r, b in rooms.items()}, 0, 0)
     if len(shapes) < 2 or any(s is None for s in shapes.values()):
         return math.inf, unchanged
     state: dict[str, Polygon] = {r: s for r, s in shapes.items() if s is not None}
-    needs = {room.id: _needs(problem, domain, room, state.get(room.id))
+    needs = {room.id: room_needs(problem, domain, room, state.get(room.id))
              for room in problem.rooms if room.id in state}
     adjacency = [(adj.a, adj.partners, adj.min_contact) for adj in problem.adjacency]
     by_room: dict[str, list[int]] = {}
@@ -256,11 +256,11 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
         delta = sum(c.total for c in new_cost.values()) - sum(cost[r].total for r in moved)
         if delta > 0 and delta >= allowed:
             continue
-        if not all(r.startswith(GAP) or _shape_ok(needs[r], new, state[r])
+        if not all(r.startswith(GAP) or shape_ok(needs[r], new, state[r])
                    for r, new in moved.items()):
             continue
         trial = {**state, **moved}
-        if not _keeps_demands(adjacency, by_room, state, trial, tuple(moved)):
+        if not keeps_demands(adjacency, by_room, state, trial, tuple(moved)):
             continue
         state = trial
         cost.update(new_cost)
@@ -294,7 +294,7 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
     return best[0], ReshapeResult(out, steps, candidates)
 
 
-def _nest(state: Mapping[str, Polygon], needs: Mapping[str, _Needs],
+def _nest(state: Mapping[str, Polygon], needs: Mapping[str, RoomNeeds],
           pairs: Sequence[tuple[str, str]], rng: random.Random,
           rectangles_in: Callable[[str], list[Rect]],
           within_allowed: Callable[[Mapping[str, tuple[Rect | None, float]]], bool],
@@ -378,27 +378,27 @@ class _Cost:
     total: float  # plus the area and corner terms
 
 
-def _cost(needs: _Needs | None, shape: Polygon) -> _Cost:
+def _cost(needs: RoomNeeds | None, shape: Polygon) -> _Cost:
     """E_size of the room's bounding box, and the total the annealing lowers: that,
     the relative area error (`AREA_WEIGHT`) and a small price per corner
     beyond a rectangle's (`CORNER_WEIGHT`): of two shapes equally near the targets,
     the simpler."""
-    corners = CORNER_WEIGHT * (_corners(shape) - 4)
+    corners = CORNER_WEIGHT * (corner_count(shape) - 4)
     if needs is None or needs.room.target_size is None:
         return _Cost(0.0, corners)
-    size, area = _size_terms(needs.room.target_size, shape.bounds, shape.area)
+    size, area = size_terms(needs.room.target_size, shape.bounds, shape.area)
     return _Cost(size, size + area + corners)
 
 
-def _cost_floor(needs: _Needs | None, bounds: Rect | None, area: float) -> float:
+def _cost_floor(needs: RoomNeeds | None, bounds: Rect | None, area: float) -> float:
     """The least `_cost(needs, shape).total` of a shape with these bounds and area (its
     corners' price is at least 0)."""
     if needs is None or needs.room.target_size is None or bounds is None:
         return 0.0
-    return sum(_size_terms(needs.room.target_size, bounds, area))
+    return sum(size_terms(needs.room.target_size, bounds, area))
 
 
-def _size_terms(target: tuple[float, float], bounds: Rect, area: float
+def size_terms(target: tuple[float, float], bounds: Rect, area: float
                 ) -> tuple[float, float]:
     """E_size of a room with these bounds, and its weighted relative area error."""
     tw, td = target
@@ -450,20 +450,20 @@ def _hull(*boxes: Rect) -> Rect:
             max(b[2] for b in boxes), max(b[3] for b in boxes))
 
 
-def _needs(problem: Problem, domain: Domain, room: Room, shape: Polygon | None) -> _Needs:
+def room_needs(problem: Problem, domain: Domain, room: Room, shape: Polygon | None) -> RoomNeeds:
     allowed = shape_allowance(room)
     # A rectangle has 4 corners, each further rectangle adds 2 (L: 6, T or U: 8); a room
     # that already has more (it wraps an obstacle) may keep them.
     corners = 2 + 2 * allowed
     if shape is not None:
-        corners = max(corners, _corners(shape))
+        corners = max(corners, corner_count(shape))
     short = min(room.min_size) if room.min_size else MIN_ARM
     edges = tuple(LineString([e.start, e.end])
                   for e in edges_named(problem, domain.edges, room.boundary))
-    return _Needs(room, corners, min(MIN_ARM, short), edges)
+    return RoomNeeds(room, corners, min(MIN_ARM, short), edges)
 
 
-def _polygon(boxes: Sequence[Box]) -> Polygon | None:
+def shape_of(boxes: Sequence[Box]) -> Polygon | None:
     """A room's rectangles as one polygon without holes, or None."""
     try:
         shape = room_polygon(boxes)
@@ -484,7 +484,7 @@ def _clean(shape: BaseGeometry, gap: bool = False) -> BaseGeometry | None:
     return shapely.orient_polygons(shape.simplify(0))
 
 
-def _corners(shape: Polygon) -> int:
+def corner_count(shape: Polygon) -> int:
     return len(shape.exterior.coords) - 1
 
 
@@ -507,8 +507,8 @@ def _neighbour_pairs(state: Mapping[str, Polygon], changed: set[str] | None = No
     return pairs, [ab for ab in pairs if ab[0].startswith(GAP)]
 
 
-def _strip_cuts(a: Polygon, b: Polygon, needs_a: _Needs | None,
-                needs_b: _Needs | None) -> Iterator[tuple[float, float, float, float]]:
+def _strip_cuts(a: Polygon, b: Polygon, needs_a: RoomNeeds | None,
+                needs_b: RoomNeeds | None) -> Iterator[tuple[float, float, float, float]]:
     """Boxes (x0, y0, x1, y1) cutting strips of `a` along the walls it shares with `b`:
     across each straight stretch of the shared wall, or part of it, as deep as one of
     `a`'s own corners, or as makes the width (or depth) of `a` or `b` its target's. The
@@ -568,16 +568,16 @@ def _coords(shape: Polygon, axis: int) -> set[float]:
     return {p[axis] for p in shape.exterior.coords}
 
 
-def _target(needs: _Needs | None, axis: int) -> float | None:
+def _target(needs: RoomNeeds | None, axis: int) -> float | None:
     target = None if needs is None else needs.room.target_size
     return None if target is None else target[axis]
 
 
-def _shape_ok(needs: _Needs, new: Polygon, old: Polygon) -> bool:
+def shape_ok(needs: RoomNeeds, new: Polygon, old: Polygon) -> bool:
     """The room's own constraints on its changed shape: no more corners than it may
     have, arms thick enough, and size, ratio, guide points and exterior wall no worse
     than before."""
-    if _corners(new) > needs.corners:
+    if corner_count(new) > needs.corners:
         return False
     if not _thick(new, needs.arm):
         return False
@@ -591,7 +591,7 @@ def _thick(shape: Polygon, arm: float) -> bool:
     return opened.area >= shape.area - 1e-3
 
 
-def _shortfall(needs: _Needs, shape: Polygon) -> float:
+def _shortfall(needs: RoomNeeds, shape: Polygon) -> float:
     """How far (metres) the shape misses its room's size, ratio, guide points and
     exterior walls (a missed wall counts 1)."""
     room = needs.room
@@ -607,7 +607,7 @@ def _shortfall(needs: _Needs, shape: Polygon) -> float:
     return miss
 
 
-def _keeps_demands(adjacency: Sequence[tuple[str, Sequence[str], float]],
+def keeps_demands(adjacency: Sequence[tuple[str, Sequence[str], float]],
                    by_room: Mapping[str, list[int]], before: Mapping[str, Polygon],
                    after: Mapping[str, Polygon], moved: tuple[str, ...]) -> bool:
     """Every adjacency of the changed rooms keeps its contact, or falls short by

@@ -10,6 +10,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, wait
 from solver.events import Phase
 from solver.geometry import Domain, domain_lines, snap_rooms
 from solver.heuristics.reshape import reshape
+from solver.heuristics.wall_slide import slide_walls
 from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import complete_start
 from solver.pipeline.hierarchy import (
@@ -33,6 +34,10 @@ from solver.pipeline.subdomains import (
 )
 from solver.verify.checker import check_layout
 
+#: Share of the reshaping's time kept for sliding whole walls after the annealing
+#: (solver/heuristics/wall_slide.py: tens of milliseconds on most floors of a dozen rooms,
+#: 0.65 s at most on 94 planted briefs' final layouts).
+SLIDE_SHARE = 0.15
 #: Python time per room to plan one refinement sub-domain (measured: 0.16 s at 154).
 PLAN_SECONDS_PER_ROOM = 0.002
 
@@ -156,20 +161,26 @@ def _refine_at_once(
 
 def reshaped(run: Run, domain: Domain, pieces: list[Piece], deadline: float) -> list[Piece]:
     """The size-error trigger of Sec. 5.3 carried to its end (issue 19): strips of
-    floor move between neighbouring rooms until `deadline`, so a room the first
-    layout had to stretch gives back floor and a neighbour becomes an L or a T. Kept
-    only when the result is valid, covers, and lowers Eq. 12."""
-    if deadline <= time.monotonic() or run.stopped():
+    floor move between neighbouring rooms, so a room the first layout had to stretch
+    gives back floor and a neighbour becomes an L or a T, then whole walls slide
+    (`SLIDE_SHARE` of the time, until `deadline`). Kept only when the result is valid,
+    covers, and lowers Eq. 12."""
+    now = time.monotonic()
+    if deadline <= now or run.stopped():
         return pieces
     # Walls SCIP placed 1e-7 apart made one, as the output will have them.
     rooms = snap_rooms(room_boxes(pieces), *domain_lines(run.problem), OUTPUT_SNAP)
     before = layout_objective(run.problem, domain, rooms, soft=run.soft)
     run.emit(Phase.LEVEL, detail="reshaping: strips of floor between neighbours")
-    result = reshape(run.problem, domain, rooms, deadline=deadline,
+    result = reshape(run.problem, domain, rooms,
+                     deadline=deadline - SLIDE_SHARE * (deadline - now),
                      seed=run.problem.options.seed, should_stop=run.should_stop)
-    after = layout_objective(run.problem, domain, result.rooms, soft=run.soft)
-    if (result.steps == 0 or after > before or not covers(domain, result.rooms)
-            or not check_layout(run.problem, result.rooms).valid):
-        return pieces
-    run.incumbent(domain, result.rooms)
-    return as_pieces(result.rooms)
+    slid, moves = slide_walls(run.problem, domain, result.rooms, deadline=deadline,
+                              should_stop=run.should_stop)
+    # The walls slid, else the annealing's layout alone.
+    for changed, new in ((moves > 0, slid), (result.steps > 0, result.rooms)):
+        if (changed and layout_objective(run.problem, domain, new, soft=run.soft) <= before
+                and covers(domain, new) and check_layout(run.problem, new).valid):
+            run.incumbent(domain, new)
+            return as_pieces(new)
+    return pieces

@@ -1,0 +1,300 @@
+"""Sliding whole walls of a covering layout (issue 19): the moves the reshaping cannot
+chain.
+
+The reshaping (reshape.py) moves one strip between two rooms at a time. A wall that
+several rooms share (a corridor's side with three bedrooms along it) or a room that
+should slide between its neighbours (both its walls moved the same way) needs two or
+more such strips in a row, each worse than the layout on its own, so the annealing
+rarely finds them. Here a *wall* is every rectangle edge on one line whose rooms touch
+across it; when the rooms on its two sides cover the same stretch of it, moving it
+takes floor from the rectangles on one side and gives it to those on the other, so
+no room overlaps another and the floor covered stays covered, as long as no rectangle
+gets thinner than its room's arm. One wall, or two walls of one rectangle together (the
+rectangle slides, or grows on both sides), moves by the distance that puts a room's
+area or bounding box at its target, the one that lowers the reshaping's cost most
+(E_size, Eq. 6, the relative area error and the corners) and keeps every room's own
+constraints and contacts; repeated until no move lowers it (coordinate descent).
+
+Plain arithmetic on rectangles, shapely only for a move's checks: tens of milliseconds
+on a dozen rooms.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+
+from shapely.geometry import Polygon
+
+from models import Problem
+from solver.geometry import Box, Domain
+from solver.heuristics.reshape import (
+    CORNER_WEIGHT,
+    MIN_ARM,
+    RoomNeeds,
+    corner_count,
+    keeps_demands,
+    room_needs,
+    shape_of,
+    shape_ok,
+    size_terms,
+)
+
+#: Coordinates this close (metres) are one line; overlaps shorter are touches.
+SAME = 1e-6
+#: Moves shorter than this (metres) are not worth a wall; moves are rounded to a
+#: millimetre, as the output is.
+SHORTEST = 0.005
+DIGITS = 3
+#: A move must lower the cost by more than this (m² of Eq. 6).
+GAIN = 1e-4
+#: The candidates of one move checked with shapely, cheapest first.
+CHECKED = 4
+
+#: A rectangle of a room: the room's id and the rectangle's index in its list.
+Member = tuple[str, int]
+
+
+@dataclass(frozen=True)
+class Wall:
+    """The rectangle edges on one line (`axis` 0: x = `at`, a vertical wall; 1: y = `at`)
+    whose rectangles touch across it: `below` ends on it (its x1 or y1), `above`
+    starts on it, and both sides cover the same stretch."""
+
+    axis: int
+    at: float
+    below: tuple[Member, ...]
+    above: tuple[Member, ...]
+
+
+#: A move: walls and the direction each moves in, all by the same distance.
+Move = tuple[tuple[Wall, int], ...]
+
+
+def slide_walls(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]], *,
+                deadline: float, should_stop: Callable[[], bool] | None = None
+                ) -> tuple[dict[str, list[Box]], int]:
+    """`rooms` (a layout without overlaps) with walls slid while a move lowers the
+    reshaping's cost and keeps every room's constraints and contacts no worse, until
+    `deadline` (time.monotonic()); and the number of moves made."""
+    state = {r: list(boxes) for r, boxes in rooms.items()}
+    shapes = {r: shape_of(boxes) for r, boxes in state.items() if boxes}
+    if any(s is None for s in shapes.values()):
+        return state, 0  # a room of rectangles that are not one polygon: leave it
+    polygons: dict[str, Polygon] = {r: s for r, s in shapes.items() if s is not None}
+    needs = {room.id: room_needs(problem, domain, room, polygons.get(room.id))
+             for room in problem.rooms if room.id in polygons}
+    adjacency = [(adj.a, adj.partners, adj.min_contact) for adj in problem.adjacency]
+    by_room: dict[str, list[int]] = {}
+    for k, (a, partners, _) in enumerate(adjacency):
+        for r in (a, *partners):
+            by_room.setdefault(r, []).append(k)
+    moves = 0
+    tried: set[Move] = set()  # moves that found nothing to gain
+    while True:
+        made = False
+        for move in _moves(_walls(state)):
+            if move in tried:
+                continue
+            if time.monotonic() >= deadline or (should_stop is not None and should_stop()):
+                return state, moves
+            for changed in _best_first(state, needs, move):
+                new = {r: shape_of(boxes) for r, boxes in changed.items()}
+                if not _acceptable(needs, polygons, new, adjacency, by_room):
+                    continue
+                state.update(changed)
+                polygons.update({r: p for r, p in new.items() if p is not None})
+                moves += 1
+                made = True
+                break
+            if made:
+                tried.clear()  # lengths changed too: every move may gain again
+                break  # the walls changed: list them again
+            tried.add(move)
+        if not made:
+            return state, moves
+
+
+def _walls(rooms: Mapping[str, Sequence[Box]]) -> list[Wall]:
+    """Every wall of the layout that can move: its rectangles on both sides cover the
+    same stretch of the line (none meets the outline, an obstacle or a gap)."""
+    walls: list[Wall] = []
+    for axis in (0, 1):
+        lines: dict[float, list[tuple[bool, Member, float, float]]] = {}
+        for r, boxes in rooms.items():
+            for i, b in enumerate(boxes):
+                low, high = (b.x0, b.x1) if axis == 0 else (b.y0, b.y1)
+                span = (b.y0, b.y1) if axis == 0 else (b.x0, b.x1)
+                lines.setdefault(round(high, 6), []).append((True, (r, i), *span))
+                lines.setdefault(round(low, 6), []).append((False, (r, i), *span))
+        for at, edges in lines.items():
+            walls += [Wall(axis, at, *sides) for sides in _touching(edges)]
+    return walls
+
+
+def _touching(edges: Sequence[tuple[bool, Member, float, float]]
+              ) -> Iterator[tuple[tuple[Member, ...], tuple[Member, ...]]]:
+    """The edges of one line grouped by touching across it (an edge ending on the line
+    overlaps one starting on it), each group as (ending, starting) when both sides
+    cover the same stretch."""
+    group = list(range(len(edges)))
+
+    def root(k: int) -> int:
+        while group[k] != k:
+            group[k] = group[group[k]]
+            k = group[k]
+        return k
+    for a, (ends_a, _, lo_a, hi_a) in enumerate(edges):
+        for b, (ends_b, _, lo_b, hi_b) in enumerate(edges):
+            if ends_a and not ends_b and min(hi_a, hi_b) - max(lo_a, lo_b) > SAME:
+                group[root(a)] = root(b)
+    members: dict[int, list[int]] = {}
+    for k in range(len(edges)):
+        members.setdefault(root(k), []).append(k)
+    for ks in members.values():
+        below = [edges[k] for k in ks if edges[k][0]]
+        above = [edges[k] for k in ks if not edges[k][0]]
+        if below and above and _stretch(below) == _stretch(above):
+            yield tuple(e[1] for e in below), tuple(e[1] for e in above)
+
+
+def _stretch(edges: Sequence[tuple[bool, Member, float, float]]) -> list[tuple[float, float]]:
+    """The union of the edges' spans, as sorted intervals rounded to `SAME`."""
+    merged: list[list[float]] = []
+    for _, _, lo, hi in sorted(edges, key=lambda e: e[2]):
+        if merged and lo <= merged[-1][1] + SAME:
+            merged[-1][1] = max(merged[-1][1], hi)
+        else:
+            merged.append([lo, hi])
+    return [(round(lo, 6), round(hi, 6)) for lo, hi in merged]
+
+
+def _moves(walls: Sequence[Wall]) -> Iterator[Move]:
+    """Each wall alone, then each pair of parallel walls of one rectangle moved the
+    same way (the rectangle slides) and opposite ways (it grows or shrinks)."""
+    for wall in walls:
+        yield ((wall, 1),)
+    starting: dict[tuple[int, Member], list[Wall]] = {}
+    for wall in walls:
+        for m in wall.above:
+            starting.setdefault((wall.axis, m), []).append(wall)
+    for wall in walls:
+        for m in wall.below:
+            for start in starting.get((wall.axis, m), ()):
+                yield ((start, 1), (wall, 1))
+                yield ((start, 1), (wall, -1))
+
+
+def _best_first(rooms: Mapping[str, list[Box]], needs: Mapping[str, RoomNeeds],
+                move: Move) -> list[dict[str, list[Box]]]:
+    """The changed rooms of up to `CHECKED` distances for `move` that lower the cost,
+    lowest first: the distances that put a moved room's area, width or depth at its
+    target, and the move's limits."""
+    # Per unit of distance: how much wider each moved rectangle gets.
+    widen: dict[Member, int] = {}
+    for wall, sign in move:
+        for m in wall.below:
+            widen[m] = widen.get(m, 0) + sign
+        for m in wall.above:
+            widen[m] = widen.get(m, 0) - sign
+    axis = move[0][0].axis
+    lowest, highest = -math.inf, math.inf
+    slope: dict[str, float] = {}  # m² a room gains per metre moved
+    for (r, i), k in widen.items():
+        b = rooms[r][i]
+        width, length = (b.width, b.depth) if axis == 0 else (b.depth, b.width)
+        slope[r] = slope.get(r, 0.0) + k * length
+        if k == 0:
+            continue
+        # No rectangle gets thinner than its room's arm (or than it is).
+        room = (width - min(width, needs[r].arm if r in needs else MIN_ARM)) / abs(k)
+        if k > 0:
+            lowest = max(lowest, -room)
+        else:
+            highest = min(highest, room)
+    if highest - lowest < 2 * SHORTEST:
+        return []
+    distances = {lowest, highest}
+    for r in slope:
+        target = needs[r].room.target_size if r in needs else None
+        if target is None:
+            continue
+        if abs(slope[r]) > SAME:
+            distances.add((target[0] * target[1] - sum(b.area for b in rooms[r])) / slope[r])
+        bounds = _bounds(rooms[r])
+        lo, hi = (bounds[0], bounds[2]) if axis == 0 else (bounds[1], bounds[3])
+        for wall, sign in move:
+            distances |= {sign * (lo + target[axis] - wall.at),
+                          sign * (hi - target[axis] - wall.at)}
+    before = sum(_cost(needs.get(r), rooms[r]) for r in slope)
+    scored: list[tuple[float, dict[str, list[Box]]]] = []
+    for d in {round(min(max(d, lowest), highest), DIGITS) for d in distances}:
+        if abs(d) < SHORTEST or not lowest - SAME <= d <= highest + SAME:
+            continue
+        changed = _moved(rooms, move, d)
+        after = sum(_cost(needs.get(r), changed[r]) for r in slope)
+        if after < before - GAIN:
+            scored.append((after - before, changed))
+    scored.sort(key=lambda s: s[0])
+    # The corners' price is left to the check: shapes are built only for these.
+    return [changed for gain, changed in scored[:CHECKED]
+            if gain + _corner_change(rooms, changed) < -GAIN]
+
+
+def _moved(rooms: Mapping[str, list[Box]], move: Move, d: float) -> dict[str, list[Box]]:
+    """The rooms `move` by distance `d` changes, with their rectangles moved."""
+    changed: dict[str, list[Box]] = {}
+    for wall, sign in move:
+        step = sign * d
+        for side, members in ((0, wall.below), (1, wall.above)):
+            for r, i in members:
+                boxes = changed.setdefault(r, list(rooms[r]))
+                b = boxes[i]
+                if wall.axis == 0:
+                    boxes[i] = (Box(b.x0, b.y0, b.x1 + step, b.y1) if side == 0
+                                else Box(b.x0 + step, b.y0, b.x1, b.y1))
+                else:
+                    boxes[i] = (Box(b.x0, b.y0, b.x1, b.y1 + step) if side == 0
+                                else Box(b.x0, b.y0 + step, b.x1, b.y1))
+    return changed
+
+
+def _corner_change(rooms: Mapping[str, list[Box]], changed: Mapping[str, list[Box]]
+                   ) -> float:
+    """The corners' price of the changed rooms, after less before."""
+    total = 0.0
+    for r, boxes in changed.items():
+        new, old = shape_of(boxes), shape_of(rooms[r])
+        if new is None or old is None:
+            return math.inf
+        total += CORNER_WEIGHT * (corner_count(new) - corner_count(old))
+    return total
+
+
+def _acceptable(needs: Mapping[str, RoomNeeds], polygons: Mapping[str, Polygon],
+                new: Mapping[str, Polygon | None],
+                adjacency: Sequence[tuple[str, Sequence[str], float]],
+                by_room: Mapping[str, list[int]]) -> bool:
+    """Every changed room is one polygon that keeps its own constraints and its
+    contacts no worse than before (the reshaping's rules)."""
+    if any(p is None for p in new.values()):
+        return False
+    shapes = {r: p for r, p in new.items() if p is not None}
+    if not all(shape_ok(needs[r], p, polygons[r]) for r, p in shapes.items() if r in needs):
+        return False
+    return keeps_demands(adjacency, by_room, polygons, {**polygons, **shapes}, tuple(shapes))
+
+
+def _bounds(boxes: Sequence[Box]) -> tuple[float, float, float, float]:
+    return (min(b.x0 for b in boxes), min(b.y0 for b in boxes),
+            max(b.x1 for b in boxes), max(b.y1 for b in boxes))
+
+
+def _cost(needs: RoomNeeds | None, boxes: Sequence[Box]) -> float:
+    """The reshaping's cost of a room but its corners: E_size of its bounding box and
+    its weighted relative area error (rectangles that do not overlap)."""
+    if needs is None or needs.room.target_size is None:
+        return 0.0
+    return sum(size_terms(needs.room.target_size, _bounds(boxes), sum(b.area for b in boxes)))
