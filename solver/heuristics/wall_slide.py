@@ -191,7 +191,7 @@ def _best_first(rooms: Mapping[str, list[Box]], needs: Mapping[str, RoomNeeds],
                 move: Move) -> list[dict[str, list[Box]]]:
     """The changed rooms of up to `CHECKED` distances for `move` that lower the cost,
     lowest first: the distances that put a moved room's area, width or depth at its
-    target, and the move's limits."""
+    target, its width or depth at a bound of its size, and the move's limits."""
     # Per unit of distance: how much wider each moved rectangle gets.
     widen: dict[Member, int] = {}
     for wall, sign in move:
@@ -218,16 +218,19 @@ def _best_first(rooms: Mapping[str, list[Box]], needs: Mapping[str, RoomNeeds],
         return []
     distances = {lowest, highest}
     for r in slope:
-        target = needs[r].room.target_size if r in needs else None
-        if target is None:
+        room = needs[r].room if r in needs else None
+        if room is None or room.target_size is None:
             continue
+        target = room.target_size
         if abs(slope[r]) > SAME:
             distances.add((target[0] * target[1] - sum(b.area for b in rooms[r])) / slope[r])
         bounds = _bounds(rooms[r])
         lo, hi = (bounds[0], bounds[2]) if axis == 0 else (bounds[1], bounds[3])
+        # The bounding box's width (or depth) at its target, or at a bound of its size.
+        sizes = [target[axis], *(s[axis] for s in (room.min_size, room.max_size) if s)]
         for wall, sign in move:
-            distances |= {sign * (lo + target[axis] - wall.at),
-                          sign * (hi - target[axis] - wall.at)}
+            for size in sizes:
+                distances |= {sign * (lo + size - wall.at), sign * (hi - size - wall.at)}
     before = sum(_cost(needs.get(r), rooms[r]) for r in slope)
     scored: list[tuple[float, dict[str, list[Box]]]] = []
     for d in {round(min(max(d, lowest), highest), DIGITS) for d in distances}:
