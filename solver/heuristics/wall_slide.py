@@ -15,6 +15,11 @@ area or bounding box at its target, the one that lowers the reshaping's cost mos
 (E_size, Eq. 6, the relative area error and the corners) and keeps every room's own
 constraints and contacts; repeated until no move lowers it (coordinate descent).
 
+Uncovered floor takes part as rectangles that cost lambda_cover per m² (Eq. 12), or
+`SHORT_PRICE` while the layout covers less than the coverage goal, and may only
+shrink: a room at its largest beside a gap slides across it while the room behind
+grows into the floor it leaves, which no single strip can do.
+
 Plain arithmetic on rectangles, shapely only for a move's checks: tens of milliseconds
 on a dozen rooms.
 """
@@ -23,15 +28,18 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
+import shapely
 from shapely.geometry import Polygon
 
 from models import Problem
-from solver.geometry import Box, Domain
+from solver.geometry import Box, Domain, rectangles_of
 from solver.heuristics.reshape import (
     CORNER_WEIGHT,
+    COVER_GOAL,
+    GAP,
     MIN_ARM,
     RoomNeeds,
     corner_count,
@@ -52,6 +60,12 @@ DIGITS = 3
 GAIN = 1e-4
 #: The candidates of one move checked with shapely, cheapest first.
 CHECKED = 4
+#: The price of a m² of uncovered floor (as m² of Eq. 6) while the layout covers less
+#: than the coverage goal: covering comes first (a layout short of it is no answer),
+#: though lambda_cover is often 1 where the rooms' relative area errors weigh 10.
+SHORT_PRICE = 50.0
+#: Uncovered floor thinner than this (metres) is left out: SCIP's rounding, not a gap.
+SLIVER = 1e-3
 
 #: A rectangle of a room: the room's id and the rectangle's index in its list.
 Member = tuple[str, int]
@@ -86,11 +100,18 @@ def slide_walls(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[B
     polygons: dict[str, Polygon] = {r: s for r, s in shapes.items() if s is not None}
     needs = {room.id: room_needs(problem, domain, room, polygons.get(room.id))
              for room in problem.rooms if room.id in polygons}
+    gaps = _gaps(domain, polygons.values())
+    state.update(gaps)
+    uncovered = sum(b.area for boxes in gaps.values() for b in boxes)
+    cover = problem.weights.cover
+    if uncovered > (1 - COVER_GOAL) * domain.area:
+        cover = max(cover, SHORT_PRICE)
     adjacency = [(adj.a, adj.partners, adj.min_contact) for adj in problem.adjacency]
     by_room: dict[str, list[int]] = {}
     for k, (a, partners, _) in enumerate(adjacency):
         for r in (a, *partners):
             by_room.setdefault(r, []).append(k)
+    price = _Price(needs, cover)
     moves = 0
     tried: set[Move] = set()  # moves that found nothing to gain
     while True:
@@ -99,22 +120,63 @@ def slide_walls(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[B
             if move in tried:
                 continue
             if time.monotonic() >= deadline or (should_stop is not None and should_stop()):
-                return state, moves
-            for changed in _best_first(state, needs, move):
-                new = {r: shape_of(boxes) for r, boxes in changed.items()}
-                if not _acceptable(needs, polygons, new, adjacency, by_room):
+                return _rooms_only(state), moves
+            for gain, changed in _best_first(state, price, move):
+                new = {r: shape_of(boxes) for r, boxes in changed.items()
+                       if not r.startswith(GAP)}
+                if (gain + _corner_change(polygons, new) >= -GAIN
+                        or not _acceptable(needs, polygons, new, adjacency, by_room)):
                     continue
+                # Moves of other rooms gain what they gained before.
+                tried = {m for m in tried if not _rooms(m) & changed.keys()}
                 state.update(changed)
+                for r in changed:
+                    if r.startswith(GAP):  # a gap slid shut leaves a rectangle of no area
+                        state[r] = [b for b in state[r] if b.width > SAME and b.depth > SAME]
                 polygons.update({r: p for r, p in new.items() if p is not None})
                 moves += 1
                 made = True
                 break
             if made:
-                tried.clear()  # lengths changed too: every move may gain again
                 break  # the walls changed: list them again
             tried.add(move)
         if not made:
-            return state, moves
+            return _rooms_only(state), moves
+
+
+@dataclass(frozen=True)
+class _Price:
+    """The reshaping's cost of a room but its corners (E_size of its bounding box and
+    its weighted relative area error), and a gap's per m²."""
+
+    needs: Mapping[str, RoomNeeds]
+    cover: float
+
+    def __call__(self, room: str, boxes: Sequence[Box]) -> float:
+        if room.startswith(GAP):
+            return self.cover * sum(b.area for b in boxes)
+        needs = self.needs.get(room)
+        if needs is None or needs.room.target_size is None or not boxes:
+            return 0.0
+        return sum(size_terms(needs.room.target_size, _bounds(boxes),
+                              sum(b.area for b in boxes)))
+
+
+def _gaps(domain: Domain, shapes: Iterable[Polygon]) -> dict[str, list[Box]]:
+    """The uncovered floor as rectangles, each a pseudo-room of its own."""
+    rest = domain.free.difference(shapely.union_all(list(shapes)))
+    boxes = [b for part in getattr(rest, "geoms", [rest]) if part.area > SLIVER * SLIVER
+             for b in rectangles_of(part)]
+    return {f"{GAP}{k}": [b] for k, b in enumerate(boxes)
+            if b.width > SLIVER and b.depth > SLIVER}
+
+
+def _rooms(move: Move) -> set[str]:
+    return {r for wall, _ in move for r, _ in (*wall.below, *wall.above)}
+
+
+def _rooms_only(state: Mapping[str, list[Box]]) -> dict[str, list[Box]]:
+    return {r: boxes for r, boxes in state.items() if not r.startswith(GAP)}
 
 
 def _walls(rooms: Mapping[str, Sequence[Box]]) -> list[Wall]:
@@ -187,11 +249,13 @@ def _moves(walls: Sequence[Wall]) -> Iterator[Move]:
                 yield ((start, 1), (wall, -1))
 
 
-def _best_first(rooms: Mapping[str, list[Box]], needs: Mapping[str, RoomNeeds],
-                move: Move) -> list[dict[str, list[Box]]]:
-    """The changed rooms of up to `CHECKED` distances for `move` that lower the cost,
-    lowest first: the distances that put a moved room's area, width or depth at its
-    target, its width or depth at a bound of its size, and the move's limits."""
+def _best_first(rooms: Mapping[str, list[Box]], price: _Price, move: Move
+                ) -> list[tuple[float, dict[str, list[Box]]]]:
+    """The change of cost (corners left out) and the changed rooms of up to `CHECKED`
+    distances for `move` that lower the cost, lowest first: the distances that put a
+    moved room's area, width or depth at its target, its width or depth at a bound of
+    its size (a millimetre inside), and the move's limits. No gap grows."""
+    needs = price.needs
     # Per unit of distance: how much wider each moved rectangle gets.
     widen: dict[Member, int] = {}
     for wall, sign in move:
@@ -208,8 +272,10 @@ def _best_first(rooms: Mapping[str, list[Box]], needs: Mapping[str, RoomNeeds],
         slope[r] = slope.get(r, 0.0) + k * length
         if k == 0:
             continue
-        # No rectangle gets thinner than its room's arm (or than it is).
-        room = (width - min(width, needs[r].arm if r in needs else MIN_ARM)) / abs(k)
+        # No rectangle gets thinner than its room's arm (or than it is); a gap's may
+        # close.
+        arm = 0.0 if r.startswith(GAP) else needs[r].arm if r in needs else MIN_ARM
+        room = (width - min(width, arm)) / abs(k)
         if k > 0:
             lowest = max(lowest, -room)
         else:
@@ -226,24 +292,30 @@ def _best_first(rooms: Mapping[str, list[Box]], needs: Mapping[str, RoomNeeds],
             distances.add((target[0] * target[1] - sum(b.area for b in rooms[r])) / slope[r])
         bounds = _bounds(rooms[r])
         lo, hi = (bounds[0], bounds[2]) if axis == 0 else (bounds[1], bounds[3])
-        # The bounding box's width (or depth) at its target, or at a bound of its size.
-        sizes = [target[axis], *(s[axis] for s in (room.min_size, room.max_size) if s)]
+        # The bounding box's width (or depth) at its target, or a millimetre inside a
+        # bound of its size (the distance is rounded to one).
+        sizes = [target[axis]]
+        if room.min_size:
+            sizes.append(room.min_size[axis] + 10 ** -DIGITS)
+        if room.max_size:
+            sizes.append(room.max_size[axis] - 10 ** -DIGITS)
         for wall, sign in move:
             for size in sizes:
                 distances |= {sign * (lo + size - wall.at), sign * (hi - size - wall.at)}
-    before = sum(_cost(needs.get(r), rooms[r]) for r in slope)
+    opening = sum(k for r, k in slope.items() if r.startswith(GAP))  # m² of gap per metre
+    before = sum(price(r, rooms[r]) for r in slope)
     scored: list[tuple[float, dict[str, list[Box]]]] = []
     for d in {round(min(max(d, lowest), highest), DIGITS) for d in distances}:
-        if abs(d) < SHORTEST or not lowest - SAME <= d <= highest + SAME:
+        if (abs(d) < SHORTEST or not lowest - SAME <= d <= highest + SAME
+                or d * opening > SAME):
             continue
         changed = _moved(rooms, move, d)
-        after = sum(_cost(needs.get(r), changed[r]) for r in slope)
+        after = sum(price(r, changed[r]) for r in slope)
         if after < before - GAIN:
             scored.append((after - before, changed))
     scored.sort(key=lambda s: s[0])
     # The corners' price is left to the check: shapes are built only for these.
-    return [changed for gain, changed in scored[:CHECKED]
-            if gain + _corner_change(rooms, changed) < -GAIN]
+    return scored[:CHECKED]
 
 
 def _moved(rooms: Mapping[str, list[Box]], move: Move, d: float) -> dict[str, list[Box]]:
@@ -264,16 +336,13 @@ def _moved(rooms: Mapping[str, list[Box]], move: Move, d: float) -> dict[str, li
     return changed
 
 
-def _corner_change(rooms: Mapping[str, list[Box]], changed: Mapping[str, list[Box]]
+def _corner_change(polygons: Mapping[str, Polygon], new: Mapping[str, Polygon | None]
                    ) -> float:
     """The corners' price of the changed rooms, after less before."""
-    total = 0.0
-    for r, boxes in changed.items():
-        new, old = shape_of(boxes), shape_of(rooms[r])
-        if new is None or old is None:
-            return math.inf
-        total += CORNER_WEIGHT * (corner_count(new) - corner_count(old))
-    return total
+    if any(p is None for p in new.values()):
+        return math.inf
+    return CORNER_WEIGHT * sum(corner_count(p) - corner_count(polygons[r])
+                               for r, p in new.items() if p is not None)
 
 
 def _acceptable(needs: Mapping[str, RoomNeeds], polygons: Mapping[str, Polygon],
@@ -293,11 +362,3 @@ def _acceptable(needs: Mapping[str, RoomNeeds], polygons: Mapping[str, Polygon],
 def _bounds(boxes: Sequence[Box]) -> tuple[float, float, float, float]:
     return (min(b.x0 for b in boxes), min(b.y0 for b in boxes),
             max(b.x1 for b in boxes), max(b.y1 for b in boxes))
-
-
-def _cost(needs: RoomNeeds | None, boxes: Sequence[Box]) -> float:
-    """The reshaping's cost of a room but its corners: E_size of its bounding box and
-    its weighted relative area error (rectangles that do not overlap)."""
-    if needs is None or needs.room.target_size is None:
-        return 0.0
-    return sum(size_terms(needs.room.target_size, _bounds(boxes), sum(b.area for b in boxes)))

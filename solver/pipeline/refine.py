@@ -177,10 +177,13 @@ def reshaped(run: Run, domain: Domain, pieces: list[Piece], deadline: float) -> 
                      seed=run.problem.options.seed, should_stop=run.should_stop)
     slid, moves = slide_walls(run.problem, domain, result.rooms, deadline=deadline,
                               should_stop=run.should_stop)
-    # The walls slid, else the annealing's layout alone.
+    # The walls slid, else the annealing's layout alone; one that reaches the coverage
+    # goal the layout missed is taken whatever Eq. 12 says (lambda_cover may be small).
+    short = not covers(domain, rooms)
     for changed, new in ((moves > 0, slid), (result.steps > 0, result.rooms)):
-        if (changed and layout_objective(run.problem, domain, new, soft=run.soft) <= before
-                and covers(domain, new) and check_layout(run.problem, new).valid):
+        if (changed and covers(domain, new) and (short or layout_objective(
+                run.problem, domain, new, soft=run.soft) <= before)
+                and check_layout(run.problem, new).valid):
             run.incumbent(domain, new)
             return as_pieces(new)
     return pieces
