@@ -170,7 +170,7 @@ def reshaped(run: Run, domain: Domain, pieces: list[Piece], deadline: float) -> 
     """The size-error trigger of Sec. 5.3 carried to its end (issue 19): strips of
     floor move between neighbouring rooms, so a room the first layout had to stretch
     gives back floor and a neighbour becomes an L or a T, and whole walls slide
-    (`slid_rounds`). Kept only when the result is valid, covers, and lowers Eq. 12, or
+    (`reshaping_stages`). Kept only when the result is valid, covers, and lowers Eq. 12, or
     covers where the layout did not."""
     if deadline <= time.monotonic() or run.stopped():
         return pieces
@@ -181,7 +181,7 @@ def reshaped(run: Run, domain: Domain, pieces: list[Piece], deadline: float) -> 
     short = not covers(domain, rooms)
     # The last layout first, else the one before: each stage lowers the reshaping's
     # cost, not always Eq. 12, which the last word has.
-    for new in reversed(slid_rounds(run, domain, rooms, deadline, short=short)):
+    for new in reversed(reshaping_stages(run, domain, rooms, deadline, short=short)):
         if covers(domain, new) and (short or layout_objective(
                 run.problem, domain, new, soft=run.soft) <= before) and check_layout(
                 run.problem, new).valid:
@@ -190,7 +190,7 @@ def reshaped(run: Run, domain: Domain, pieces: list[Piece], deadline: float) -> 
     return pieces
 
 
-def slid_rounds(run: Run, domain: Domain, rooms: dict[str, list[Box]], deadline: float,
+def reshaping_stages(run: Run, domain: Domain, rooms: dict[str, list[Box]], deadline: float,
                 *, short: bool) -> list[dict[str, list[Box]]]:
     """The layouts the reshaping goes through until `deadline`, each changed from the
     one before: walls slid first (a better start, and for a layout `short` of the

@@ -385,6 +385,34 @@ def test_levels_that_end_short_of_coverage_get_a_second_round_from_the_reshaping
     assert run.deadline == before
 
 
+def test_the_reshaping_slides_a_room_at_its_largest_across_a_gap_the_strips_cannot_fill(
+) -> None:
+    from solver.pipeline.hierarchy import Piece, room_boxes
+    from solver.pipeline.refine import reshaped
+    from solver.pipeline.run import Run, covers
+
+    # a | b | gap | c across a 9 x 6 floor, b and c at their largest width, a on the
+    # west wall and c on the east: no strip fills the gap (b or c would pass its
+    # maximum) and a and c cannot trade places, but b sliding east while a grows
+    # behind it does, and the layout covers.
+    floor = problem(
+        name="row", boundary=[[0, 0], [9, 0], [9, 6], [0, 6]],
+        rooms=[{"id": "a", "type": "living", "target_size": [3, 6], "boundary": ["west"]},
+               {"id": "b", "type": "wc", "target_size": [2, 6], "max_size": [2, 6]},
+               {"id": "c", "type": "bedroom", "target_size": [3, 6], "max_size": [3, 6],
+                "boundary": ["east"]}])
+    domain = make_domain(floor)
+    pieces = [Piece("a", "a", Box(0, 0, 3, 6)), Piece("b", "b", Box(3, 0, 5, 6)),
+              Piece("c", "c", Box(6, 0, 9, 6))]
+    assert not covers(domain, room_boxes(pieces))
+    run = Run(floor, deadline=time.monotonic() + 2, started=time.monotonic(),
+              on_event=None, should_stop=None)
+    after = room_boxes(reshaped(run, domain, pieces, time.monotonic() + 2))
+    check = check_layout(floor, after)
+    assert check.valid and check.coverage == pytest.approx(1.0)
+    assert after["b"] == [Box(4, 0, 6, 6)] and after["c"] == [Box(6, 0, 9, 6)]
+
+
 def test_a_gap_side_bordered_by_a_room_over_part_of_its_length_is_absorbed_there() -> None:
     from solver.geometry import make_domain
     from solver.pipeline.hierarchy import Piece, absorb_gaps, room_boxes
