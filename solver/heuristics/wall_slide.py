@@ -116,7 +116,10 @@ def slide_walls(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[B
     tried: set[Move] = set()  # moves that found nothing to gain
     while True:
         made = False
-        for move in _moves(_walls(state)):
+        # Moves that close a gap first: when the layout is short of coverage they gain
+        # the most, and the time may not last for every move.
+        for move in sorted(_moves(_walls(state)),
+                           key=lambda m: not any(r.startswith(GAP) for r in _rooms(m))):
             if move in tried:
                 continue
             if time.monotonic() >= deadline or (should_stop is not None and should_stop()):

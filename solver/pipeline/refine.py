@@ -34,16 +34,15 @@ from solver.pipeline.subdomains import (
 )
 from solver.verify.checker import check_layout
 
-#: Rounds of the reshaping's annealing, each followed by sliding whole walls
-#: (solver/heuristics/wall_slide.py) with `SLIDE_SHARE` of the round's time (tens of
-#: milliseconds on most floors of a dozen rooms, 0.4 s at most on 94 planted briefs'
-#: final layouts). Before them, walls slide with `FIRST_SLIDE_SHARE` of the time, or
-#: `SHORT_SLIDE_SHARE` when the layout is short of the coverage goal (the slide closes
-#: gaps the annealing prices at lambda_cover alone). Two rounds against one, 94 planted
-#: briefs: 80 -> 84 within 2x the plan's area error (bench/NOTES.md).
-RESHAPE_ROUNDS = 2
-SLIDE_SHARE = 0.15
-FIRST_SLIDE_SHARE = 0.1
+#: The reshaping's steps and the share of its time each ends at: the annealing
+#: (solver/heuristics/reshape.py), sliding whole walls (wall_slide.py: tens of
+#: milliseconds on most floors of a dozen rooms), the annealing again from the slid
+#: layout, and a last slide. 94 planted briefs, two runs each: 83-84 within 2x the
+#: plan's area error, against 80-81 for one annealing and a slide and 79 for two
+#: rounds with equal time (bench/NOTES.md).
+RESHAPE_SCHEDULE = (("anneal", 0.55), ("slide", 0.65), ("anneal", 0.9), ("slide", 1.0))
+#: Share of the reshaping's time a layout short of the coverage goal gives sliding walls
+#: first, to close its gaps (the annealing prices them at lambda_cover only).
 SHORT_SLIDE_SHARE = 0.4
 #: Python time per room to plan one refinement sub-domain (measured: 0.16 s at 154).
 PLAN_SECONDS_PER_ROOM = 0.002
@@ -190,32 +189,34 @@ def reshaped(run: Run, domain: Domain, pieces: list[Piece], deadline: float) -> 
     return pieces
 
 
-def reshaping_stages(run: Run, domain: Domain, rooms: dict[str, list[Box]], deadline: float,
-                *, short: bool) -> list[dict[str, list[Box]]]:
+def reshaping_stages(run: Run, domain: Domain, rooms: dict[str, list[Box]],
+                     deadline: float, *, short: bool) -> list[dict[str, list[Box]]]:
     """The layouts the reshaping goes through until `deadline`, each changed from the
-    one before: walls slid first (a better start, and for a layout `short` of the
-    coverage goal the gaps closed, with up to `SHORT_SLIDE_SHARE` of the time), then
-    `RESHAPE_ROUNDS` rounds of the annealing and a slide, each round from the last
-    layout under another seed (the annealing cannot chain what a slide does, and
-    after a slide it starts somewhere new)."""
+    one before and lower in the reshaping's cost: for a layout `short` of the coverage
+    goal, walls slid first to close its gaps (up to `SHORT_SLIDE_SHARE` of the time);
+    then the annealing and a slide, twice (`RESHAPE_SCHEDULE`), the second annealing
+    from the slid layout under another seed: the annealing cannot chain what a slide
+    does, and after a slide it starts somewhere new."""
     problem, stop = run.problem, run.should_stop
     stages: list[dict[str, list[Box]]] = []
-    now = time.monotonic()
-    first, moves = slide_walls(problem, domain, rooms, should_stop=stop, deadline=now + (
-        SHORT_SLIDE_SHARE if short else FIRST_SLIDE_SHARE) * (deadline - now))
-    if moves:
-        stages.append(rooms := first)
-    for k in range(RESHAPE_ROUNDS):
+    if short:
         now = time.monotonic()
-        share = (deadline - now) / (RESHAPE_ROUNDS - k)  # this round's time
-        if share <= 0 or run.stopped():
-            break
-        annealed = reshape(problem, domain, rooms, deadline=now + (1 - SLIDE_SHARE) * share,
-                           seed=problem.options.seed + k, should_stop=stop)
-        if annealed.steps:
-            stages.append(rooms := annealed.rooms)
-        walls, moves = slide_walls(problem, domain, rooms, deadline=now + share,
-                                   should_stop=stop)
+        closed, moves = slide_walls(problem, domain, rooms, should_stop=stop,
+                                    deadline=now + SHORT_SLIDE_SHARE * (deadline - now))
         if moves:
-            stages.append(rooms := walls)
+            stages.append(rooms := closed)
+    now = time.monotonic()
+    for k, (step, until) in enumerate(RESHAPE_SCHEDULE):
+        if time.monotonic() >= deadline or run.stopped():
+            break
+        end = now + until * (deadline - now)
+        if step == "anneal":
+            annealed = reshape(problem, domain, rooms, deadline=end,
+                               seed=problem.options.seed + k, should_stop=stop)
+            changed, new = annealed.steps > 0, annealed.rooms
+        else:
+            new, moves = slide_walls(problem, domain, rooms, deadline=end, should_stop=stop)
+            changed = moves > 0
+        if changed:
+            stages.append(rooms := new)
     return stages
