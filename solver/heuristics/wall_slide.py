@@ -35,7 +35,7 @@ import shapely
 from shapely.geometry import Polygon
 
 from models import Problem
-from solver.geometry import Box, Domain, rectangles_of
+from solver.geometry import Box, Domain, bounding_box, rectangles_of
 from solver.heuristics.reshape import (
     CORNER_WEIGHT,
     COVER_GOAL,
@@ -161,7 +161,8 @@ class _Price:
         needs = self.needs.get(room)
         if needs is None or needs.room.target_size is None or not boxes:
             return 0.0
-        return sum(size_terms(needs.room.target_size, _bounds(boxes),
+        hull = bounding_box(boxes)
+        return sum(size_terms(needs.room.target_size, (hull.x0, hull.y0, hull.x1, hull.y1),
                               sum(b.area for b in boxes)))
 
 
@@ -293,8 +294,8 @@ def _best_first(rooms: Mapping[str, list[Box]], price: _Price, move: Move
         target = room.target_size
         if abs(slope[r]) > SAME:
             distances.add((target[0] * target[1] - sum(b.area for b in rooms[r])) / slope[r])
-        bounds = _bounds(rooms[r])
-        lo, hi = (bounds[0], bounds[2]) if axis == 0 else (bounds[1], bounds[3])
+        hull = bounding_box(rooms[r])
+        lo, hi = (hull.x0, hull.x1) if axis == 0 else (hull.y0, hull.y1)
         # The bounding box's width (or depth) at its target, or a millimetre inside a
         # bound of its size (the distance is rounded to one).
         sizes = [target[axis]]
@@ -361,7 +362,3 @@ def _acceptable(needs: Mapping[str, RoomNeeds], polygons: Mapping[str, Polygon],
         return False
     return keeps_demands(adjacency, by_room, polygons, {**polygons, **shapes}, tuple(shapes))
 
-
-def _bounds(boxes: Sequence[Box]) -> tuple[float, float, float, float]:
-    return (min(b.x0 for b in boxes), min(b.y0 for b in boxes),
-            max(b.x1 for b in boxes), max(b.y1 for b in boxes))
