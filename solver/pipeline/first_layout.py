@@ -18,12 +18,12 @@ from solver.heuristics.guillotine import applies as guillotine_applies
 from solver.heuristics.guillotine import guillotine_layout
 from solver.heuristics.level_one import (
     FIRST_BAND,
-    demand_order,
     level_one_spec,
     shape_allowance,
     target_bands,
     unfitting_targets,
     windows_to_try,
+    wing_order,
     wings_wanted,
 )
 from solver.heuristics.slicing import (
@@ -453,13 +453,13 @@ def _soft_level_one(
 
 def _with_wings(run: Run, domain: Domain, deadline: float, why: str
                 ) -> tuple[LevelResult | None, bool]:
-    """Issue 8: when one rectangle per room fails, let the rooms with the most demands
+    """Issue 8: when one rectangle per room fails, let the largest rooms (`wing_order`)
     start as two rectangles (an L or T), one more room at each attempt, doubling.
     Returns the first layout found, or None and whether SCIP proved the last attempt
     (every room of two rectangles or more, `run.tried_wings`) infeasible."""
     problem = run.problem
     may = {room.id: shape_allowance(room) - 1 for room in problem.rooms}
-    order = [r for r in demand_order(problem) if r not in run.wings and may[r] > 0]
+    order = [r for r in wing_order(problem) if r not in run.wings and may[r] > 0]
     count = 1
     while order and not run.stopped():
         left = deadline - time.monotonic()
