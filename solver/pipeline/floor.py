@@ -46,6 +46,7 @@ from solver.pipeline.hierarchy import (
     slides,
 )
 from solver.pipeline.refine import refine, reshaped
+from solver.pipeline.repair import repaired
 from solver.pipeline.run import Run, covered, covers
 from solver.pipeline.subdomains import LevelOneOutcome, SubdomainExecutor
 from solver.stopping import GoodEnough, good_rank
@@ -199,9 +200,16 @@ def _refined(run: Run, domain: Domain, pieces: list[Piece],
     if run.stopped() or covers(domain, room_boxes(filled)):
         return filled, levels
     run.deadline = max(run.deadline, later)
+    # Growing rooms did not close the gaps: the rooms around them laid out afresh.
+    filled = repaired(run, domain, filled)
+    if run.stopped() or covers(domain, room_boxes(filled)):
+        return filled, levels
     run.emit(Phase.LEVEL, detail="the levels ended short of the coverage goal: another round")
     pieces, levels = refine(run, domain, pieces, subdomains, after=levels)
-    return _slid(run, domain, absorb_gaps(run.problem, domain, pieces)), levels
+    again = _slid(run, domain, absorb_gaps(run.problem, domain, pieces))
+    if covered(domain, room_boxes(filled)) > covered(domain, room_boxes(again)):
+        return filled, levels  # the rooms laid out afresh came nearer the goal
+    return again, levels
 
 
 def _slid(run: Run, domain: Domain, pieces: list[Piece]) -> list[Piece]:

@@ -64,7 +64,7 @@ def uncovered_gaps(domain: Domain, pieces: Sequence[Piece]) -> list[Polygon]:
     return domain.gaps((p.box for p in pieces), GAP_AREA)
 
 
-def _touching(a: BaseGeometry, b: BaseGeometry) -> bool:
+def touching(a: BaseGeometry, b: BaseGeometry) -> bool:
     """Sharing a stretch of boundary, not only a corner."""
     return a.distance(b) <= EPS and a.buffer(EPS).intersection(b).length > 10 * EPS
 
@@ -105,7 +105,7 @@ def select_subdomains(
     shapes = {r: shapely.union_all([b.to_polygon() for b in boxes]) for r, boxes in rooms.items()}
     groups: list[set[str]] = []
     for gap in uncovered_gaps(domain, pieces):
-        around = {r for r, shape in shapes.items() if _touching(shape, gap)}
+        around = {r for r, shape in shapes.items() if touching(shape, gap)}
         if around:
             groups.append(around)
     threshold = problem.options.size_error_threshold
@@ -115,7 +115,7 @@ def select_subdomains(
         assert room.target_size is not None
         too_small = b.width < room.target_size[0] - EPS or b.depth < room.target_size[1] - EPS
         if error > threshold and too_small:
-            near = {r for r, shape in shapes.items() if _touching(shape, shapes[room_id])}
+            near = {r for r, shape in shapes.items() if touching(shape, shapes[room_id])}
             groups.append({room_id} | near)
     return _merge_groups(groups)
 
@@ -213,7 +213,7 @@ def plan_refinement(
     inside = [p for p in pieces if p.room in sub.rooms]
     # Gaps are found afresh: an earlier sub-domain of this level may have filled some.
     around = shapely.union_all([p.box.to_polygon() for p in inside])
-    gaps = [g for g in uncovered_gaps(domain, pieces) if _touching(around, g)]
+    gaps = [g for g in uncovered_gaps(domain, pieces) if touching(around, g)]
     region_shape = shapely.union_all([p.box.to_polygon() for p in inside] + gaps)
     region = Box(*region_shape.bounds)
     blocked = tuple(rectangles_of(region.to_polygon().difference(region_shape)))

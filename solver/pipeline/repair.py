@@ -1,0 +1,89 @@
+"""Gaps the hierarchy cannot close, laid out afresh (issue 19).
+
+The refinement of Sec. 5.3 only grows rooms (C_refine): a gap beside rooms at their
+maximum size stays open level after level, re-solving the same sub-domain (a corner of
+a U-shaped floor left between a bedroom at its largest depth and an L at its largest
+width, planted-14-6501). Here the rooms around the gaps are freed and laid out again
+around the others, held where they are, by the edit's MIQP (solver/pipeline/edit.py):
+their own constraints, their adjacencies to the held rooms, extra rectangles where
+one is not enough, and coverage in the objective. Kept only when the whole layout
+passes the checker and covers more.
+"""
+
+from __future__ import annotations
+
+import time
+
+from models import Problem
+from solver.events import Phase
+from solver.geometry import Box, Domain
+from solver.heuristics.reshape import shape_of
+from solver.pipeline.edit import solve_edit
+from solver.pipeline.hierarchy import (
+    GAP_AREA,
+    Piece,
+    as_pieces,
+    room_boxes,
+    touching,
+    uncovered_gaps,
+)
+from solver.pipeline.run import Run, covered, covers
+from solver.verify.checker import check_layout
+
+#: Rings of neighbours freed besides the rooms along the gaps, tried in turn: one more
+#: ring is a larger MIQP that the edit's time may not solve.
+RINGS = (0, 1)
+#: Seconds at least left before the deadline for an attempt to start.
+LEAST_SECONDS = 0.2
+
+
+def repaired(run: Run, domain: Domain, pieces: list[Piece]) -> list[Piece]:
+    """`pieces`, or a layout with the rooms around its gaps laid out again when they
+    miss the coverage goal: the first that meets it, else the one covering most, when
+    it covers more than `pieces` and passes the checker."""
+    problem = run.problem
+    rooms = room_boxes(pieces)
+    if (covers(domain, rooms) or run.soft or run.stopped()
+            or any(room.fixed is not None for room in problem.rooms)):
+        return pieces
+    shapes = {r: shape_of(boxes) for r, boxes in rooms.items()}
+    gaps = uncovered_gaps(domain, pieces)
+    freed = {r for r, shape in shapes.items() if shape is not None
+             and any(touching(shape, gap) for gap in gaps)}
+    best, most = pieces, covered(domain, rooms) + GAP_AREA
+    for ring in RINGS:
+        if ring:
+            freed |= {r for r, shape in shapes.items() if shape is not None and any(
+                touching(shape, shapes[f]) for f in freed if shapes[f] is not None)}
+        if (not freed or len(freed) == len(rooms) or run.stopped()
+                or run.deadline - time.monotonic() < LEAST_SECONDS):
+            break
+        held = {r: boxes for r, boxes in rooms.items() if r not in freed}
+        result = solve_edit(_holding(problem, held), held, deadline=run.deadline,
+                            start={r: rooms[r] for r in freed},
+                            should_stop=run.should_stop)
+        outcome = "no layout" if result.rooms is None else "nothing better"
+        if result.rooms is not None:
+            new = {**held, **result.rooms}
+            area = covered(domain, new)
+            if area > most and check_layout(problem, new).valid:
+                best, most = as_pieces(new), area
+                run.incumbent(domain, new)
+                outcome = f"coverage {area / domain.area:.1%}"
+        run.emit(Phase.LEVEL, detail=f"gaps laid out afresh with {', '.join(sorted(freed))} "
+                                     f"free: {outcome}")
+        if covers(domain, room_boxes(best)):
+            break
+    return best
+
+
+def _holding(problem: Problem, held: dict[str, list[Box]]) -> Problem:
+    """`problem` with the `held` rooms fixed at their polygons (the edit lays out the
+    others). Not validated again: the polygons come from a layout of the problem."""
+    rooms = []
+    for room in problem.rooms:
+        shape = shape_of(held[room.id]) if room.id in held else None
+        if shape is not None:
+            room = room.model_copy(update={"fixed": list(shape.exterior.coords)[:-1]})
+        rooms.append(room)
+    return problem.model_copy(update={"rooms": rooms})
