@@ -12,8 +12,9 @@ from pydantic import ValidationError
 
 from models import Problem, Termination
 from solver import solve
+from solver.events import Phase, SolveEvent
 from solver.geometry import Box, make_domain
-from solver.heuristics.level_one import demand_order, level_one_spec, reach_wing
+from solver.heuristics.level_one import demand_order, level_one_spec, reach_wing, wing_order
 from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import LevelStatus, run_level
 from solver.miqp.spec import level_objective
@@ -44,6 +45,34 @@ def test_an_l_shaped_flat_needs_an_l_shaped_living_room_and_gets_one() -> None:
     assert "infeasible" in layout.report.extra_rectangles[0].reason
     living = next(r for r in layout.rooms if r.id == "living")
     assert len(living.polygon) > 4  # not a rectangle
+
+
+def test_one_proof_for_the_users_bounds_ends_the_window_schedule() -> None:
+    # l-flat has no layout of one rectangle per room: after three windows proved empty,
+    # a proof for the user's own bounds holds for every wider window, which are skipped.
+    details: list[str] = []
+
+    def on_event(event: SolveEvent) -> None:
+        if event.phase is Phase.RELAXATION:
+            details.append(event.detail)
+
+    layout = solve(example("l-flat", time_limit=4), on_event=on_event)
+    assert layout.report.valid
+    probe = details.index("size bounds user bounds, feasibility only: infeasible")
+    assert [d for d in details[:probe] if d.endswith("infeasible")][-3:] == [
+        f"size bounds target ±{w}%: infeasible" for w in (10, 20, 30)]
+    assert not any("target ±" in d for d in details[probe:])
+    assert "living as two rectangles" in details[probe + 1]
+
+
+def test_the_largest_rooms_get_extra_rectangles_first() -> None:
+    p = example("l-flat")
+    # The corridor-like foyer asks as much as a bedroom; the living room is the largest.
+    assert wing_order(p)[0] == "living"
+    grown = p.model_copy(update={"rooms": [
+        r.model_copy(update={"target_size": (6.0, 6.0), "max_size": (7.0, 7.0)})
+        if r.id == "kitchen" else r for r in p.rooms]})
+    assert wing_order(grown)[:2] == ["kitchen", "living"]
 
 
 def test_a_room_may_ask_to_be_free_from_the_start() -> None:
