@@ -14,9 +14,11 @@ from __future__ import annotations
 
 import time
 
+from shapely.geometry import Polygon
+
 from models import Problem
 from solver.events import Phase
-from solver.geometry import Box, Domain
+from solver.geometry import Domain
 from solver.heuristics.reshape import shape_of
 from solver.pipeline.edit import solve_edit
 from solver.pipeline.hierarchy import (
@@ -47,19 +49,22 @@ def repaired(run: Run, domain: Domain, pieces: list[Piece]) -> list[Piece]:
             or any(room.fixed is not None for room in problem.rooms)):
         return pieces
     shapes = {r: shape_of(boxes) for r, boxes in rooms.items()}
+    polygons = {r: shape for r, shape in shapes.items() if shape is not None}
+    if len(polygons) < len(shapes):
+        return pieces  # a room of rectangles that are not one polygon cannot be held
     gaps = uncovered_gaps(domain, pieces)
-    freed = {r for r, shape in shapes.items() if shape is not None
-             and any(touching(shape, gap) for gap in gaps)}
+    freed = {r for r, shape in polygons.items() if any(touching(shape, gap) for gap in gaps)}
     best, most = pieces, covered(domain, rooms) + GAP_AREA
     for ring in RINGS:
         if ring:
-            freed |= {r for r, shape in shapes.items() if shape is not None and any(
-                touching(shape, shapes[f]) for f in freed if shapes[f] is not None)}
+            freed |= {r for r, shape in polygons.items()
+                      if any(touching(shape, polygons[f]) for f in freed)}
         if (not freed or len(freed) == len(rooms) or run.stopped()
                 or run.deadline - time.monotonic() < LEAST_SECONDS):
             break
         held = {r: boxes for r, boxes in rooms.items() if r not in freed}
-        result = solve_edit(_holding(problem, held), held, deadline=run.deadline,
+        pinned = _holding(problem, {r: polygons[r] for r in held})
+        result = solve_edit(pinned, held, deadline=run.deadline,
                             start={r: rooms[r] for r in freed},
                             should_stop=run.should_stop)
         outcome = "no layout" if result.rooms is None else "nothing better"
@@ -77,13 +82,9 @@ def repaired(run: Run, domain: Domain, pieces: list[Piece]) -> list[Piece]:
     return best
 
 
-def _holding(problem: Problem, held: dict[str, list[Box]]) -> Problem:
+def _holding(problem: Problem, held: dict[str, Polygon]) -> Problem:
     """`problem` with the `held` rooms fixed at their polygons (the edit lays out the
     others). Not validated again: the polygons come from a layout of the problem."""
-    rooms = []
-    for room in problem.rooms:
-        shape = shape_of(held[room.id]) if room.id in held else None
-        if shape is not None:
-            room = room.model_copy(update={"fixed": list(shape.exterior.coords)[:-1]})
-        rooms.append(room)
-    return problem.model_copy(update={"rooms": rooms})
+    return problem.model_copy(update={"rooms": [
+        room.model_copy(update={"fixed": list(held[room.id].exterior.coords)[:-1]})
+        if room.id in held else room for room in problem.rooms]})
