@@ -351,6 +351,7 @@ def _level_one(
     boxes = improve_level_one(run, domain, first.rects, improve_by)
     return run.pieces(domain, boxes), None
 
+
 def _one_rectangle_probe(run: Run, domain: Domain, deadline: float) -> LevelResult:
     """Whether one rectangle per room can meet the user's own bounds at all: a pure
     feasibility model, given `PROBE_SHARE` of the time until `deadline`. After windows
