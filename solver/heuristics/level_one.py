@@ -223,8 +223,7 @@ def demand_order(problem: Problem) -> list[str]:
         for p in adj.partners:
             load[p] += 1 / len(adj.partners)
     # Larger rooms first among equals: they have the floor space for a wing.
-    area = {room.id: math.prod(room.target_size or room.max_size or (1.0, 1.0))
-            for room in problem.rooms}
+    area = {room.id: _aimed_area(room) for room in problem.rooms}
     return sorted(load, key=lambda r: (-load[r], -area[r], r))
 
 
@@ -237,9 +236,13 @@ def wing_order(problem: Problem) -> list[str]:
     wings were the layouts SCIP found soonest (planted-12-1029: living room and
     bedroom1 in 3 s, where the corridor's wing found nothing in 15 s)."""
     rank = {room_id: k for k, room_id in enumerate(demand_order(problem))}
-    area = {room.id: math.prod(room.target_size or room.max_size or (1.0, 1.0))
-            for room in problem.rooms}
+    area = {room.id: _aimed_area(room) for room in problem.rooms}
     return sorted(rank, key=lambda r: (-area[r], rank[r]))
+
+
+def _aimed_area(room: Room) -> float:
+    """The area of a room's target box, else of its maximum, else 1 m²."""
+    return math.prod(room.target_size or room.max_size or (1.0, 1.0))
 
 
 def reach_wing(problem: Problem, domain: Domain, room: Room, main: Box, gap: Polygon

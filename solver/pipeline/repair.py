@@ -21,6 +21,7 @@ from solver.events import Phase
 from solver.geometry import Domain
 from solver.heuristics.reshape import shape_of
 from solver.pipeline.edit import solve_edit
+from solver.pipeline.fixed import has_fixed
 from solver.pipeline.hierarchy import (
     GAP_AREA,
     Piece,
@@ -45,8 +46,7 @@ def repaired(run: Run, domain: Domain, pieces: list[Piece]) -> list[Piece]:
     it covers more than `pieces` and passes the checker."""
     problem = run.problem
     rooms = room_boxes(pieces)
-    if (covers(domain, rooms) or run.soft or run.stopped()
-            or any(room.fixed is not None for room in problem.rooms)):
+    if covers(domain, rooms) or run.soft or run.stopped() or has_fixed(problem):
         return pieces
     shapes = {r: shape_of(boxes) for r, boxes in rooms.items()}
     polygons = {r: shape for r, shape in shapes.items() if shape is not None}

@@ -67,7 +67,7 @@ def test_one_proof_for_the_users_bounds_ends_the_window_schedule() -> None:
 
 def test_the_largest_rooms_get_extra_rectangles_first() -> None:
     p = example("l-flat")
-    # The corridor-like foyer asks as much as a bedroom; the living room is the largest.
+    # By target area, whatever the demands: the living room, then a kitchen made larger.
     assert wing_order(p)[0] == "living"
     grown = p.model_copy(update={"rooms": [
         r.model_copy(update={"target_size": (6.0, 6.0), "max_size": (7.0, 7.0)})
