@@ -292,7 +292,7 @@ def _boxed_models(brief: _Brief, domain: Domain) -> list[_Brief]:
         return []
     parts = [part.bounds for part in getattr(beyond, "geoms", [beyond])]
     fillers = Fillers(FILLERS, (max(p[2] - p[0] for p in parts), max(p[3] - p[1] for p in parts)),
-                      beyond.area)
+                      beyond.area, tuple((p[2] - p[0], p[3] - p[1]) for p in parts))
     whole = ((box.x0, box.y0, box.x1, box.y1),)
     return [replace(brief, floor=whole, voids=outside),
             replace(brief, floor=whole, area=box.area, outside=outside, fillers=fillers)]

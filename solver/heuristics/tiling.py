@@ -58,11 +58,14 @@ class Tiling:
 class Fillers:
     """What the parts no room takes may be, in a floor cut from the outline's bounding
     box: at most `count` of them, each no wider or deeper than `most` (the largest part of
-    the box outside the outline), `area` between them at most (all of that part)."""
+    the box outside the outline), `area` between them at most (all of that part).
+    `parts`: the sides (width, depth) of each part outside the outline; a cell may span
+    one of those parts across, so each side is also offered as a filler's known side."""
 
     count: int
     most: tuple[float, float]
     area: float
+    parts: tuple[tuple[float, float], ...] = ()
 
 
 def tilings(
@@ -96,7 +99,8 @@ def tilings(
             if time.monotonic() > deadline or len(found) >= limit or nodes >= NODES:
                 return found
             search = _Search(targets, pieces, shaped, deadline, limit - len(found), budget,
-                             voids, count, fillers.most if fillers else (0.0, 0.0))
+                             voids, count, fillers.most if fillers else (0.0, 0.0),
+                             fillers.parts if fillers else ())
             found += search.run()
             nodes += search.nodes
             if search.nodes > budget:
@@ -141,7 +145,8 @@ class _Search:
     def __init__(self, targets: Sequence[tuple[float, float]], pieces: Sequence[Rect],
                  shaped: frozenset[tuple[int, bool]], deadline: float, limit: int,
                  budget: int, voids: Sequence[Rect] = (), fillers: int = 0,
-                 filler_most: tuple[float, float] = (0.0, 0.0)) -> None:
+                 filler_most: tuple[float, float] = (0.0, 0.0),
+                 filler_parts: Sequence[tuple[float, float]] = ()) -> None:
         self.n = n = len(targets)
         self.targets = [(_cm(w), _cm(d)) for w, d in targets]
         self.pieces = [(_cm(p[2] - p[0]), _cm(p[3] - p[1])) for p in pieces]
@@ -156,12 +161,14 @@ class _Search:
         self.everything = 0
         self.nodes = 0
         self.found: list[Tiling] = []
-        self.trees: set[tuple[int, ...]] = set()
+        self.trees: set[object] = set()
         self.widest = max(w for w, _ in self.pieces)
         self.deepest = max(d for _, d in self.pieces)
         self.tol = round(TOL * 100)
         self.least = round(MIN_PART * 100) - self.tol
         self.filler_most = (_cm(filler_most[0]) + self.tol, _cm(filler_most[1]) + self.tol)
+        self.filler_sides = sorted({(axis, _cm(side)) for part in filler_parts
+                                    for axis, side in enumerate(part)})
 
     def run(self) -> list[Tiling]:
         n = self.n
@@ -178,8 +185,16 @@ class _Search:
                 leaves.append(_Block(1 << r, w, d, None, None, (), (r,)))
         leaves += [_Block(1 << (2 * n + k), w, d, None, None, (), (2 * n + k,))
                    for k, (w, d) in enumerate(self.voids)]
-        leaves += [_Block(1 << leaf, 0, 0, _side(leaf, 0), _side(leaf, 1), (), (leaf,))
-                   for leaf in self.filler_leaves]
+        for leaf in self.filler_leaves:
+            leaves.append(_Block(1 << leaf, 0, 0, _side(leaf, 0), _side(leaf, 1), (), (leaf,)))
+            # Two fillers of open sides in one row would leave two unknowns on one side
+            # (a T-shaped outline's two corners, planted-07-6838): a filler spanning a
+            # part outside the outline enters with that part's side known.
+            for axis, side in self.filler_sides:
+                fixed = ((_side(leaf, axis), side),)
+                leaves.append(_Block(1 << leaf, side, 0, None, _side(leaf, 1), fixed, (leaf,))
+                              if axis == 0 else
+                              _Block(1 << leaf, 0, side, _side(leaf, 0), None, fixed, (leaf,)))
         for block in leaves:
             self.everything |= block.mask
         seen: set[tuple[object, ...]] = set()
@@ -389,8 +404,13 @@ class _Search:
                 return
             parts[leaf] = (w / 100, d / 100)
         tokens = _floor_tree(self.piece_rects, trees)
-        if tokens is not None and tokens not in self.trees:
-            self.trees.add(tokens)
+        # Tilings that differ only in which half of a cut comes first are one start:
+        # the guillotine search tries every such flip of a tiling (`_mirrored`), so each
+        # found is another grouping of the rooms (planted-07-6838: the six first found
+        # all put the two cells outside a T-shaped outline side by side).
+        kind = _unordered(tokens, self.filler_leaves.start) if tokens is not None else None
+        if tokens is not None and kind not in self.trees:
+            self.trees.add(kind)
             self.found.append(Tiling(tokens, parts, self.shaped))
 
 
@@ -416,6 +436,19 @@ def _side(leaf: int, axis: int) -> int:
 
 def _cm(metres: float) -> int:
     return round(metres * 100)
+
+
+def _unordered(tokens: Sequence[int], fillers: int) -> object:
+    """The slicing tree of `tokens` (postfix) with the two halves of each cut unordered,
+    and the fillers (leaves from `fillers` on) alike."""
+    stack: list[object] = []
+    for t in tokens:
+        if t >= 0:
+            stack.append(min(t, fillers))
+        else:
+            second, first = stack.pop(), stack.pop()
+            stack.append((t, frozenset((first, second)) if first != second else (first,)))
+    return stack[0]
 
 
 def _floor_tree(pieces: Sequence[Rect], trees: Sequence[tuple[int, ...]]) -> tuple[int, ...] | None:

@@ -84,3 +84,41 @@ def test_two_cells_left_outside_the_outline_are_two_fillers() -> None:
 def test_a_filler_is_no_larger_than_the_part_outside_the_outline() -> None:
     assert tilings(CORNER_CUT, [(0.0, 0.0, 10.0, 10.0)], limit=1, deadline=math.inf,
                    fillers=Fillers(2, (1.5, 4.0), 16.0)) == []
+
+
+#: The top row of a T-shaped outline drawn on its 9.35 m wide box (planted-07-6838): a
+#: corridor and a kitchen between the two 2.4 m wide corners outside the outline.
+T_TOP_ROW = [(1.35, 4.2), (3.2, 4.2)]
+T_CORNERS = ((2.4, 4.85), (2.4, 4.85))
+
+
+def test_two_fillers_in_one_row_take_the_sides_of_the_parts_outside() -> None:
+    found = tilings(T_TOP_ROW, [(0.0, 0.0, 9.35, 4.2)], limit=4, deadline=math.inf,
+                    fillers=Fillers(2, (2.4, 4.85), 23.28, T_CORNERS))
+    assert found
+    for fit in found:
+        fillers = [fit.parts[leaf] for leaf in fit.parts if leaf >= 2 * len(T_TOP_ROW)]
+        assert fillers == [pytest.approx((2.4, 4.2))] * 2
+    # Fillers of open sides only: two unknowns along the row, no tiling.
+    assert tilings(T_TOP_ROW, [(0.0, 0.0, 9.35, 4.2)], limit=1, deadline=math.inf,
+                   fillers=Fillers(2, (2.4, 4.85), 23.28)) == []
+
+
+def _as_drawn(tokens: tuple[int, ...], first_filler: int) -> str:
+    """A tiling as a string, each cut's halves in sorted order, every filler "F"."""
+    stack: list[str] = []
+    for t in tokens:
+        if t >= 0:
+            stack.append("F" if t >= first_filler else str(t))
+        else:
+            b, a = stack.pop(), stack.pop()
+            stack.append(f"{'|' if t == VERTICAL else '/'}({','.join(sorted((a, b)))})")
+    return stack[0]
+
+
+def test_tilings_that_differ_only_by_flipped_cuts_or_swapped_fillers_are_found_once() -> None:
+    found = tilings(T_TOP_ROW, [(0.0, 0.0, 9.35, 4.2)], limit=50, deadline=math.inf,
+                    fillers=Fillers(2, (2.4, 4.85), 23.28, T_CORNERS))
+    drawn = [_as_drawn(fit.tokens, 2 * len(T_TOP_ROW)) for fit in found]
+    assert len(found) > 1
+    assert len(set(drawn)) == len(drawn)
