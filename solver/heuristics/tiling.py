@@ -198,6 +198,8 @@ class _Search:
         for block in leaves:
             self.everything |= block.mask
         seen: set[tuple[object, ...]] = set()
+        first_filler = self.filler_leaves.start
+        fillers = sum(1 << leaf for leaf in self.filler_leaves)
         # Blocks by their width and depth (None: open), for the joins that need a match,
         # then by their lowest leaf (a partner's must be a leaf the block lacks, which
         # skips most blocks sharing a leaf unseen), and the known sides in order, for an
@@ -210,8 +212,13 @@ class _Search:
         stack = list(reversed(leaves))
         while stack:
             block = stack.pop()
+            # A block holding a filler is kept once per grouping of its leaves too: a
+            # filler must end outside the outline, which the grouping decides and a
+            # flip cannot mend (planted-07-6838: corridor | (kitchen | filler | filler)
+            # was the one tree of its row, where the plan's is filler | ... | filler).
             key = (block.mask, block.width, block.depth, block.open_width,
-                   block.open_depth, block.fixed)
+                   block.open_depth, block.fixed,
+                   _unordered(block.tokens, first_filler) if block.mask & fillers else None)
             # A block that fits a piece of the floor counts however often it is built:
             # each other tree of it is another tiling (the rooms otherwise grouped).
             for k, (pw, pd) in enumerate(self.pieces):

@@ -122,3 +122,15 @@ def test_tilings_that_differ_only_by_flipped_cuts_or_swapped_fillers_are_found_o
     drawn = [_as_drawn(fit.tokens, 2 * len(T_TOP_ROW)) for fit in found]
     assert len(found) > 1
     assert len(set(drawn)) == len(drawn)
+
+
+def test_the_cells_outside_a_t_shaped_outline_may_flank_the_rooms_between_them() -> None:
+    # Below that row, two rooms across the box (they cross into the corners, and lose
+    # that strip when cut to the outline). The plan's tree: the two rooms side by side,
+    # under filler | corridor | kitchen | filler, a grouping no flip of the first row
+    # found used to reach.
+    rooms = [(4.3, 2.75), (5.05, 2.75), *T_TOP_ROW]
+    found = tilings(rooms, [(0.0, 0.0, 9.35, 6.95)], limit=50, deadline=math.inf,
+                    fillers=Fillers(2, (2.4, 4.85), 23.28, T_CORNERS))
+    plan = (0, 1, VERTICAL, 8, 2, VERTICAL, 3, VERTICAL, 9, VERTICAL, HORIZONTAL)
+    assert _as_drawn(plan, 8) in {_as_drawn(fit.tokens, 8) for fit in found}
