@@ -190,7 +190,7 @@ class _Search:
             # Two fillers of open sides in one row would leave two unknowns on one side
             # (a T-shaped outline's two corners, planted-07-6838): a filler spanning a
             # part outside the outline enters with that part's side known.
-            for axis, side in self.filler_sides:
+            for axis, side in self.filler_sides if len(self.filler_leaves) > 1 else ():
                 fixed = ((_side(leaf, axis), side),)
                 leaves.append(_Block(1 << leaf, side, 0, None, _side(leaf, 1), fixed, (leaf,))
                               if axis == 0 else
@@ -212,13 +212,14 @@ class _Search:
         stack = list(reversed(leaves))
         while stack:
             block = stack.pop()
-            # A block holding a filler is kept once per grouping of its leaves too: a
-            # filler must end outside the outline, which the grouping decides and a
-            # flip cannot mend (planted-07-6838: corridor | (kitchen | filler | filler)
+            # A block holding two fillers is kept once per grouping of its leaves too: the
+            # fillers must end outside the outline, at two ends of it maybe, which the
+            # grouping decides and a flip cannot mend (planted-07-6838: corridor | (kitchen | filler | filler)
             # was the one tree of its row, where the plan's is filler | ... | filler).
             key = (block.mask, block.width, block.depth, block.open_width,
                    block.open_depth, block.fixed,
-                   _unordered(block.tokens, first_filler) if block.mask & fillers else None)
+                   _unordered(block.tokens, first_filler)
+                   if (block.mask & fillers).bit_count() > 1 else None)
             # A block that fits a piece of the floor counts however often it is built:
             # each other tree of it is another tiling (the rooms otherwise grouped).
             for k, (pw, pd) in enumerate(self.pieces):
