@@ -214,8 +214,8 @@ class _Search:
             block = stack.pop()
             # A block holding two fillers is kept once per grouping of its leaves too: the
             # fillers must end outside the outline, at two ends of it maybe, which the
-            # grouping decides and a flip cannot mend (planted-07-6838: corridor | (kitchen | filler | filler)
-            # was the one tree of its row, where the plan's is filler | ... | filler).
+            # grouping decides and no flip mends (planted-07-6838: corridor | (kitchen |
+            # filler | filler) was its row's one tree; the plan's is filler | ... | filler).
             key = (block.mask, block.width, block.depth, block.open_width,
                    block.open_depth, block.fixed,
                    _unordered(block.tokens, first_filler)
