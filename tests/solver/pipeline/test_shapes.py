@@ -10,6 +10,7 @@ from typing import Any
 import pytest
 from pydantic import ValidationError
 
+from bench.planted import draw
 from models import Problem, Termination
 from solver import solve
 from solver.events import Phase, SolveEvent
@@ -63,6 +64,20 @@ def test_one_proof_for_the_users_bounds_ends_the_window_schedule() -> None:
         f"size bounds target ±{w}%: infeasible" for w in (10, 20, 30)]
     assert not any("target ±" in d for d in details[probe:])
     assert "living as two rectangles" in details[probe + 1]
+
+
+def test_the_probe_of_the_users_bounds_runs_once() -> None:
+    # Three windows proved empty, then the probe and the wider windows end without a
+    # proof: the schedule goes on without probing again, and the wings keep their time.
+    problem, _ = draw(6634)
+    details: list[str] = []
+
+    def on_event(event: SolveEvent) -> None:
+        if event.phase is Phase.RELAXATION:
+            details.append(event.detail)
+
+    solve(problem.with_options(seed=0), on_event=on_event)
+    assert sum("feasibility only" in d for d in details) == 1, details
 
 
 def test_the_largest_rooms_get_extra_rectangles_first() -> None:
