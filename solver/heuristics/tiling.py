@@ -161,7 +161,7 @@ class _Search:
         self.everything = 0
         self.nodes = 0
         self.found: list[Tiling] = []
-        self.trees: set[object] = set()
+        self.trees: set[tuple[int, ...]] = set()
         self.widest = max(w for w, _ in self.pieces)
         self.deepest = max(d for _, d in self.pieces)
         self.tol = round(TOL * 100)
@@ -190,7 +190,9 @@ class _Search:
             # Two fillers of open sides in one row would leave two unknowns on one side
             # (a T-shaped outline's two corners, planted-07-6838): a filler spanning a
             # part outside the outline enters with that part's side known.
-            for axis, side in self.filler_sides if len(self.filler_leaves) > 1 else ():
+            # (Not beside Ls: their open sides make the search far slower there.)
+            for axis, side in (self.filler_sides if len(self.filler_leaves) > 1
+                               and not self.shaped else ()):
                 fixed = ((_side(leaf, axis), side),)
                 leaves.append(_Block(1 << leaf, side, 0, None, _side(leaf, 1), fixed, (leaf,))
                               if axis == 0 else
@@ -198,7 +200,6 @@ class _Search:
         for block in leaves:
             self.everything |= block.mask
         seen: set[tuple[object, ...]] = set()
-        first_filler = self.filler_leaves.start
         fillers = sum(1 << leaf for leaf in self.filler_leaves)
         # Blocks by their width and depth (None: open), for the joins that need a match,
         # then by their lowest leaf (a partner's must be a leaf the block lacks, which
@@ -212,14 +213,13 @@ class _Search:
         stack = list(reversed(leaves))
         while stack:
             block = stack.pop()
-            # A block holding two fillers is kept once per grouping of its leaves too: the
+            # A block holding two fillers is kept once per tree of its leaves too: the
             # fillers must end outside the outline, at two ends of it maybe, which the
             # grouping decides and no flip mends (planted-07-6838: corridor | (kitchen |
             # filler | filler) was its row's one tree; the plan's is filler | ... | filler).
             key = (block.mask, block.width, block.depth, block.open_width,
                    block.open_depth, block.fixed,
-                   _unordered(block.tokens, first_filler)
-                   if (block.mask & fillers).bit_count() > 1 else None)
+                   block.tokens if (block.mask & fillers).bit_count() > 1 else None)
             # A block that fits a piece of the floor counts however often it is built:
             # each other tree of it is another tiling (the rooms otherwise grouped).
             for k, (pw, pd) in enumerate(self.pieces):
@@ -412,13 +412,8 @@ class _Search:
                 return
             parts[leaf] = (w / 100, d / 100)
         tokens = _floor_tree(self.piece_rects, trees)
-        # Tilings that differ only in which half of a cut comes first are one start:
-        # the guillotine search tries every such flip of a tiling (`_mirrored`), so each
-        # found is another grouping of the rooms (planted-07-6838: the six first found
-        # all put the two cells outside a T-shaped outline side by side).
-        kind = _unordered(tokens, self.filler_leaves.start) if tokens is not None else None
-        if tokens is not None and kind not in self.trees:
-            self.trees.add(kind)
+        if tokens is not None and tokens not in self.trees:
+            self.trees.add(tokens)
             self.found.append(Tiling(tokens, parts, self.shaped))
 
 
@@ -444,19 +439,6 @@ def _side(leaf: int, axis: int) -> int:
 
 def _cm(metres: float) -> int:
     return round(metres * 100)
-
-
-def _unordered(tokens: Sequence[int], fillers: int) -> object:
-    """The slicing tree of `tokens` (postfix) with the two halves of each cut unordered,
-    and the fillers (leaves from `fillers` on) alike."""
-    stack: list[object] = []
-    for t in tokens:
-        if t >= 0:
-            stack.append(min(t, fillers))
-        else:
-            second, first = stack.pop(), stack.pop()
-            stack.append((t, frozenset((first, second)) if first != second else (first,)))
-    return stack[0]
 
 
 def _floor_tree(pieces: Sequence[Rect], trees: Sequence[tuple[int, ...]]) -> tuple[int, ...] | None:
