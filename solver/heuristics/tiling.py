@@ -200,7 +200,6 @@ class _Search:
         for block in leaves:
             self.everything |= block.mask
         seen: set[tuple[object, ...]] = set()
-        fillers = sum(1 << leaf for leaf in self.filler_leaves)
         # Blocks by their width and depth (None: open), for the joins that need a match,
         # then by their lowest leaf (a partner's must be a leaf the block lacks, which
         # skips most blocks sharing a leaf unseen), and the known sides in order, for an
@@ -213,13 +212,8 @@ class _Search:
         stack = list(reversed(leaves))
         while stack:
             block = stack.pop()
-            # A block holding two fillers is kept once per tree of its leaves too: the
-            # fillers must end outside the outline, at two ends of it maybe, which the
-            # grouping decides and no flip mends (planted-07-6838: corridor | (kitchen |
-            # filler | filler) was its row's one tree; the plan's is filler | ... | filler).
             key = (block.mask, block.width, block.depth, block.open_width,
-                   block.open_depth, block.fixed,
-                   block.tokens if (block.mask & fillers).bit_count() > 1 else None)
+                   block.open_depth, block.fixed)
             # A block that fits a piece of the floor counts however often it is built:
             # each other tree of it is another tiling (the rooms otherwise grouped).
             for k, (pw, pd) in enumerate(self.pieces):
