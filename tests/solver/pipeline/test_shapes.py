@@ -77,7 +77,11 @@ def test_the_probe_of_the_users_bounds_runs_once() -> None:
             details.append(event.detail)
 
     solve(problem.with_options(seed=0), on_event=on_event)
-    assert sum("feasibility only" in d for d in details) == 1, details
+    refuted = sum(d.startswith("size bounds target ±") and d.endswith(": infeasible")
+                  for d in details)
+    probes = sum("feasibility only" in d for d in details)
+    # (Three proofs take 3-4 s here; a slower machine may not reach the probe at all.)
+    assert probes == (1 if refuted >= 3 else 0), details
 
 
 def test_the_largest_rooms_get_extra_rectangles_first() -> None:
