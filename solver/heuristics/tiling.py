@@ -167,8 +167,13 @@ class _Search:
         self.tol = round(TOL * 100)
         self.least = round(MIN_PART * 100) - self.tol
         self.filler_most = (_cm(filler_most[0]) + self.tol, _cm(filler_most[1]) + self.tol)
+        # Two fillers of open sides in one row would leave two unknowns on one side (a
+        # T-shaped outline's two corners, planted-07-6838): a filler spanning a part
+        # outside the outline may enter with that part's side known. Not beside Ls:
+        # their open sides make the search far slower there.
         self.filler_sides = sorted({(axis, _cm(side)) for part in filler_parts
-                                    for axis, side in enumerate(part)})
+                                    for axis, side in enumerate(part)}
+                                   if fillers > 1 and not shaped else ())
 
     def run(self) -> list[Tiling]:
         n = self.n
@@ -187,12 +192,7 @@ class _Search:
                    for k, (w, d) in enumerate(self.voids)]
         for leaf in self.filler_leaves:
             leaves.append(_Block(1 << leaf, 0, 0, _side(leaf, 0), _side(leaf, 1), (), (leaf,)))
-            # Two fillers of open sides in one row would leave two unknowns on one side
-            # (a T-shaped outline's two corners, planted-07-6838): a filler spanning a
-            # part outside the outline enters with that part's side known.
-            # (Not beside Ls: their open sides make the search far slower there.)
-            for axis, side in (self.filler_sides if len(self.filler_leaves) > 1
-                               and not self.shaped else ()):
+            for axis, side in self.filler_sides:
                 fixed = ((_side(leaf, axis), side),)
                 leaves.append(_Block(1 << leaf, side, 0, None, _side(leaf, 1), fixed, (leaf,))
                               if axis == 0 else

@@ -286,7 +286,6 @@ def _level_one(
     may_widen = any(shape_allowance(r) > 1 + run.wings.get(r.id, 0) for r in problem.rooms)
     single_by = deadline
     refuted = 0
-    probed = False
     fallback: LevelResult | None = None  # a layout of the user's bounds, found by the probe
     if slicing_applies(problem) and not run.wings and not slicing_known_to_fail(problem):
         # Rows always exist for sizes alone; with demands they may not, so the MIQP
@@ -319,11 +318,11 @@ def _level_one(
             break
         proven_infeasible = window is None and result.status is LevelStatus.INFEASIBLE
         refuted += result.status is LevelStatus.INFEASIBLE
-        # Once: `refuted` stays at its count while the wider windows end without a proof
-        # (planted-13-6634: the probe after each of eight windows, the wings' time
-        # halved each time, 0.2 s left for them).
-        if refuted == REFUTED_BEFORE_WINGS and window is not None and not probed:
-            probed = True
+        # On the window whose proof is the third, so once: `refuted` stays at its count
+        # while the wider windows end without a proof (planted-13-6634: the probe after
+        # each of eight windows, the wings' time halved each time, 0.2 s left for them).
+        if (refuted == REFUTED_BEFORE_WINGS and window is not None
+                and result.status is LevelStatus.INFEASIBLE):
             # Windows proved empty one after another: one rectangle per room may well
             # be impossible (a brief extracted from a plan with L-shaped rooms), and
             # SCIP may not prove it before the wider windows have used the time.

@@ -11,7 +11,7 @@ import pytest
 from pydantic import ValidationError
 
 from bench.planted import draw
-from models import Problem, Termination
+from models import Layout, Problem, Termination
 from solver import solve
 from solver.events import Phase, SolveEvent
 from solver.geometry import Box, make_domain
@@ -30,6 +30,17 @@ def example(name: str, **options: Any) -> Problem:
     data = json.loads((EXAMPLES / f"{name}.json").read_text())
     data["options"] = {**data.get("options", {}), **options}
     return Problem.model_validate(data)
+
+
+def solved_with_relaxations(problem: Problem) -> tuple[Layout, list[str]]:
+    """The layout of `problem` and the details of its relaxation events, in order."""
+    details: list[str] = []
+
+    def on_event(event: SolveEvent) -> None:
+        if event.phase is Phase.RELAXATION:
+            details.append(event.detail)
+
+    return solve(problem, on_event=on_event), details
 
 
 def test_an_l_shaped_flat_needs_an_l_shaped_living_room_and_gets_one() -> None:
@@ -51,13 +62,7 @@ def test_an_l_shaped_flat_needs_an_l_shaped_living_room_and_gets_one() -> None:
 def test_one_proof_for_the_users_bounds_ends_the_window_schedule() -> None:
     # l-flat has no layout of one rectangle per room: after three windows proved empty,
     # a proof for the user's own bounds holds for every wider window, which are skipped.
-    details: list[str] = []
-
-    def on_event(event: SolveEvent) -> None:
-        if event.phase is Phase.RELAXATION:
-            details.append(event.detail)
-
-    layout = solve(example("l-flat", time_limit=4), on_event=on_event)
+    layout, details = solved_with_relaxations(example("l-flat", time_limit=4))
     assert layout.report.valid
     probe = details.index("size bounds user bounds, feasibility only: infeasible")
     assert [d for d in details[:probe] if d.endswith("infeasible")][-3:] == [
@@ -70,13 +75,7 @@ def test_the_probe_of_the_users_bounds_runs_once() -> None:
     # Three windows proved empty, then the probe and the wider windows end without a
     # proof: the schedule goes on without probing again, and the wings keep their time.
     problem, _ = draw(6634)
-    details: list[str] = []
-
-    def on_event(event: SolveEvent) -> None:
-        if event.phase is Phase.RELAXATION:
-            details.append(event.detail)
-
-    solve(problem.with_options(seed=0), on_event=on_event)
+    _, details = solved_with_relaxations(problem.with_options(seed=0))
     refuted = sum(d.startswith("size bounds target ±") and d.endswith(": infeasible")
                   for d in details)
     probes = sum("feasibility only" in d for d in details)
