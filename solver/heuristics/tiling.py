@@ -100,7 +100,8 @@ def tilings(
                 return found
             search = _Search(targets, pieces, shaped, deadline, limit - len(found), budget,
                              voids, count, fillers.most if fillers else (0.0, 0.0),
-                             fillers.parts if fillers else ())
+                             fillers.parts if fillers else (),
+                             (over, over + (fillers.area if fillers and count else 0.0)))
             found += search.run()
             nodes += search.nodes
             if search.nodes > budget:
@@ -146,7 +147,8 @@ class _Search:
                  shaped: frozenset[tuple[int, bool]], deadline: float, limit: int,
                  budget: int, voids: Sequence[Rect] = (), fillers: int = 0,
                  filler_most: tuple[float, float] = (0.0, 0.0),
-                 filler_parts: Sequence[tuple[float, float]] = ()) -> None:
+                 filler_parts: Sequence[tuple[float, float]] = (),
+                 notches: tuple[float, float] | None = None) -> None:
         self.n = n = len(targets)
         self.targets = [(_cm(w), _cm(d)) for w, d in targets]
         self.pieces = [(_cm(p[2] - p[0]), _cm(p[3] - p[1])) for p in pieces]
@@ -171,6 +173,11 @@ class _Search:
         # T-shaped outline's two corners, planted-07-6838): a filler spanning a part
         # outside the outline may enter with that part's side known. Not beside Ls:
         # their open sides make the search far slower there.
+        # The Ls' notches together are the floor the targets over-ask (less what
+        # fillers take): a join that fixes an L's notch beyond it cannot be in a tiling.
+        slack = 2 * self.tol * sum(sum(self.targets[r]) for r in self.shaped)
+        self.notches = (None if notches is None else
+                        (notches[0] * 1e4 - slack, notches[1] * 1e4 + slack))
         self.filler_sides = sorted({(axis, _cm(side)) for part in filler_parts
                                     for axis, side in enumerate(part)}
                                    if fillers > 1 and not shaped else ())
@@ -356,7 +363,26 @@ class _Search:
                 return False
             if arm_along is not None and arm_along > (tw, td)[along] + self.tol:
                 return False
-        return True
+        return self.notches is None or self._notches_fit(fixed)
+
+    def _notches_fit(self, fixed: dict[int, int]) -> bool:
+        """Whether the notches of the Ls whose arms are fixed add up to no more than the
+        floor over-asked, and, once every L's is, to no less."""
+        assert self.notches is not None
+        total, known = 0, 0
+        for r in self.shaped:
+            box = self.targets[r]
+            across, along = (0, 1) if self.turned[r] else (1, 0)
+            arm_along = fixed.get(_side(self.n + r, along))
+            arm_across = fixed.get(_side(self.n + r, across))
+            if arm_across is None and (bar := fixed.get(_side(r, across))) is not None:
+                arm_across = box[across] - bar
+            if arm_along is None or arm_across is None:
+                continue
+            total += (box[along] - arm_along) * arm_across
+            known += 1
+        least, most = self.notches
+        return total <= most and (known < len(self.shaped) or total >= least)
 
     def _cover(self, fitting: list[list[tuple[_Block, dict[int, int]]]], piece: int,
                at: int) -> None:
