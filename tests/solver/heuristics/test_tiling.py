@@ -7,7 +7,8 @@ import math
 
 import pytest
 
-from solver.heuristics.tiling import HORIZONTAL, VERTICAL, Fillers, tilings
+from bench.planted import draw
+from solver.heuristics.tiling import HORIZONTAL, VERTICAL, Fillers, Tiling, _Search, tilings
 
 #: A 12 x 12 m floor cut exactly by ten rooms: a 12 x 2 strip of three along the south,
 #: a 4 x 10 column of two, and an 8 x 10 block of five.
@@ -102,3 +103,27 @@ def test_two_fillers_in_one_row_take_the_sides_of_the_parts_outside() -> None:
     # Fillers of open sides only: two unknowns along the row, no tiling.
     assert tilings(T_TOP_ROW, [(0.0, 0.0, 9.35, 4.2)], limit=1, deadline=math.inf,
                    fillers=Fillers(2, (2.4, 4.85), 23.28)) == []
+
+
+def test_the_floor_a_guess_over_asks_bounds_its_ls_notches() -> None:
+    # planted-14-6831: fourteen rooms on a rectangle, the living room and bedroom7 drawn
+    # as Ls (both bars running north-south). Their notches add up to the floor the
+    # targets over-ask; a join that fixes them beyond it is cut, and the plan's guess is
+    # tiled within a budget of joins that the search without the bound exhausts.
+    problem, _ = draw(6831)
+    ids = [room.id for room in problem.rooms]
+    targets = [room.target_size for room in problem.rooms]
+    assert all(t is not None for t in targets)
+    xs, ys = zip(*problem.boundary, strict=True)
+    floor = (min(xs), min(ys), max(xs), max(ys))
+    over = sum(w * d for w, d in targets) - (floor[2] - floor[0]) * (floor[3] - floor[1])
+    guess = frozenset({(ids.index("living1"), True), (ids.index("bedroom7"), True)})
+
+    def search(notches: tuple[float, float] | None) -> list[Tiling]:
+        return _Search(targets, [floor], guess, math.inf, 1, 60_000,
+                       notches=notches).run()
+
+    assert len(problem.rooms) == 14 and over > 0
+    found = search((over, over))
+    assert found and found[0].shaped == {ids.index("living1"), ids.index("bedroom7")}
+    assert search(None) == []
