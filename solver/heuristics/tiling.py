@@ -20,9 +20,8 @@ from __future__ import annotations
 
 import bisect
 import itertools
-import math
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 #: (x0, y0, x1, y1).
@@ -42,14 +41,6 @@ FIRST_BUDGET = 20000
 NODES = 4_000_000
 #: An L's notch (its bounding box less its floor) is at most this share of the box.
 MAX_NOTCH = 0.7
-#: The odds that a room is an L by its rank in target area (largest first), the last
-#: for every rank beyond: in 144 planted plans the largest room was an L in 138 (most
-#: often the living room), the second in 68, the third in 34, the fourth in 26. A
-#: pair with the largest room is then likelier than any other room alone, and the
-#: plans hold one L far less often than two or more (17 of 144).
-L_ODDS = (9.0, 1.0, 1 / 3, 1 / 7, 1 / 15)
-#: A guess's budget in each round is the round's times its odds, within this factor.
-ODDS_BUDGET = 4.0
 
 
 @dataclass(frozen=True)
@@ -99,25 +90,21 @@ def tilings(
         [(shaped, count) for shaped in _guesses(
             targets, over, over + (fillers.area if count else 0.0), allowed)]
         for count in counts)) for guess in group if guess is not None]
-    odds = _odds(targets)
     nodes, budget = 0, FIRST_BUDGET
     # Each guess gets a small budget, then all of them a larger one: the right guess
-    # is seldom the first, and a wrong one can search long. The likelier guesses get
-    # more in each round (up to `ODDS_BUDGET` times, down to its inverse).
+    # is seldom the first, and a wrong one can search long.
     while guesses and nodes < NODES and len(found) < limit:
         unfinished = []
         for shaped, count in guesses:
             if time.monotonic() > deadline or len(found) >= limit or nodes >= NODES:
                 return found
-            share = min(ODDS_BUDGET, max(1 / ODDS_BUDGET, odds(shaped)))
-            search = _Search(targets, pieces, shaped, deadline, limit - len(found),
-                             round(budget * share),
+            search = _Search(targets, pieces, shaped, deadline, limit - len(found), budget,
                              voids, count, fillers.most if fillers else (0.0, 0.0),
                              fillers.parts if fillers else (),
                              (over, over + (fillers.area if fillers and count else 0.0)))
             found += search.run()
             nodes += search.nodes
-            if search.nodes > search.budget:
+            if search.nodes > budget:
                 unfinished.append((shaped, count))
         guesses, budget = unfinished, budget * 4
     return found
@@ -144,21 +131,7 @@ def _guesses(targets: Sequence[tuple[float, float]], least: float, most: float,
     pairs = [frozenset({(a, ta), (b, tb)}) for a, b in itertools.combinations(order, 2)
              for ta in (False, True) for tb in (False, True)
              if ok[a] and ok[b] and least < MAX_NOTCH * (area[a] + area[b])]
-    # The likelier guesses first (a stable sort keeps the order by area among equals).
-    return first + sorted(singles + pairs, key=_odds(targets), reverse=True)
-
-
-def _odds(targets: Sequence[tuple[float, float]]
-          ) -> Callable[[frozenset[tuple[int, bool]]], float]:
-    """A guess's odds: the product of its rooms' odds of being Ls, by their rank in
-    target area (`L_ODDS`); 1 for no L."""
-    order = sorted(range(len(targets)), key=lambda r: -targets[r][0] * targets[r][1])
-    rank = {r: k for k, r in enumerate(order)}
-
-    def odds(guess: frozenset[tuple[int, bool]]) -> float:
-        return math.prod(L_ODDS[min(rank[r], len(L_ODDS) - 1)] for r, _ in guess)
-
-    return odds
+    return first + singles + pairs
 
 
 class _Search:
