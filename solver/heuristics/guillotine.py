@@ -614,6 +614,10 @@ def _score(brief: _Brief, rooms: list[list[Rect]], parts: list[list[Rect]]
             if brief.outside:
                 made = _merged(own)
                 wall = min(needs.arm, *(_thickness(r) for r in rects))
+            elif brief.voids:
+                # A part beside a notch (a void) as thin as the notch leaves it, as the
+                # outline leaves it in a plan cut from its box (planted-10-6726: 0.3 m).
+                made = [r for r in rects if not any(_walls(r, v) for v in brief.voids)]
             miss += sum(max(0.0, needs.arm - _thickness(r)) for r in made)
             if not _connected(rects, wall):
                 miss += 5.0

@@ -212,6 +212,21 @@ def test_an_arm_the_search_made_thinner_than_half_a_metre_is_broken() -> None:
     assert broken == 1
 
 
+def test_a_part_beside_a_void_may_be_as_thin_as_the_notch_leaves_it() -> None:
+    # The same plan on the box with the notch as a void (no room cut, so the east room is
+    # an L the tree made): its 5 cm strip touching the void is how the notch leaves it
+    # (planted-10-6726's bedroom1 has a 0.3 m one); as thin away from the void, broken.
+    problem = notch_sliver_brief()
+    domain = make_domain(problem)
+    plan = guillotine._boxed_models(guillotine._brief(problem, domain), domain)[0]
+    assert plan.voids == ((5, 4, 8, 6),) and not plan.outside
+    south, west, store = (0, 0, 4, 3), (0, 3, 4, 6), (4, 4.05, 5, 6)
+    for strip, broken in (((4, 4, 5, 4.05), 0), ((4, 4, 4.9, 4.05), 1)):
+        east = [(4, 0, 8, 4), strip]
+        rooms = [[south], [west], east, [store], [plan.voids[0]]]
+        assert guillotine._score(plan, rooms, rooms)[1] == broken
+
+
 def test_a_strip_the_outline_cut_meets_the_rest_of_its_room_over_its_own_width() -> None:
     # A 4 x 4 m box less its south-west 3.8 x 2 m: a hall drawn on the whole box keeps,
     # cut to the outline, its north half and a 20 cm strip down the east wall, which
