@@ -615,8 +615,9 @@ def _score(brief: _Brief, rooms: list[list[Rect]], parts: list[list[Rect]]
                 made = _merged(own)
                 wall = min(needs.arm, *(_thickness(r) for r in rects))
             elif brief.voids:
-                # A part beside a notch (a void) as thin as the notch leaves it, as the
-                # outline leaves it in a plan cut from its box (planted-10-6726: 0.3 m).
+                # A part touching a void (a notch) may be as thin as the notch leaves
+                # it, as a part the outline cut may in the other model (planted-10-6726:
+                # a 0.3 m step over the notch's corner).
                 made = [r for r in rects if not any(_walls(r, v) for v in brief.voids)]
             miss += sum(max(0.0, needs.arm - _thickness(r)) for r in made)
             if not _connected(rects, wall):

@@ -169,15 +169,16 @@ class _Search:
         self.tol = round(TOL * 100)
         self.least = round(MIN_PART * 100) - self.tol
         self.filler_most = (_cm(filler_most[0]) + self.tol, _cm(filler_most[1]) + self.tol)
+        # The Ls' notches (cm²) add up to the floor the targets over-ask, less what
+        # fillers take (`notches`: least and most, m²): joins that fix them beyond it are
+        # cut. The slack is what sides within `TOL` may add.
+        slack = 2 * self.tol * sum(sum(self.targets[r]) for r in self.shaped)
+        self.notches = (None if notches is None else
+                        (notches[0] * 1e4 - slack, notches[1] * 1e4 + slack))
         # Two fillers of open sides in one row would leave two unknowns on one side (a
         # T-shaped outline's two corners, planted-07-6838): a filler spanning a part
         # outside the outline may enter with that part's side known. Not beside Ls:
         # their open sides make the search far slower there.
-        # The Ls' notches together are the floor the targets over-ask (less what
-        # fillers take): a join that fixes an L's notch beyond it cannot be in a tiling.
-        slack = 2 * self.tol * sum(sum(self.targets[r]) for r in self.shaped)
-        self.notches = (None if notches is None else
-                        (notches[0] * 1e4 - slack, notches[1] * 1e4 + slack))
         self.filler_sides = sorted({(axis, _cm(side)) for part in filler_parts
                                     for axis, side in enumerate(part)}
                                    if fillers > 1 and not shaped else ())
