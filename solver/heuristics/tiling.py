@@ -171,9 +171,10 @@ class _Search:
         self.filler_most = (_cm(filler_most[0]) + self.tol, _cm(filler_most[1]) + self.tol)
         # The Ls' notches (cm²) add up to the floor the targets over-ask, less what
         # fillers take (`notches`: least and most, m²): joins that fix them beyond it are
-        # cut. The slack is what sides within `TOL` may add.
+        # cut. The slack is what sides within `TOL` may add. Without Ls there are no
+        # notches to bound: the floor over-asked is then rounding, however small.
         slack = 2 * self.tol * sum(sum(self.targets[r]) for r in self.shaped)
-        self.notches = (None if notches is None else
+        self.notches = (None if notches is None or not self.shaped else
                         (notches[0] * 1e4 - slack, notches[1] * 1e4 + slack))
         # Two fillers of open sides in one row would leave two unknowns on one side (a
         # T-shaped outline's two corners, planted-07-6838): a filler spanning a part

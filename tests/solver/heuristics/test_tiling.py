@@ -105,6 +105,13 @@ def test_two_fillers_in_one_row_take_the_sides_of_the_parts_outside() -> None:
                    fillers=Fillers(2, (2.4, 4.85), 23.28)) == []
 
 
+def test_rooms_that_tile_the_floor_exactly_are_found_whatever_the_rounding() -> None:
+    # 2.15 x 3 and 4.45 x 3 over-ask a 6.6 x 3 floor by 3.6e-15 m² in floating point:
+    # with no room an L, there is no notch for the notch bound to hold that to.
+    assert tilings([(2.15, 3.0), (4.45, 3.0)], [(0.0, 0.0, 6.6, 3.0)], limit=1,
+                   deadline=math.inf)
+
+
 def test_the_floor_a_guess_over_asks_bounds_its_ls_notches() -> None:
     # planted-14-6831: fourteen rooms on a rectangle, the living room and bedroom7 drawn
     # as Ls (both bars running north-south). Their notches add up to the floor the
