@@ -2,10 +2,12 @@
 planted briefs (bench/planted.py), each layout measured as the planted plan is.
 
     python -m bench.planted_report [--briefs DIR ...] [--seeds 2001-2012] \\
-        [--solvers ours,flat] [--flat-limit 10] [--out bench/results/planted]
+        [--solvers ours,flat] [--repeat 1] [--flat-limit 10] [--out bench/results/planted]
     python -m bench.planted_report --report-only [--out DIR]
 
-Per brief and solver (one run each, at the seed in the brief's options): valid (the
+Per brief and solver (one run each, at the seed in the brief's options; with --repeat N,
+N runs at that seed and the N - 1 after it, the row then holding their medians, as
+issue 19's done-criteria count them, and the runs themselves under "runs"): valid (the
 checker passes the final layout and it covers >= 99 %, as in bench/evaluate.py),
 coverage, mean room-area error (mean over rooms of |area - target area| / target area,
 the target area being target_size[0] x target_size[1]) and Eq. 12; the same for the
@@ -74,9 +76,11 @@ def measure_plan(problem: Problem, truth: Truth) -> dict[str, Any]:
             "objective": layout_objective(problem, make_domain(problem), rooms)}
 
 
-def measure_run(problem: Problem, solver: str, name: str, flat_limit: float) -> dict[str, Any]:
-    """One run of `solver` through the harness's runners and `bench.evaluate`."""
-    seed = problem.options.seed
+def measure_run(problem: Problem, solver: str, name: str, flat_limit: float,
+                seed: int | None = None) -> dict[str, Any]:
+    """One run of `solver` through the harness's runners and `bench.evaluate`, at `seed`
+    (default: the brief's own)."""
+    seed = problem.options.seed if seed is None else seed
     gc.collect()
     trace = run_guarded(solver, problem, seed=seed, cap=flat_limit,
                         log=lambda text: print(text, file=sys.stderr, flush=True))
@@ -86,6 +90,23 @@ def measure_run(problem: Problem, solver: str, name: str, flat_limit: float) -> 
             "objective": record.objective, "hard_violations": record.hard_violations,
             "first_valid": record.first_valid, "seconds": round(record.final_time, 3),
             "time_limit": record.time_limit, "status": record.status}
+
+
+def medians(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """One row from several runs of a solver on a brief: valid when most runs are; the
+    median coverage (a run without a layout covers nothing), area error and Eq. 12 (a
+    run without a layout counts as the worst), seconds and first-valid time."""
+    if len(runs) == 1:
+        return runs[0]
+    row = {"valid": 2 * sum(1 for r in runs if r["valid"]) > len(runs),
+           "coverage": median([r["coverage"] or 0.0 for r in runs], none_is_inf=False),
+           **{key: median([r[key] for r in runs], none_is_inf=True)
+              for key in ("area_error", "objective", "first_valid")},
+           "hard_violations": median([r["hard_violations"] for r in runs], none_is_inf=True),
+           "seconds": median([r["seconds"] for r in runs], none_is_inf=False),
+           "time_limit": runs[0]["time_limit"], "status": [r["status"] for r in runs],
+           "runs": runs}
+    return row
 
 
 def collect(briefs: list[Path], seeds: list[int]) -> list[tuple[str, Problem, Truth]]:
@@ -137,6 +158,13 @@ def _cell(run: dict[str, Any] | None, key: str) -> str:
     return _f(run[key], ".3f" if key == "area_error" else ".1f")
 
 
+def _runs(repeat: int) -> str:
+    if repeat == 1:
+        return "one run each"
+    return (f"{repeat} runs each (seeds from the brief's on), each row their medians: valid "
+            "when most runs are")
+
+
 def _summary_rows(summary: dict[str, dict[str, Any]], label: str) -> list[str]:
     lines = []
     for column, t in summary.items():
@@ -156,7 +184,8 @@ def markdown(results: dict[str, Any]) -> str:
         "# Planted briefs: ours and the flat model against the planted plan", "",
         f"{m.get('date')}, commit {str(m.get('commit'))[:10]}, {m.get('cpu')}, "
         f"{m.get('cores')} cores, SCIP {m.get('scip')}. Ours at its default time limit, "
-        f"flat at 10x ours capped at {s['flat_limit']:g} s; one run each. Area error: mean "
+        f"flat at 10x ours capped at {s['flat_limit']:g} s; {_runs(s.get('repeat', 1))}. "
+        "Area error: mean "
         "over rooms of |area - target area| / target area. Valid: the checker passes "
         "it and it covers >= 99 %. Within 2x: valid and area error <= 2x the plan's.", "",
         "Medians over the briefs with a layout.", "",
@@ -194,6 +223,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--seeds", default="", help="briefs to draw too, e.g. 2001-2012")
     p.add_argument("--solvers", default="ours,flat",
                    help="comma-separated: ours, ours-parallel, flat")
+    p.add_argument("--repeat", type=int, default=1,
+                   help="runs per brief and solver, at the brief's seed and the ones after "
+                        "it; the row holds their medians (default: %(default)s)")
     p.add_argument("--flat-limit", type=float, default=10.0,
                    help="cap in seconds on the flat model's limit (default: %(default)s)")
     p.add_argument("--out", type=Path, default=Path("bench/results/planted"))
@@ -203,6 +235,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     args.solvers = [x.strip() for x in args.solvers.split(",") if x.strip()]
     if not set(args.solvers) <= set(COLUMNS[1:]):
         p.error("--solvers: choose from ours, ours-parallel, flat")
+    if args.repeat < 1:
+        p.error("--repeat: at least 1")
     return args
 
 
@@ -215,14 +249,16 @@ def main(argv: list[str] | None = None) -> int:
     results: dict[str, Any] = {
         "machine": machine_info(), "settings": {
             "briefs": [str(b) for b in args.briefs], "seeds": args.seeds,
-            "solvers": args.solvers, "flat_limit": args.flat_limit},
+            "solvers": args.solvers, "flat_limit": args.flat_limit, "repeat": args.repeat},
         "briefs": []}
     started = time.monotonic()
     for source, problem, truth in briefs:
         row: dict[str, Any] = {"name": problem.name, "source": source,
                                "rooms": len(problem.rooms), "plan": measure_plan(problem, truth)}
         for solver in args.solvers:
-            row[solver] = measure_run(problem, solver, problem.name or "", args.flat_limit)
+            row[solver] = medians([
+                measure_run(problem, solver, problem.name or "", args.flat_limit,
+                            seed=problem.options.seed + k) for k in range(args.repeat)])
         results["briefs"].append(row)
         results["settings"]["seconds"] = round(time.monotonic() - started, 1)
         write(results, args.out)  # after every brief: a stopped run keeps what it measured

@@ -9,7 +9,14 @@ from pathlib import Path
 import pytest
 
 from bench.planted import brief_json, draw, load, main
-from bench.planted_report import area_error, markdown, measure_plan, parse_seeds, summarise
+from bench.planted_report import (
+    area_error,
+    markdown,
+    measure_plan,
+    medians,
+    parse_seeds,
+    summarise,
+)
 from models import Problem
 from solver import check_layout
 from tests.paths import ROOT
@@ -117,3 +124,19 @@ def test_summary_and_table_of_fabricated_rows() -> None:
     text = markdown({"machine": {"date": "d", "commit": "c"}, "settings": {"flat_limit": 10},
                      "briefs": rows, "summary": summary})
     assert "| a | 5 | yes / yes / no |" in text and "| ours | 2 | 2 | 2 |" in text
+
+
+def test_repeated_runs_give_their_medians() -> None:
+    def run(valid: bool, coverage: float | None, error: float | None) -> dict:
+        return {"valid": valid, "coverage": coverage, "area_error": error,
+                "objective": error, "first_valid": 1.0 if valid else None,
+                "hard_violations": 0, "seconds": 5.0, "time_limit": 5.0, "status": "ok"}
+
+    # One run of three without a layout: the row is the other two's median, and valid.
+    row = medians([run(True, 1.0, 0.05), run(False, None, None), run(True, 0.995, 0.08)])
+    assert row["valid"] and row["coverage"] == 0.995 and row["area_error"] == 0.08
+    assert len(row["runs"]) == 3 and row["first_valid"] == 1.0
+    # Two of three invalid: the brief counts as invalid.
+    row = medians([run(False, 0.97, 0.05), run(False, 0.96, 0.04), run(True, 1.0, 0.1)])
+    assert not row["valid"] and row["coverage"] == 0.97
+    assert medians([run(True, 1.0, 0.05)]) == run(True, 1.0, 0.05)
