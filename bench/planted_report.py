@@ -94,12 +94,15 @@ def measure_run(problem: Problem, solver: str, name: str, flat_limit: float,
 
 def medians(runs: list[dict[str, Any]]) -> dict[str, Any]:
     """One row from several runs of a solver on a brief: valid when most runs are; the
-    median coverage (a run without a layout covers nothing), area error and Eq. 12 (a
-    run without a layout counts as the worst), seconds and first-valid time."""
+    median coverage (a run without a layout covers nothing; None when most have none),
+    area error and Eq. 12 (a run without a layout counts as the worst), seconds and
+    first-valid time."""
     if len(runs) == 1:
         return runs[0]
+    without = sum(1 for r in runs if r["coverage"] is None)
     row = {"valid": 2 * sum(1 for r in runs if r["valid"]) > len(runs),
-           "coverage": median([r["coverage"] or 0.0 for r in runs], none_is_inf=False),
+           "coverage": None if 2 * without > len(runs) else median(
+               [r["coverage"] or 0.0 for r in runs], none_is_inf=False),
            **{key: median([r[key] for r in runs], none_is_inf=True)
               for key in ("area_error", "objective", "first_valid")},
            "hard_violations": median([r["hard_violations"] for r in runs], none_is_inf=True),

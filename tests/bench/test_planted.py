@@ -139,4 +139,7 @@ def test_repeated_runs_give_their_medians() -> None:
     # Two of three invalid: the brief counts as invalid.
     row = medians([run(False, 0.97, 0.05), run(False, 0.96, 0.04), run(True, 1.0, 0.1)])
     assert not row["valid"] and row["coverage"] == 0.97
+    # Most runs without a layout: the brief has none.
+    row = medians([run(False, None, None), run(False, None, None), run(True, 1.0, 0.1)])
+    assert row["coverage"] is None and row["area_error"] is None and not row["valid"]
     assert medians([run(True, 1.0, 0.05)]) == run(True, 1.0, 0.05)
