@@ -138,8 +138,9 @@ class ExtraRectangles(BaseModel):
 
     room: str
     rectangles: int = Field(description="rectangles the room started from")
-    reason: str = Field(description="'asked' (shape or max_rects in the problem) or why a "
-                        "single rectangle was not enough")
+    reason: str = Field(description="'asked' (shape or max_rects in the problem) or why the "
+                        "solver made it of several rectangles (a single one was not enough, "
+                        "or the search that found the layout started it as an L)")
 
 
 class ConflictItem(BaseModel):

@@ -53,6 +53,8 @@ from solver.verify.precheck import find_impossibilities
 
 #: The second level-1 search of a portfolio runs under the seed plus this.
 SECOND_SEED_STEP = 1_000_003
+#: Why a room of a second level-1 search's layout is an L when the brief did not ask.
+L_START_REASON = "the second level-1 search started the largest room as an L"
 #: How the report names the guillotine search's layout.
 GUILLOTINE = ("a guillotine search (rooms as the parts of a slicing tree, L and T rooms "
               "among them)")
@@ -208,8 +210,11 @@ def guillotine_alone(
                               tiled=tiled, untiled=untiled)
     if found is None and len(problem.rooms) > GUILLOTINE_MAX_ROOMS and then_level_one:
         # Beyond that size only an exact tiling seeds it, and there was none: the rest
-        # of the time goes to a second level-1 search, as where it does not apply.
-        return level_one_alone(task)
+        # of the time goes to a second level-1 search, the largest room starting as an
+        # L. Such a floor's plan is seldom a tiling of rectangles and one or two Ls, and
+        # its largest room is nearly always an L; level 1 in the solve's own process
+        # tries rectangles first, so the two searches start from different shapes.
+        return level_one_alone(task, l_start=True)
     if found is None:
         return LevelOneOutcome(None, {}, [], None, False, [])
     extra = [ExtraRectangles(room=room_id, rectangles=len(boxes),
@@ -219,16 +224,35 @@ def guillotine_alone(
                            found_by=GUILLOTINE)
 
 
-def level_one_alone(task: LevelOneTask) -> LevelOneOutcome:
+def level_one_alone(task: LevelOneTask, *, l_start: bool = False) -> LevelOneOutcome:
     """Level 1 of `task.problem` (its demands already added) in whatever process the
-    executor uses, without events or stop flag: it ends by `task.deadline` (epoch)."""
+    executor uses, without events or stop flag: it ends by `task.deadline` (epoch).
+    With `l_start`, the largest room that may be an L starts as one (`l_started`)."""
     started = time.monotonic()
     deadline = started + (task.deadline - time.time())
-    run = Run(task.problem, deadline, started, None, None)
-    domain = make_domain(task.problem)
+    problem, l_room = l_started(task.problem) if l_start else (task.problem, None)
+    run = Run(problem, deadline, started, None, None)
+    domain = make_domain(problem)
     pieces, _ = first_level(run, domain, deadline)
-    return LevelOneOutcome(pieces, run.wings, run.extra, run.window, run.soft,
+    # The room was not asked to be an L: the report says who made it one.
+    extra = [ExtraRectangles(room=e.room, rectangles=e.rectangles, reason=L_START_REASON)
+             if e.room == l_room else e for e in run.extra]
+    return LevelOneOutcome(pieces, run.wings, extra, run.window, run.soft,
                            run.relaxations)
+
+
+def l_started(problem: Problem) -> tuple[Problem, str | None]:
+    """`problem` with its largest room (by target, `wing_order`) that starts as one
+    rectangle and may have more starting as an L (as ``shape: free`` does), and that
+    room's id; `problem` and None when no room may."""
+    eligible = {r.id for r in problem.rooms
+                if r.rectangles == 1 and shape_allowance(r) > 1 and r.fixed is None}
+    chosen = next((r for r in wing_order(problem) if r in eligible), None)
+    if chosen is None:
+        return problem, None
+    return problem.model_copy(update={"rooms": [
+        r.model_copy(update={"shape": "free"}) if r.id == chosen else r
+        for r in problem.rooms]}), chosen
 
 
 def better_start(

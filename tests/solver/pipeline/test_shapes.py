@@ -19,10 +19,17 @@ from solver.heuristics.level_one import demand_order, level_one_spec, reach_wing
 from solver.miqp.formulation import build_level
 from solver.miqp.scip_run import LevelStatus, run_level
 from solver.miqp.spec import level_objective
+from solver.openings import connection_demands
 from solver.pipeline.assemble import final_layout
-from solver.pipeline.first_layout import no_first_layout
+from solver.pipeline.first_layout import (
+    L_START_REASON,
+    l_started,
+    level_one_alone,
+    no_first_layout,
+)
 from solver.pipeline.hierarchy import Piece
 from solver.pipeline.run import Run
+from solver.pipeline.subdomains import LevelOneTask
 from tests.paths import EXAMPLES
 
 
@@ -91,6 +98,29 @@ def test_the_largest_rooms_get_extra_rectangles_first() -> None:
         r.model_copy(update={"target_size": (6.0, 6.0), "max_size": (7.0, 7.0)})
         if r.id == "kitchen" else r for r in p.rooms]})
     assert wing_order(grown)[:2] == ["kitchen", "living"]
+
+
+def test_the_second_level_one_search_starts_the_largest_room_that_may_be_an_l_as_one() -> None:
+    p = example("l-flat")
+    started, room = l_started(p)
+    assert room == "living"
+    assert {r.id for r in started.rooms if r.shape == "free"} == {"living"}
+    # A room kept a rectangle, or already free, is passed over for the next largest.
+    kept = p.model_copy(update={"rooms": [
+        r.model_copy(update={"max_rects": 1}) if r.id == "living" else r for r in p.rooms]})
+    assert l_started(kept)[1] == wing_order(p)[1]
+    single = p.model_copy(update={"rooms": [r.model_copy(update={"max_rects": 1})
+                                            for r in p.rooms]})
+    assert l_started(single) == (single, None)
+
+
+def test_a_second_level_one_search_so_started_says_who_made_the_room_an_l() -> None:
+    problem = connection_demands(example("l-flat"))
+    outcome = level_one_alone(LevelOneTask(problem, deadline=time.time() + 3), l_start=True)
+    assert outcome.pieces is not None and outcome.wings.get("living") == 1
+    assert ("living", L_START_REASON) in [(e.room, e.reason) for e in outcome.extra]
+    rooms = {piece.room for piece in outcome.pieces}
+    assert rooms == {r.id for r in problem.rooms}
 
 
 def test_a_room_may_ask_to_be_free_from_the_start() -> None:
