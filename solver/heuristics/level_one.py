@@ -192,6 +192,19 @@ def wings_wanted(problem: Problem) -> dict[str, int]:
     return {room.id: room.rectangles - 1 for room in problem.rooms if room.rectangles > 1}
 
 
+def may_start_as_l(room: Room) -> bool:
+    """Whether a room may be started as an L (``shape: free``) without the brief asking:
+    it starts as one rectangle, may have more, and is not fixed."""
+    return room.rectangles == 1 and shape_allowance(room) > 1 and room.fixed is None
+
+
+def started_as_l(problem: Problem, room_id: str) -> Problem:
+    """`problem` with room `room_id` starting as an L, as ``shape: free`` asks."""
+    return problem.model_copy(update={"rooms": [
+        r.model_copy(update={"shape": "free"}) if r.id == room_id else r
+        for r in problem.rooms]})
+
+
 def unfitting_targets(problem: Problem, domain: Domain) -> list[str]:
     """Rooms whose target rectangle fits nowhere in the free floor (a living room as
     tall as the outline's only in an arm narrower than it): in the plan they came from,

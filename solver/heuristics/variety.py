@@ -39,6 +39,7 @@ import zlib
 from pyscipopt import quicksum
 
 from models import Problem, Room
+from solver.heuristics.level_one import may_start_as_l, started_as_l
 from solver.miqp.model import LevelModel
 from solver.miqp.spec import free_rects
 
@@ -179,14 +180,10 @@ def drawn_shape(problem: Problem, seed: int) -> Problem:
     rng = random.Random(f"shape:{seed}")
     if rng.random() >= L_START_CHANCE:
         return problem
-    eligible = [r for r in problem.rooms
-                if r.rectangles == 1 and r.max_rects != 1 and r.fixed is None]
+    eligible = [r for r in problem.rooms if may_start_as_l(r)]
     if not eligible:
         return problem
-    chosen = rng.choice(eligible).id
-    return problem.model_copy(update={"rooms": [
-        r.model_copy(update={"shape": "free"}) if r.id == chosen else r
-        for r in problem.rooms]})
+    return started_as_l(problem, rng.choice(eligible).id)
 
 
 def diverse_problem(problem: Problem, seed: int) -> Problem:

@@ -19,7 +19,9 @@ from solver.heuristics.guillotine import guillotine_layout
 from solver.heuristics.level_one import (
     FIRST_BAND,
     level_one_spec,
+    may_start_as_l,
     shape_allowance,
+    started_as_l,
     target_bands,
     unfitting_targets,
     windows_to_try,
@@ -245,14 +247,11 @@ def l_started(problem: Problem) -> tuple[Problem, str | None]:
     """`problem` with its largest room (by target, `wing_order`) that starts as one
     rectangle and may have more starting as an L (as ``shape: free`` does), and that
     room's id; `problem` and None when no room may."""
-    eligible = {r.id for r in problem.rooms
-                if r.rectangles == 1 and shape_allowance(r) > 1 and r.fixed is None}
+    eligible = {r.id for r in problem.rooms if may_start_as_l(r)}
     chosen = next((r for r in wing_order(problem) if r in eligible), None)
     if chosen is None:
         return problem, None
-    return problem.model_copy(update={"rooms": [
-        r.model_copy(update={"shape": "free"}) if r.id == chosen else r
-        for r in problem.rooms]}), chosen
+    return started_as_l(problem, chosen), chosen
 
 
 def better_start(
