@@ -101,9 +101,8 @@ def test_a_leaf_dropped_with_its_cut_leaves_a_tree() -> None:
 def test_left_to_the_other_searches_where_it_does_not_apply() -> None:
     problem = l_living_brief()
     assert applies(problem, make_domain(problem))
-    with_obstacle = problem.model_copy(update={"obstacles": [
-        {"x": 4.5, "y": 3.5, "width": 1, "depth": 1}]})
-    with_obstacle = Problem.model_validate(with_obstacle.model_dump())
+    with_obstacle = Problem.model_validate({
+        **problem.model_dump(), "obstacles": [{"x": 4.5, "y": 3.5, "width": 1, "depth": 1}]})
     assert not applies(with_obstacle, make_domain(with_obstacle))
     many = Problem.model_validate({
         "boundary": [[0, 0], [40, 0], [40, 10], [0, 10]],
