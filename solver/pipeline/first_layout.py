@@ -206,17 +206,21 @@ def guillotine_alone(
     instead; in the solve's own process level 1 itself has that time."""
     deadline = time.monotonic() + (task.deadline - time.time())
     problem = task.problem
-    found = guillotine_layout(problem, make_domain(problem), seed=problem.options.seed,
+    domain = make_domain(problem)
+    found = guillotine_layout(problem, domain, seed=problem.options.seed,
                               deadline=deadline, should_stop=should_stop,
                               accept=lambda rooms: check_layout(problem, rooms).valid,
                               tiled=tiled, untiled=untiled)
     if found is None and len(problem.rooms) > GUILLOTINE_MAX_ROOMS and then_level_one:
         # Beyond that size only an exact tiling seeds it, and there was none: the rest
         # of the time goes to a second level-1 search, the largest room starting as an
-        # L. Such a floor's plan is seldom a tiling of rectangles and one or two Ls, and
-        # its largest room is nearly always an L; level 1 in the solve's own process
-        # tries rectangles first, so the two searches start from different shapes.
-        return level_one_alone(task, l_start=True)
+        # L when the targets over-ask the floor (as a brief extracted from a plan with
+        # L rooms does, a target being a room's bounding box). Such a plan is seldom a
+        # tiling of rectangles and one or two Ls, and its largest room is nearly always
+        # an L; level 1 in the solve's own process tries rectangles first, so the two
+        # searches start from different shapes. (Where the targets leave floor over, as
+        # the paper's house-13 does, an L start ended worse: bench/NOTES.md.)
+        return level_one_alone(task, l_start=targets_over_ask(problem, domain))
     if found is None:
         return LevelOneOutcome(None, {}, [], None, False, [])
     extra = [ExtraRectangles(room=room_id, rectangles=len(boxes),
@@ -241,6 +245,12 @@ def level_one_alone(task: LevelOneTask, *, l_start: bool = False) -> LevelOneOut
              if e.room == l_room else e for e in run.extra]
     return LevelOneOutcome(pieces, run.wings, extra, run.window, run.soft,
                            run.relaxations)
+
+
+def targets_over_ask(problem: Problem, domain: Domain) -> bool:
+    """Whether the rooms' target rectangles add up to more than the floor."""
+    asked = sum(r.target_size[0] * r.target_size[1] for r in problem.rooms if r.target_size)
+    return asked > domain.area
 
 
 def l_started(problem: Problem) -> tuple[Problem, str | None]:

@@ -26,6 +26,7 @@ from solver.pipeline.first_layout import (
     l_started,
     level_one_alone,
     no_first_layout,
+    targets_over_ask,
 )
 from solver.pipeline.hierarchy import Piece
 from solver.pipeline.run import Run
@@ -112,6 +113,18 @@ def test_the_second_level_one_search_starts_the_largest_room_that_may_be_an_l_as
     single = p.model_copy(update={"rooms": [r.model_copy(update={"max_rects": 1})
                                             for r in p.rooms]})
     assert l_started(single) == (single, None)
+
+
+def test_only_targets_that_over_ask_the_floor_start_the_second_search_with_an_l() -> None:
+    # A brief extracted from a plan with L rooms asks for their bounding boxes ...
+    planted, _ = draw(6908)
+    assert targets_over_ask(planted, make_domain(planted))
+    # ... where a brief written for the rooms to grow into the floor leaves it over (as
+    # the paper's house-13 does: its targets ask for 79 % of it).
+    grown_into = planted.model_copy(update={"rooms": [
+        r.model_copy(update={"target_size": (0.8 * r.target_size[0], 0.8 * r.target_size[1])})
+        for r in planted.rooms if r.target_size]})
+    assert not targets_over_ask(grown_into, make_domain(grown_into))
 
 
 def test_a_second_level_one_search_so_started_says_who_made_the_room_an_l() -> None:
