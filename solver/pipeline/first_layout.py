@@ -241,8 +241,8 @@ def level_one_alone(task: LevelOneTask, *, l_start: bool = False) -> LevelOneOut
     domain = make_domain(problem)
     pieces, _ = first_level(run, domain, deadline)
     # The room was not asked to be an L: the report says who made it one.
-    extra = [ExtraRectangles(room=e.room, rectangles=e.rectangles, reason=L_START_REASON)
-             if e.room == l_room else e for e in run.extra]
+    extra = [e.model_copy(update={"reason": L_START_REASON}) if e.room == l_room else e
+             for e in run.extra]
     return LevelOneOutcome(pieces, run.wings, extra, run.window, run.soft,
                            run.relaxations)
 

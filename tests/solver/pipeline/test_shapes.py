@@ -110,6 +110,9 @@ def test_the_second_level_one_search_starts_the_largest_room_that_may_be_an_l_as
     kept = p.model_copy(update={"rooms": [
         r.model_copy(update={"max_rects": 1}) if r.id == "living" else r for r in p.rooms]})
     assert l_started(kept)[1] == wing_order(p)[1]
+    free = p.model_copy(update={"rooms": [
+        r.model_copy(update={"shape": "free"}) if r.id == "living" else r for r in p.rooms]})
+    assert l_started(free)[1] == wing_order(p)[1]
     single = p.model_copy(update={"rooms": [r.model_copy(update={"max_rects": 1})
                                             for r in p.rooms]})
     assert l_started(single) == (single, None)
