@@ -38,8 +38,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from models import Problem
-from solver.geometry import Box, Domain
+from floorplan.models import Problem
+from floorplan.solver.geometry import Box, Domain
 
 #: Penalty per m^2 of overlap or outside area, relative to lambda_cover.
 AREA_PENALTY = 10.0

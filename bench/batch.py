@@ -27,10 +27,10 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from pathlib import Path
 from typing import Any
 
-from models import Layout, Problem, Report, RoomLayout
-from models.parts import REDRAW_SEED_STEP
-from solver.distinct import NEAR_SHARE, DistinctPlans
-from solver.stopping import good_rank
+from floorplan.models import Layout, Problem, Report, RoomLayout
+from floorplan.models.parts import REDRAW_SEED_STEP
+from floorplan.solver.distinct import NEAR_SHARE, DistinctPlans
+from floorplan.solver.stopping import good_rank
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = ROOT.parent / "shared" / "bench" / "cases"
@@ -50,11 +50,11 @@ def per_layout_limit(problem: Problem) -> float:
 
 
 def _warm() -> None:
-    import solver.pipeline.dispatch  # noqa: F401  (SCIP, once per process)
+    import floorplan.solver.pipeline.dispatch  # noqa: F401  (SCIP, once per process)
 
 
 def _ours(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None, str, str]:
-    from solver import solve
+    from floorplan.solver import solve
 
     brief, seed, limit = args
     best: tuple[tuple[bool, bool, float], Layout, Problem] | None = None
@@ -76,7 +76,7 @@ def _ours(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None, 
 def _spread(args: tuple[str, str, Any, int]) -> str | None:
     """A good layout's walls moved apart from the plans near it (`others`), as JSON; None
     when they cannot be moved far enough."""
-    from solver.pipeline.spread import spread_layout
+    from floorplan.solver.pipeline.spread import spread_layout
 
     problem_json, layout_json, others, seed = args
     moved = spread_layout(Problem.model_validate_json(problem_json),
@@ -86,8 +86,8 @@ def _spread(args: tuple[str, str, Any, int]) -> str | None:
 
 def _anneal(args: tuple[dict[str, Any], int, float]) -> tuple[bool, float | None, str]:
     from bench.anneal import anneal
-    from solver.geometry import make_domain, room_polygon
-    from solver.verify.checker import check_layout
+    from floorplan.solver.geometry import make_domain, room_polygon
+    from floorplan.solver.verify.checker import check_layout
 
     brief, seed, limit = args
     problem = Problem.model_validate(brief)

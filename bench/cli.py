@@ -26,8 +26,8 @@ from bench.evaluate import RunRecord, evaluate
 from bench.planted_report import main as planted_main
 from bench.report import build_results, machine_info, write_outputs
 from bench.solvers import BASELINE_CAP, SOLVERS, baseline_limit, our_limit, run_guarded
-from models import Problem
-from solver.geometry import make_domain
+from floorplan.models import Problem
+from floorplan.solver.geometry import make_domain
 
 #: Cases with more rooms than this run `--repeat-large` times.
 LARGE_ABOVE = 20

@@ -10,7 +10,7 @@ room at its polygon of the first layout, and scales the free room's target by 0.
 (even edits) or 1.1 (odd ones) per side, within its size bounds. The edited brief
 carries the first layout as `options.start` unless ``--no-start``.
 
-``--via service`` (the default) starts ``python -m service serve`` on a loopback port
+``--via service`` (the default) starts ``python -m floorplan.service serve`` on a loopback port
 (the embedded mode, its default settings), sends one edit first to warm it (not
 counted), and times each edit from the POST to the poll that sees it succeeded (the
 job polled every `POLL_SECONDS`), the result fetched after the clock stops.
@@ -40,7 +40,7 @@ import httpx2 as httpx
 import shapely
 from shapely.geometry import Polygon
 
-from models import Layout, Problem
+from floorplan.models import Layout, Problem
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = ROOT.parent / "shared" / "bench" / "cases"
@@ -84,7 +84,7 @@ class EditRecord:
 
 
 def first_layouts(cases: dict[str, Problem]) -> dict[str, Layout]:
-    from solver import solve
+    from floorplan.solver import solve
 
     return {name: solve(problem) for name, problem in cases.items()}
 
@@ -153,7 +153,7 @@ def record(edit: Edit, seconds: float, status: str, layout: Layout | None) -> Ed
 
 
 def run_solver(edits: list[Edit]) -> list[EditRecord]:
-    from solver import solve
+    from floorplan.solver import solve
 
     records = []
     for edit in edits:
@@ -165,7 +165,7 @@ def run_solver(edits: list[Edit]) -> list[EditRecord]:
 
 
 class Service:
-    """``python -m service serve`` on a free loopback port, in its own directory."""
+    """``python -m floorplan.service serve`` on a free loopback port, in its own directory."""
 
     def __init__(self, data_dir: Path) -> None:
         with socket.socket() as s:
@@ -173,7 +173,7 @@ class Service:
             self.port = int(s.getsockname()[1])
         self.url = f"http://127.0.0.1:{self.port}"
         self.process = subprocess.Popen(
-            [sys.executable, "-m", "service", "serve", "--port", str(self.port),
+            [sys.executable, "-m", "floorplan.service", "serve", "--port", str(self.port),
              "--data-dir", str(data_dir), "--log-level", "warning"],
             env=dict(os.environ), start_new_session=True,
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -17,10 +17,16 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from bench.solvers import Rooms, Trace
-from models import Problem
-from solver.geometry import Domain
-from solver.pipeline.run import layout_objective
-from solver.verify.checker import COVERAGE_GOAL, SOFT_KINDS, CheckResult, check_aisles, check_layout
+from floorplan.models import Problem
+from floorplan.solver.geometry import Domain
+from floorplan.solver.pipeline.run import layout_objective
+from floorplan.solver.verify.checker import (
+    COVERAGE_GOAL,
+    SOFT_KINDS,
+    CheckResult,
+    check_aisles,
+    check_layout,
+)
 
 #: Layouts whose rectangles overlap, or leave the bounding box, by more than this (m^2)
 #: cannot pass the checker (its tolerance is far below), so it is not run on them.

@@ -29,8 +29,8 @@ import shapely
 from shapely.geometry import LineString, Point, Polygon, box
 from shapely.geometry.polygon import orient
 
-from models import Problem
-from solver.geometry import Box, boundary_edges, rectangles_of
+from floorplan.models import Problem
+from floorplan.solver.geometry import Box, boundary_edges, rectangles_of
 
 #: The drawing grid, in metres.
 UNIT = 0.05

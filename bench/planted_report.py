@@ -31,10 +31,10 @@ from bench.evaluate import evaluate
 from bench.planted import Truth, draw, load
 from bench.report import machine_info, median
 from bench.solvers import Rooms, run_guarded
-from models import Problem
-from solver import check_layout, layout_objective
-from solver.geometry import make_domain
-from solver.verify.checker import COVERAGE_GOAL
+from floorplan.models import Problem
+from floorplan.solver import check_layout, layout_objective
+from floorplan.solver.geometry import make_domain
+from floorplan.solver.verify.checker import COVERAGE_GOAL
 
 DEFAULT_BRIEFS = Path(__file__).resolve().parent.parent.parent / "shared" / "bench" / "planted"
 #: Columns of each brief's row: the plan, then the solvers ("ours-parallel": ours with

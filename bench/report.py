@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from bench.evaluate import RunRecord
-from models import Problem
+from floorplan.models import Problem
 
 #: Figures whose median is taken over the runs.
 MEDIAN_FIELDS = ("first_valid", "first_pass", "final_time", "last_improvement", "coverage",

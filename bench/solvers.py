@@ -20,17 +20,17 @@ from pyscipopt import SCIP_EVENTTYPE, Model
 from shapely.geometry import Polygon
 
 from bench.anneal import Annealer
-from models import Problem
-from solver import solve
-from solver.budget import default_time_limit
-from solver.events import Phase, SolveEvent
-from solver.geometry import Box, make_domain
-from solver.heuristics.level_one import level_one_spec
-from solver.miqp.formulation import build_level
-from solver.miqp.model import LevelModel
-from solver.miqp.scip_run import MEMORY_LIMIT_MB
-from solver.pipeline.pool import subdomain_pool
-from solver.pipeline.subdomains import SubdomainExecutor
+from floorplan.models import Problem
+from floorplan.solver import solve
+from floorplan.solver.budget import default_time_limit
+from floorplan.solver.events import Phase, SolveEvent
+from floorplan.solver.geometry import Box, make_domain
+from floorplan.solver.heuristics.level_one import level_one_spec
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.scip_run import MEMORY_LIMIT_MB
+from floorplan.solver.pipeline.pool import subdomain_pool
+from floorplan.solver.pipeline.subdomains import SubdomainExecutor
 
 Rooms = dict[str, list[Box]]
 

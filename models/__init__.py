@@ -18,7 +18,7 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from models.layout import (
+    from .layout import (
         OUTSIDE,
         Aisle,
         Circulation,
@@ -37,7 +37,7 @@ if TYPE_CHECKING:
         VariantInfo,
         Window,
     )
-    from models.parts import (
+    from .parts import (
         DEFAULT_MAX_ROOMS,
         Adjacency,
         Floor,
@@ -49,19 +49,19 @@ if TYPE_CHECKING:
         VerticalRoom,
         Weights,
     )
-    from models.problem import Problem
+    from .problem import Problem
 
 _WHERE = {
-    "models.layout": (
+    ".layout": (
         "OUTSIDE", "Aisle", "Circulation", "ConflictItem", "ConflictSet", "ConstraintCheck",
         "Door", "ExtraRectangles", "FloorLayout", "Infeasibility", "Layout", "Rect", "Report",
         "RoomLayout", "Termination", "VariantInfo", "Window",
     ),
-    "models.parts": (
+    ".parts": (
         "DEFAULT_MAX_ROOMS", "Adjacency", "Floor", "Obstacle", "Openings", "Options", "Region",
         "Room", "VerticalRoom", "Weights",
     ),
-    "models.problem": ("Problem",),
+    ".problem": ("Problem",),
 }
 _MODULE_OF = {name: module for module, names in _WHERE.items() for name in names}
 _SUBMODULES = frozenset({
@@ -103,11 +103,11 @@ __all__ = [
 def __getattr__(name: str) -> Any:
     module = _MODULE_OF.get(name)
     if module is not None:
-        value = getattr(importlib.import_module(module), name)
+        value = getattr(importlib.import_module(module, __name__), name)
     elif name in _SUBMODULES:  # `import models; models.problem`, as when it was eager
-        value = importlib.import_module(f"models.{name}")
+        value = importlib.import_module(f".{name}", __name__)
     else:
-        raise AttributeError(f"module 'models' has no attribute {name!r}")
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     globals()[name] = value
     return value
 

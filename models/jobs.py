@@ -18,8 +18,8 @@ from uuid import UUID
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
-from models.layout import ConflictSet, Layout, Termination
-from models.problem import Problem
+from .layout import ConflictSet, Layout, Termination
+from .problem import Problem
 
 
 class JobStatus(StrEnum):

@@ -24,7 +24,7 @@ from shapely import STRtree
 from shapely.geometry import Point as ShapelyPoint
 from shapely.geometry import Polygon
 
-from models.parts import (
+from .parts import (
     DEFAULT_AISLE_WIDTH,
     DEFAULT_DOOR_POLICY,
     DEFAULT_MAX_ROOMS,
@@ -62,8 +62,8 @@ from models.parts import (
     open_ring,
     region_of_rooms,
 )
-from models.storeys import storey_errors
-from models.templates import TemplatedProblem, expand
+from .storeys import storey_errors
+from .templates import TemplatedProblem, expand
 
 #: `Problem`, and the building blocks it was defined with before `models.parts` held
 #: them: ``from models.problem import Room`` keeps working.

@@ -19,7 +19,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from models.problem import Problem
+from .problem import Problem
 
 #: Room types a drawn programme may leave out (when the brief names them as bare types).
 OPTIONAL_TYPES = frozenset({"bedroom", "study", "dining", "storage", "wc", "closet",

@@ -21,8 +21,8 @@ from shapely import affinity
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
-from models.layout import FloorLayout, Layout
-from models.parts import (
+from .layout import FloorLayout, Layout
+from .parts import (
     DEFAULT_MAX_ROOMS,
     Floor,
     Room,
@@ -34,7 +34,7 @@ from models.parts import (
 if TYPE_CHECKING:
     # `Problem` is built on this module (its validator calls `storey_errors`); the
     # functions below that make a problem make one of their argument's class.
-    from models.problem import Problem
+    from .problem import Problem
 
 Loc = tuple[str | int, ...]
 

@@ -14,7 +14,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from models.parts import ProblemFields
+from .parts import ProblemFields
 
 #: The type of a room object that names none, and the row used for types a template
 #: does not know (given as objects; a bare unknown string is an error).

@@ -38,7 +38,7 @@ from shapely import affinity
 from shapely.errors import GEOSException
 from shapely.geometry import Polygon
 
-from models.parts import (
+from .parts import (
     MAX_COORDINATE,
     Compass,
     ProblemFields,
@@ -46,7 +46,7 @@ from models.parts import (
     field_error,
     inside_entrance,
 )
-from models.template_rules import (
+from .template_rules import (
     GENERIC_TYPE,
     KNOWN_TYPES,
     RESIDENTIAL,

@@ -19,8 +19,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-from models import Layout, Problem
-from solver.export.ifc import to_ifc
+from floorplan.models import Layout, Problem
+from floorplan.solver.export.ifc import to_ifc
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 #: Face colour and opacity per IFC class; spaces are drawn from above only.

@@ -104,18 +104,18 @@ stop() {
 trap 'stop; exit 0' INT TERM
 
 for k in $(seq 1 "$workers"); do
-  "$python" -m celery -A service.jobs.celery.worker worker --pool threads --concurrency "$concurrency" \
+  "$python" -m celery -A floorplan.service.jobs.celery.worker worker --pool threads --concurrency "$concurrency" \
     --queues "$namespace" --hostname "w$k@%h" --loglevel INFO \
     --without-gossip --without-mingle --without-heartbeat >>"$logs/worker-$k.log" 2>&1 &
   worker_pids+=("$!")
 done
 for k in $(seq 1 "$subdomain_workers"); do
-  "$python" -m celery -A service.jobs.celery.worker worker --pool prefork --concurrency "$concurrency" \
+  "$python" -m celery -A floorplan.service.jobs.celery.worker worker --pool prefork --concurrency "$concurrency" \
     --queues "$namespace.subdomains" --hostname "s$k@%h" --loglevel INFO \
     --without-gossip --without-mingle --without-heartbeat >>"$logs/subdomain-worker-$k.log" 2>&1 &
   worker_pids+=("$!")
 done
-"$python" -m uvicorn service.api.app:create_app --factory --host "$host" --port "$port" \
+"$python" -m uvicorn floorplan.service.api.app:create_app --factory --host "$host" --port "$port" \
   --timeout-graceful-shutdown 5 >>"$logs/api.log" 2>&1 &
 api_pid="$!"
 

@@ -1,6 +1,6 @@
 """The floorplan service, in layers; each imports only from the layers below it:
 
-    cli/        the `floorplan` command (`python -m service`): solve, serve, worker
+    cli/        the `floorplan` command (`python -m floorplan.service`): solve, serve, worker
     api/        the HTTP API: the app, its routes, dependencies, wire types, errors,
                 the web page
     jobs/       where jobs are solved: the backend interface, the embedded backend,

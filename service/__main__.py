@@ -1,7 +1,7 @@
-"""`python -m service ...` is the `floorplan` command."""
+"""`python -m floorplan.service ...` is the `floorplan` command."""
 
 import sys
 
-from service.cli import main
+from floorplan.service.cli import main
 
 sys.exit(main())

@@ -21,12 +21,12 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel, Field
 
-from models import Layout, Problem, Termination
-from models.formats import FormatName
-from models.parts import REDRAW_SEED_STEP
+from floorplan.models import Layout, Problem, Termination
+from floorplan.models.formats import FormatName
+from floorplan.models.parts import REDRAW_SEED_STEP
 
 if TYPE_CHECKING:
-    from solver.distinct import DistinctPlans
+    from floorplan.solver.distinct import DistinctPlans
 
 #: A batch's layouts get this per-layout time limit by default, seconds per room (and at
 #: least `BATCH_MIN_SECONDS`): a batch is many plans, each good rather than the best.
@@ -152,13 +152,13 @@ def task_problem(task: LayoutTask, seed: int | None = None) -> Problem:
     with `seed`, a redraw of it under that seed instead of the task's."""
     seed = task.solved_seed if seed is None else seed
     if task.vary_program:
-        from models.programme import vary_programme
+        from floorplan.models.programme import vary_programme
 
         problem = vary_programme(task.brief, seed)
     else:
         problem = Problem.model_validate(task.brief)
     if task.vary_sizes and not task.vary_program:  # a drawn programme has drawn sizes
-        from models.programme import vary_sizes
+        from floorplan.models.programme import vary_sizes
 
         problem = vary_sizes(problem, seed)
     changes: dict[str, Any] = {"seed": seed, "diverse": True,
@@ -192,8 +192,8 @@ def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
     layout that is not good is laid out again under a redrawn seed (the sizes aimed at
     and, with `vary_program`, the programme: a drawn programme the outline cannot take
     well is drawn anew), `REDRAWS` times at most; the best of the tries is kept."""
-    from solver import solve
-    from solver.stopping import GoodEnough, good_rank
+    from floorplan.solver import solve
+    from floorplan.solver.stopping import GoodEnough, good_rank
 
     best: tuple[Problem, Layout, bool] | None = None
     for attempt in range(REDRAWS + 1):
@@ -249,7 +249,7 @@ def spread_to_file(task: SpreadTask) -> tuple[dict[str, Any], str] | None:
     (solver/pipeline/spread.py), written to `task.path` in `task.fmt`, with its summary
     row (the solve's time plus the move's) and JSON; None when it cannot be moved so
     far. The task of a `floorplan batch` worker."""
-    from solver.pipeline.spread import spread_layout
+    from floorplan.solver.pipeline.spread import spread_layout
 
     started = time.monotonic()
     problem = Problem.model_validate_json(task.problem)
@@ -277,7 +277,7 @@ def apart_from_held(problem: Problem, layout: Layout, held: Sequence[str], *,
     `DRAW_SEED_STEP`, as `floorplan batch --distinct` draws) and kept when that gives a
     new plan, moved apart if need be. Returns the layout and what was done (None: it
     stands as solved). Run in the solve's process."""
-    from solver.distinct import DistinctPlans
+    from floorplan.solver.distinct import DistinctPlans
 
     if not _good(layout):
         return layout, None
@@ -301,8 +301,8 @@ def apart_from_held(problem: Problem, layout: Layout, held: Sequence[str], *,
 def _moved_apart(problem: Problem, layout: Layout, plans: DistinctPlans) -> Layout | None:
     """`layout` with its walls moved apart from the plans of `plans` near it, when that
     makes it a good layout of a new plan."""
-    from solver.distinct import NEAR_SHARE
-    from solver.pipeline.spread import spread_layout
+    from floorplan.solver.distinct import NEAR_SHARE
+    from floorplan.solver.pipeline.spread import spread_layout
 
     moved = spread_layout(problem, layout, plans.near(layout, NEAR_SHARE),
                           seed=problem.options.seed)
@@ -311,7 +311,7 @@ def _moved_apart(problem: Problem, layout: Layout, plans: DistinctPlans) -> Layo
 
 def _good(layout: Layout) -> bool:
     """Good as `solver.stopping.good_rank` ranks it, with rooms (as `row_of` counts)."""
-    from solver.stopping import good_rank
+    from floorplan.solver.stopping import good_rank
 
     return good_rank(layout)[0] and bool(layout.all_rooms)
 
@@ -321,7 +321,7 @@ def _write(problem: Problem, layout: Layout, path: str, fmt: FormatName) -> Path
     if fmt == "json":
         data = (layout.model_dump_json(indent=2) + "\n").encode()
     else:
-        from solver.export import render
+        from floorplan.solver.export import render
 
         data = render(problem, layout, fmt)
     target = Path(path)
@@ -368,7 +368,7 @@ class Tally:
     """A running `BatchSummary`: rows and layouts added as they finish."""
 
     def __init__(self) -> None:
-        from solver.distinct import DistinctPlans
+        from floorplan.solver.distinct import DistinctPlans
 
         self.rows: list[LayoutRow] = []
         self.plans = DistinctPlans()

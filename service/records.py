@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from models.jobs import JobStatus
+from floorplan.models.jobs import JobStatus
 
 
 @dataclass(frozen=True)

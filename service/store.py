@@ -38,10 +38,10 @@ from sqlalchemy import (
 from sqlalchemy.engine import Connection
 from sqlalchemy.exc import DBAPIError, IntegrityError
 
-from models.jobs import JobStatus
-from service.migrations import upgrade
-from service.records import Batch, BatchLayout, Event, Job
-from service.tables import batches, events, jobs
+from floorplan.models.jobs import JobStatus
+from floorplan.service.migrations import upgrade
+from floorplan.service.records import Batch, BatchLayout, Event, Job
+from floorplan.service.tables import batches, events, jobs
 
 #: Attempts at appending an event when another writer took its sequence number.
 EVENT_RETRIES = 5

@@ -21,7 +21,7 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
-from models import Layout, RoomLayout
+from floorplan.models import Layout, RoomLayout
 
 #: Side of a grid cell when plans are compared, metres.
 CELL = 0.1

@@ -8,9 +8,9 @@ from enum import StrEnum
 from typing import TYPE_CHECKING, Protocol
 
 if TYPE_CHECKING:
-    from models import Layout, Problem
-    from solver.geometry import Box
-    from solver.pipeline.subdomains import SubdomainExecutor
+    from floorplan.models import Layout, Problem
+    from floorplan.solver.geometry import Box
+    from floorplan.solver.pipeline.subdomains import SubdomainExecutor
 
 
 class Phase(StrEnum):

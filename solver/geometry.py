@@ -14,7 +14,7 @@ import shapely
 from shapely.geometry import LineString, MultiPolygon, Polygon, box
 from shapely.geometry.base import BaseGeometry
 
-from models import Problem, Rect
+from floorplan.models import Problem, Rect
 
 #: Coordinates are snapped to this grid (metres) when polygons are merged.
 GRID = 1e-6

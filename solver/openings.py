@@ -17,9 +17,9 @@ from dataclasses import dataclass
 from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.polygon import orient
 
-from models import OUTSIDE, Adjacency, Circulation, Door, Problem, Window
-from models.problem import inside_entrance
-from solver.geometry import longest_shared_wall, straight_stretches
+from floorplan.models import OUTSIDE, Adjacency, Circulation, Door, Problem, Window
+from floorplan.models.problem import inside_entrance
+from floorplan.solver.geometry import longest_shared_wall, straight_stretches
 
 #: A door keeps this far (metres) from the corners of the wall it is in.
 CORNER_CLEARANCE = 0.1

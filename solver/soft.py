@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from models import Adjacency, Problem, Room
-from models.problem import SoftFamily
-from solver.geometry import Box, Edge
+from floorplan.models import Adjacency, Problem, Room
+from floorplan.models.problem import SoftFamily
+from floorplan.solver.geometry import Box, Edge
 
 #: A soft boundary demand met at zero slack touches its edge along at least this much
 #: (metres, or half the edge when shorter), so that the checker sees a real contact.

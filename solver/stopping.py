@@ -12,10 +12,10 @@ then ends as if interrupted, and its answer is checked again as any answer is.
 
 from __future__ import annotations
 
-from models import Layout, Problem
-from solver.events import Phase, SolveEvent
-from solver.geometry import Box
-from solver.verify.checker import check_layout
+from floorplan.models import Layout, Problem
+from floorplan.solver.events import Phase, SolveEvent
+from floorplan.solver.geometry import Box
+from floorplan.solver.verify.checker import check_layout
 
 #: Share of the floor a layout must cover to be good enough, by default.
 DEFAULT_COVERAGE = 0.99

@@ -35,7 +35,7 @@ class Server:
         """Start with its stdout and stderr into `log` (an open file; None: inherited)."""
         env = {**os.environ, **self.env}
         self.process = subprocess.Popen(
-            [sys.executable, "-m", "service", "serve", "--port", str(self.port),
+            [sys.executable, "-m", "floorplan.service", "serve", "--port", str(self.port),
              "--data-dir", str(self.data_dir), "--workers", self.env.get("WORKERS", "2"),
              "--log-level", "warning"],
             env=env, start_new_session=True, stdout=log, stderr=log,
@@ -191,8 +191,8 @@ class Cluster:
         log = (self.data_dir / f"{name}.log").open("ab")
         self._logs.append(log)
         worker = subprocess.Popen(
-            [sys.executable, "-m", "service", "worker", "--hostname", f"{name}@{self.name}",
-             "--log-level", log_level, *options],
+            [sys.executable, "-m", "floorplan.service", "worker",
+             "--hostname", f"{name}@{self.name}", "--log-level", log_level, *options],
             env={**os.environ, **self.env}, start_new_session=True, stdout=log, stderr=log,
         )
         self.workers.append(worker)

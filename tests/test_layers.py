@@ -21,11 +21,13 @@ CONTRACT_TYPES = {"layers": LayersContract, "forbidden": ForbiddenContract,
 #: The cycles the code had before the restructure (issue 18), each as the imports that
 #: would bring it back in today's module names.
 OLD_CYCLES = {
-    "solve <-> regions": [("solver.pipeline.regions.run", "solver.pipeline.dispatch")],
-    "solve <-> storeys": [("solver.pipeline.storeys", "solver.pipeline.dispatch")],
+    "solve <-> regions": [
+        ("floorplan.solver.pipeline.regions.run", "floorplan.solver.pipeline.dispatch")],
+    "solve <-> storeys": [
+        ("floorplan.solver.pipeline.storeys", "floorplan.solver.pipeline.dispatch")],
     "the solve child <-> the Celery backend": [
-        ("service.jobs.child", "service.jobs.celery.backend")],
-    "problem <-> storeys": [("models.storeys", "models.problem")],
+        ("floorplan.service.jobs.child", "floorplan.service.jobs.celery.backend")],
+    "problem <-> storeys": [("floorplan.models.storeys", "floorplan.models.problem")],
 }
 
 

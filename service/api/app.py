@@ -12,14 +12,14 @@ import anyio
 from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 
-from models import Problem as LayoutProblem
-from models.templates import TemplatedProblem
-from service.api import web
-from service.api.errors import ProblemDetails, TrustedHosts, install
-from service.api.limits import Limits
-from service.api.routes import batches, health, layouts, validate
-from service.jobs.factory import make_backend
-from service.settings import Settings, get_settings
+from floorplan.models import Problem as LayoutProblem
+from floorplan.models.templates import TemplatedProblem
+from floorplan.service.api import web
+from floorplan.service.api.errors import ProblemDetails, TrustedHosts, install
+from floorplan.service.api.limits import Limits
+from floorplan.service.api.routes import batches, health, layouts, validate
+from floorplan.service.jobs.factory import make_backend
+from floorplan.service.settings import Settings, get_settings
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:

@@ -14,10 +14,10 @@ from anyio import CapacityLimiter
 from fastapi import Depends, Request
 from pydantic import ValidationError
 
-from models import Problem as LayoutProblem
-from service.api.deps import SettingsDep
-from service.api.errors import ApiError, FieldError, field_errors
-from service.settings import Settings
+from floorplan.models import Problem as LayoutProblem
+from floorplan.service.api.deps import SettingsDep
+from floorplan.service.api.errors import ApiError, FieldError, field_errors
+from floorplan.service.settings import Settings
 
 T = TypeVar("T")
 #: Invalid fields listed at most in one answer: the count says how many there are. Not

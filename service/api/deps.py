@@ -10,12 +10,12 @@ from uuid import UUID
 
 from fastapi import Depends, Header, Request
 
-from service.api.errors import ApiError
-from service.api.limits import Limits
-from service.jobs.backend import JobBackend
-from service.records import Job
-from service.settings import Settings
-from service.store import JobStore
+from floorplan.service.api.errors import ApiError
+from floorplan.service.api.limits import Limits
+from floorplan.service.jobs.backend import JobBackend
+from floorplan.service.records import Job
+from floorplan.service.settings import Settings
+from floorplan.service.store import JobStore
 
 
 def settings_dep(request: Request) -> Settings:

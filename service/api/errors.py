@@ -17,8 +17,8 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from models.jobs import FieldError
-from service.store import StoreUnavailable
+from floorplan.models.jobs import FieldError
+from floorplan.service.store import StoreUnavailable
 
 log = logging.getLogger("floorplan.api")
 

@@ -11,8 +11,8 @@ from collections import Counter
 from collections.abc import AsyncIterator, Callable
 from concurrent.futures import ProcessPoolExecutor
 
-from service.api.errors import ApiError
-from service.settings import Settings
+from floorplan.service.api.errors import ApiError
+from floorplan.service.settings import Settings
 
 #: Retry-After (seconds) of a refusal by a per-key limit.
 RETRY_AFTER = 5

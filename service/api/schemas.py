@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from datetime import UTC, datetime
 
-from models.jobs import JobError, JobPage, JobPublic, Progress, Validation
-from service.records import Job
+from floorplan.models.jobs import JobError, JobPage, JobPublic, Progress, Validation
+from floorplan.service.records import Job
 
 __all__ = ["JobPage", "JobPublic", "Validation", "job_public"]
 

@@ -21,8 +21,8 @@ from fastapi.responses import FileResponse, HTMLResponse, Response
 from fastapi.staticfiles import StaticFiles
 from pydantic import BaseModel, Field
 
-from models import Problem as LayoutProblem
-from service.api.errors import ApiError
+from floorplan.models import Problem as LayoutProblem
+from floorplan.service.api.errors import ApiError
 
 STATIC_DIR = Path(__file__).with_name("static")
 EXAMPLES_DIR = Path(__file__).with_name("examples")

@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from service.cli import solve as solver_cli
+from floorplan.service.cli import solve as solver_cli
 
 
 def add_serve(commands: Any) -> None:
@@ -48,10 +48,10 @@ def add_worker(commands: Any) -> None:
 
 
 def cmd_worker(args: argparse.Namespace) -> int:
-    from service.settings import Settings
+    from floorplan.service.settings import Settings
 
     try:
-        from service.jobs.celery.worker import run_worker, worker_alive
+        from floorplan.service.jobs.celery.worker import run_worker, worker_alive
     except ModuleNotFoundError as err:
         raise SystemExit(f"floorplan worker needs the distributed extra "
                          f"(pip install 'floorplan[distributed]'): {err}") from err
@@ -66,8 +66,8 @@ def cmd_worker(args: argparse.Namespace) -> int:
 def cmd_serve(args: argparse.Namespace) -> int:
     import uvicorn
 
-    from service.api.app import create_app
-    from service.settings import Settings
+    from floorplan.service.api.app import create_app
+    from floorplan.service.settings import Settings
 
     overrides = {k: v for k, v in {"host": args.host, "port": args.port,
                                    "workers": args.workers, "data_dir": args.data_dir}.items()
@@ -79,7 +79,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from service.cli.batch import add_batch
+    from floorplan.service.cli.batch import add_batch
 
     extra: list[solver_cli.CommandAdder] = [add_batch, add_serve, add_worker]
     try:  # `floorplan submit` comes with the Python client (clients/python), when installed

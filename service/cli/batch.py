@@ -29,12 +29,12 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from models.formats import FORMAT_NAMES, FORMATS
-from service.cli.exits import EXIT_INTERRUPTED, EXIT_NO_LAYOUT, EXIT_OK, PROG
-from service.cli.interrupt import keep_sigint_blocked
+from floorplan.models.formats import FORMAT_NAMES, FORMATS
+from floorplan.service.cli.exits import EXIT_INTERRUPTED, EXIT_NO_LAYOUT, EXIT_OK, PROG
+from floorplan.service.cli.interrupt import keep_sigint_blocked
 
 if TYPE_CHECKING:
-    from service.batch import LayoutRow, Tally
+    from floorplan.service.batch import LayoutRow, Tally
 
 #: The journal of finished layouts in the output folder: one JSON object a line.
 JOURNAL = ".batch.jsonl"
@@ -138,8 +138,8 @@ def load_brief(path: Path) -> dict[str, Any]:
     """The brief's JSON, checked to be a valid problem (templates expanded)."""
     from pydantic import ValidationError
 
-    from models import Problem
-    from service.cli.solve import format_validation_error
+    from floorplan.models import Problem
+    from floorplan.service.cli.solve import format_validation_error
 
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
@@ -153,7 +153,7 @@ def load_brief(path: Path) -> dict[str, Any]:
 
 
 def cmd_batch(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
-    from service.cli.solve import UsageError
+    from floorplan.service.cli.solve import UsageError
 
     try:
         briefs = {p.stem: load_brief(p) for p in find_briefs(args.inputs)}
@@ -175,8 +175,8 @@ def cmd_batch(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
 
 def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: Path,
               interrupted: Callable[[], bool]) -> int:
-    from models import Layout, Problem
-    from service.batch import (
+    from floorplan.models import Layout, Problem
+    from floorplan.service.batch import (
         DEFAULT_TOLERANCE,
         DISTINCT_DRAWS,
         BestSoFar,
@@ -189,8 +189,8 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
         lay_out_to_file,
         spread_to_file,
     )
-    from service.cli.pool import WarmPool
-    from solver.distinct import NEAR_SHARE
+    from floorplan.service.cli.pool import WarmPool
+    from floorplan.solver.distinct import NEAR_SHARE
 
     extension = next(f.extension for f in FORMATS if f.name == args.format)
     tally = Tally()
@@ -286,8 +286,8 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
     bar = None if args.quiet else _Bar(total, skipped)
     journal = (out / JOURNAL).open("a", encoding="utf-8")
     try:
-        with WarmPool(min(args.processes, max(len(todo), 1)), warm_up="solver.pipeline.dispatch"
-                      ) as pool:
+        with WarmPool(min(args.processes, max(len(todo), 1)),
+                      warm_up="floorplan.solver.pipeline.dispatch") as pool:
             keep_sigint_blocked()  # the pool's start may have unblocked it (interrupt.py)
             for outcome in pool.results(tasks(), should_stop=interrupted):
                 name, seed, draw, spread = outcome.key
@@ -354,8 +354,8 @@ def run_batch(args: argparse.Namespace, briefs: dict[str, dict[str, Any]], out: 
 
 def _journal(out: Path, tally: Tally) -> set[tuple[str, int]]:
     """The layouts the journal lists (read into `tally`); a torn last line is ignored."""
-    from models import Layout
-    from service.batch import LayoutRow
+    from floorplan.models import Layout
+    from floorplan.service.batch import LayoutRow
 
     done: set[tuple[str, int]] = set()
     path = out / JOURNAL

@@ -12,7 +12,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager, suppress
 from types import FrameType
 
-from service.cli.exits import EXIT_INTERRUPTED, PROG
+from floorplan.service.cli.exits import EXIT_INTERRUPTED, PROG
 
 
 @contextmanager

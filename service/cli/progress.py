@@ -9,11 +9,11 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, TextIO
 
-from service.cli.exits import PROG
+from floorplan.service.cli.exits import PROG
 
 if TYPE_CHECKING:
-    from models import Layout
-    from solver.events import SolveEvent
+    from floorplan.models import Layout
+    from floorplan.solver.events import SolveEvent
 
 #: Least seconds between two printed INCUMBENT events (other events are always printed).
 INCUMBENT_INTERVAL = 0.25
@@ -55,7 +55,7 @@ def progress_line(event: SolveEvent) -> str:
     """E.g. ``[  1.23s] level 2 sub 1/3  obj 12.41  bound 3.20  rooms a, b: optimal``."""
     # Here, not at the top: this module loads before the Ctrl-C handling, and the
     # contract's modules bring pydantic; an event means the solver is loaded already.
-    from models.jobs import format_number
+    from floorplan.models.jobs import format_number
 
     parts = [f"[{event.elapsed:6.2f}s] level {event.level}"]
     if event.subdomains:

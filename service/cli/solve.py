@@ -33,7 +33,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from models.formats import (
+from floorplan.models.formats import (
     DEFAULT_STOREY_HEIGHT,
     DXF_LAYERS,
     FORMAT_NAMES,
@@ -41,7 +41,7 @@ from models.formats import (
     in_words,
     storey_height_of,
 )
-from service.cli.exits import (
+from floorplan.service.cli.exits import (
     EXIT_FAILURE,
     EXIT_INTERRUPTED,
     EXIT_INVALID,
@@ -49,8 +49,8 @@ from service.cli.exits import (
     EXIT_OK,
     PROG,
 )
-from service.cli.interrupt import keep_sigint_blocked, sigint_flag
-from service.cli.progress import (
+from floorplan.service.cli.interrupt import keep_sigint_blocked, sigint_flag
+from floorplan.service.cli.progress import (
     ProgressPrinter,
     invalid_layout_warning,
     no_layout_message,
@@ -61,7 +61,7 @@ from service.cli.progress import (
 if TYPE_CHECKING:
     from pydantic import ValidationError
 
-    from models import Layout, Problem
+    from floorplan.models import Layout, Problem
 
 #: Objects up to this many characters (with their indent) stay on one line in --expand.
 READABLE_WIDTH = 88
@@ -186,10 +186,10 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
     if args.expand:
         return write_expanded(args, problem)
 
-    from models import Termination
-    from solver import solve
-    from solver.pipeline.pool import end_pool, subdomain_pool
-    from solver.pipeline.subdomains import SubdomainExecutor
+    from floorplan.models import Termination
+    from floorplan.solver import solve
+    from floorplan.solver.pipeline.pool import end_pool, subdomain_pool
+    from floorplan.solver.pipeline.subdomains import SubdomainExecutor
 
     for target in (args.output, args.svg):
         _check_writable(target)
@@ -264,7 +264,7 @@ def load_problem(source: str) -> Problem:
     """Read and validate a problem; raise `UsageError` naming the file, position or field."""
     from pydantic import ValidationError
 
-    from models import Problem
+    from floorplan.models import Problem
 
     name = "<stdin>" if source == STDIO else source
     try:
@@ -304,7 +304,7 @@ def with_overrides(problem: Problem, **overrides: Any) -> Problem:
     """`problem` with the given options replaced (None means keep), validated again."""
     from pydantic import ValidationError
 
-    from models import Options
+    from floorplan.models import Options
 
     update = {k: v for k, v in overrides.items() if v is not None}
     if not update:
@@ -348,9 +348,9 @@ def _check_writable(target: str | None) -> None:
 
 def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -> bool:
     """Write the layout JSON and the SVG; False (with a message) when one failed."""
-    from models.formats import BY_NAME, ExportOptions
-    from solver.export import render
-    from solver.export.svg import render_svg
+    from floorplan.models.formats import BY_NAME, ExportOptions
+    from floorplan.solver.export import render
+    from floorplan.solver.export.svg import render_svg
 
     ok = True
     if is_directory_target(args.output):

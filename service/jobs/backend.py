@@ -11,8 +11,8 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import Any
 
-from service.records import Job
-from service.store import JobStore
+from floorplan.service.records import Job
+from floorplan.service.store import JobStore
 
 
 class JobBackend(ABC):

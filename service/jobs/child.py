@@ -32,20 +32,20 @@ def subdomain_executor(processes: int, remote: bool) -> tuple[Executor | None, i
     for the sub-domain workers (`remote`, while any is alive), else a local pool of
     `processes` (None for one: one after the other)."""
     if remote:
-        from service.jobs.broker.subdomains import subdomain_executor as celery_executor
-        from service.settings import get_settings
+        from floorplan.service.jobs.broker.subdomains import subdomain_executor as celery_executor
+        from floorplan.service.settings import get_settings
 
         executor = celery_executor(get_settings())
         if executor is not None:
             return executor, executor.slots
-    from solver.pipeline.pool import subdomain_pool
+    from floorplan.solver.pipeline.pool import subdomain_pool
 
     return subdomain_pool(processes), processes
 
 
 def end_executor(executor: Executor | None) -> None:
     if isinstance(executor, ProcessPoolExecutor):
-        from solver.pipeline.pool import end_pool
+        from floorplan.solver.pipeline.pool import end_pool
 
         end_pool(executor)
     elif executor is not None:
@@ -73,11 +73,11 @@ def run_job(
 
     pool: Executor | None = warm_pool
     try:
-        from models import Problem
-        from solver import solve
-        from solver.events import Phase, SolveEvent
-        from solver.pipeline.assemble import draft_layout
-        from solver.pipeline.subdomains import SubdomainExecutor
+        from floorplan.models import Problem
+        from floorplan.solver import solve
+        from floorplan.solver.events import Phase, SolveEvent
+        from floorplan.solver.pipeline.assemble import draft_layout
+        from floorplan.solver.pipeline.subdomains import SubdomainExecutor
 
         problem = Problem.model_validate_json(problem_json)
         if warm_pool is None:
@@ -111,7 +111,7 @@ def run_job(
                 and problem.floors is None and not problem.by_regions and not should_stop()):
             # (A floor of regions, or of several storeys, is not moved apart: whole wall
             # lines cross its aisles and floors, and its layouts are large to send.)
-            from service.batch import apart_from_held
+            from floorplan.service.batch import apart_from_held
 
             layout, done = apart_from_held(
                 problem, layout, _held(messages, jobs),
@@ -143,14 +143,14 @@ def standby(
     """A solve process started ahead of its job: pay for the imports (SCIP, shapely)
     now, then wait for one problem, solve it and exit, as every solve has its own
     process. Gives up if the parent goes away first, or closes the pipe without a job."""
-    import solver.pipeline.dispatch  # noqa: F401 - warming up is the point
+    import floorplan.solver.pipeline.dispatch  # noqa: F401 - warming up is the point
 
     # A local pool starts now too, so that its processes have imported SCIP when the job
     # comes: a second level-1 search that starts a second late rarely ends better
     # (bench/NOTES.md). Celery sub-domain workers are chosen when the job comes.
     pool = None
     if subdomain_processes > 1 and not subdomain_tasks:
-        from solver.pipeline.pool import subdomain_pool
+        from floorplan.solver.pipeline.pool import subdomain_pool
 
         pool = subdomain_pool(subdomain_processes)
     while not jobs.poll(STANDBY_POLL):

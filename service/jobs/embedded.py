@@ -6,12 +6,12 @@ from __future__ import annotations
 import asyncio
 from typing import Any
 
-from models.jobs import JobStatus
-from service.jobs.backend import JobBackend
-from service.jobs.processes import Runner
-from service.records import Job
-from service.settings import Settings
-from service.store import JobStore
+from floorplan.models.jobs import JobStatus
+from floorplan.service.jobs.backend import JobBackend
+from floorplan.service.jobs.processes import Runner
+from floorplan.service.records import Job
+from floorplan.service.settings import Settings
+from floorplan.service.store import JobStore
 
 #: Seconds between two looks at the store for a job's new events (embedded mode).
 EMBEDDED_EVENT_POLL = 0.25

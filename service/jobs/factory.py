@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
-from service.jobs.backend import JobBackend
-from service.jobs.embedded import EmbeddedBackend
-from service.settings import Settings
+from floorplan.service.jobs.backend import JobBackend
+from floorplan.service.jobs.embedded import EmbeddedBackend
+from floorplan.service.settings import Settings
 
 
 def make_backend(settings: Settings) -> JobBackend:
     """The backend FLOORPLAN_BACKEND names."""
     if settings.backend == "celery":
-        from service.jobs.celery.backend import CeleryBackend  # needs the `distributed` extra
+        from floorplan.service.jobs.celery.backend import (
+            CeleryBackend,  # needs the `distributed` extra
+        )
 
         return CeleryBackend(settings)
     return EmbeddedBackend(settings)

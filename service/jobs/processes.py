@@ -27,11 +27,11 @@ from dataclasses import dataclass, field
 from multiprocessing.synchronize import Event
 from typing import Any
 
-from models.jobs import JobStatus
-from service.jobs.child import standby
-from service.records import Job
-from service.settings import Settings
-from service.store import JobStore
+from floorplan.models.jobs import JobStatus
+from floorplan.service.jobs.child import standby
+from floorplan.service.records import Job
+from floorplan.service.settings import Settings
+from floorplan.service.store import JobStore
 
 log = logging.getLogger("floorplan.runner")
 

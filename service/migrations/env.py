@@ -6,7 +6,7 @@ from __future__ import annotations
 from alembic import context
 from sqlalchemy import Connection, create_engine
 
-from service.tables import metadata
+from floorplan.service.tables import metadata
 
 
 def _migrate(connection: Connection) -> None:
@@ -20,7 +20,7 @@ def _migrate(connection: Connection) -> None:
 
 
 def _store_url() -> str:
-    from service.settings import Settings
+    from floorplan.service.settings import Settings
 
     return Settings().store_url
 

@@ -11,12 +11,12 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 
-from models import Layout, Problem
-from models.formats import ExportOptions, FormatName
-from solver.export.dxf import to_dxf
-from solver.export.geojson import to_geojson
-from solver.export.ifc import to_ifc
-from solver.export.svg import render_svg
+from floorplan.models import Layout, Problem
+from floorplan.models.formats import ExportOptions, FormatName
+from floorplan.solver.export.dxf import to_dxf
+from floorplan.solver.export.geojson import to_geojson
+from floorplan.solver.export.ifc import to_ifc
+from floorplan.solver.export.svg import render_svg
 
 Writer = Callable[[Problem, Layout, ExportOptions], bytes]
 #: The writer of each format of `models.formats`: the bytes of the file.

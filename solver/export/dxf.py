@@ -40,11 +40,11 @@ from ezdxf.enums import MTextEntityAlignment, TextEntityAlignment
 from ezdxf.layouts import BaseLayout
 from shapely.geometry import Point, Polygon, box
 
-from models import Layout, Problem
-from models.formats import DEFAULT_STOREY_HEIGHT, DxfLayers
-from models.storeys import floor_view
-from solver.export.floors import floor_layout
-from solver.export.walls import WallSegment, wall_segments, walls_of
+from floorplan.models import Layout, Problem
+from floorplan.models.formats import DEFAULT_STOREY_HEIGHT, DxfLayers
+from floorplan.models.storeys import floor_view
+from floorplan.solver.export.floors import floor_layout
+from floorplan.solver.export.walls import WallSegment, wall_segments, walls_of
 
 #: DXF colour index per room type; other types get a colour from their name.
 TYPE_COLOURS = {"living": 2, "kitchen": 30, "bedroom": 5, "bathroom": 4, "dining": 40,

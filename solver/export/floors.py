@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from models import Layout
+from floorplan.models import Layout
 
 
 def floor_layout(layout: Layout, floor_id: str) -> Layout:

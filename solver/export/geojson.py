@@ -7,9 +7,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from models import OUTSIDE, Layout, Problem
-from models.storeys import floor_view
-from solver.export.floors import floor_layout
+from floorplan.models import OUTSIDE, Layout, Problem
+from floorplan.models.storeys import floor_view
+from floorplan.solver.export.floors import floor_layout
 
 
 def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:

@@ -43,11 +43,11 @@ import ifcopenshell.guid
 from ifcopenshell.util.shape_builder import ShapeBuilder
 from shapely.geometry import Polygon
 
-from models import Layout, Problem
-from models.formats import DEFAULT_STOREY_HEIGHT, ExportOptions
-from models.storeys import floor_view, spanned_floors
-from solver.export.floors import floor_layout
-from solver.export.walls import WallSegment, wall_segments, walls_of
+from floorplan.models import Layout, Problem
+from floorplan.models.formats import DEFAULT_STOREY_HEIGHT, ExportOptions
+from floorplan.models.storeys import floor_view, spanned_floors
+from floorplan.solver.export.floors import floor_layout
+from floorplan.solver.export.walls import WallSegment, wall_segments, walls_of
 
 #: Door leaves' height, metres (a standard door set).
 DOOR_HEIGHT = 2.1

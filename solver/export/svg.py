@@ -21,9 +21,9 @@ from shapely.geometry import Point as ShapelyPoint
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
-from models import Aisle, Layout, Problem, RoomLayout
-from models.storeys import floor_view
-from solver.geometry import Box, boundary_edges, rectangles_of
+from floorplan.models import Aisle, Layout, Problem, RoomLayout
+from floorplan.models.storeys import floor_view
+from floorplan.solver.geometry import Box, boundary_edges, rectangles_of
 
 SVG_NS = "http://www.w3.org/2000/svg"
 

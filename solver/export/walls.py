@@ -32,8 +32,8 @@ import shapely
 from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.polygon import orient
 
-from solver.geometry import GRID
-from solver.openings import FACADE_THICKNESS
+from floorplan.solver.geometry import GRID
+from floorplan.solver.openings import FACADE_THICKNESS
 
 Coord = tuple[float, float]
 

@@ -17,12 +17,12 @@ from dataclasses import replace
 
 from pyscipopt import quicksum
 
-from solver.geometry import Box, unusable_space
-from solver.miqp.formulation import build_level
-from solver.miqp.model import LevelModel
-from solver.miqp.objective import e_violation
-from solver.miqp.scip_run import LevelResult, LevelStatus
-from solver.miqp.spec import LevelSpec
+from floorplan.solver.geometry import Box, unusable_space
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.objective import e_violation
+from floorplan.solver.miqp.scip_run import LevelResult, LevelStatus
+from floorplan.solver.miqp.spec import LevelSpec
 
 #: Rooms placed per batch.
 BATCH = 8

@@ -35,11 +35,11 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
-from models import Problem
-from solver.geometry import Box, Domain, edges_named, rectangles_of
-from solver.heuristics.level_one import shape_allowance
-from solver.heuristics.tiling import TOL as SIDE_TOL
-from solver.heuristics.tiling import Fillers, Tiling, tilings
+from floorplan.models import Problem
+from floorplan.solver.geometry import Box, Domain, edges_named, rectangles_of
+from floorplan.solver.heuristics.level_one import shape_allowance
+from floorplan.solver.heuristics.tiling import TOL as SIDE_TOL
+from floorplan.solver.heuristics.tiling import Fillers, Tiling, tilings
 
 #: (x0, y0, x1, y1): the search's own rectangles, plain tuples for speed.
 Rect = tuple[float, float, float, float]

@@ -10,10 +10,10 @@ import shapely
 import shapely.prepared
 from shapely.geometry import Polygon, box
 
-from models import Problem, Room
-from solver.geometry import Box, Domain, edges_named, on_edge
-from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec
-from solver.soft import adjacency_soft, room_soft
+from floorplan.models import Problem, Room
+from floorplan.solver.geometry import Box, Domain, edges_named, on_edge
+from floorplan.solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec
+from floorplan.solver.soft import adjacency_soft, room_soft
 
 #: Sec. 5.4: with targets, start the size bounds at 90-110 % of the target ...
 WINDOW_START = 0.10

@@ -13,11 +13,11 @@ from dataclasses import dataclass, replace
 
 import shapely
 
-from solver.geometry import Box, Domain, bounding_box, unusable_space
-from solver.miqp.formulation import build_level
-from solver.miqp.model import LevelModel
-from solver.miqp.scip_run import LevelResult, LevelStatus, complete_start
-from solver.miqp.spec import LevelSpec, level_objective
+from floorplan.solver.geometry import Box, Domain, bounding_box, unusable_space
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.scip_run import LevelResult, LevelStatus, complete_start
+from floorplan.solver.miqp.spec import LevelSpec, level_objective
 
 #: Rooms freed per neighbourhood at first ...
 NEIGHBOURHOOD_SIZE = 5

@@ -30,8 +30,8 @@ import shapely
 from shapely.geometry import LineString, Point, Polygon, box
 from shapely.geometry.base import BaseGeometry
 
-from models import Problem, Room
-from solver.geometry import (
+from floorplan.models import Problem, Room
+from floorplan.solver.geometry import (
     GRID,
     Box,
     Domain,
@@ -43,8 +43,8 @@ from solver.geometry import (
     shared_wall_length,
     straight_stretches,
 )
-from solver.heuristics.level_one import shape_allowance
-from solver.soft import ratio_shortfall, size_shortfall
+from floorplan.solver.heuristics.level_one import shape_allowance
+from floorplan.solver.soft import ratio_shortfall, size_shortfall
 
 #: A room's arms stay at least this thick (metres), or as thick as its minimum size
 #: allows when that is less: a thinner arm is no floor anyone can use.

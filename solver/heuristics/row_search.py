@@ -22,8 +22,8 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from models import Problem, Room
-from solver.geometry import Box, Domain, Edge, edges_named
+from floorplan.models import Problem, Room
+from floorplan.solver.geometry import Box, Domain, Edge, edges_named
 
 #: Touching tolerance for lines of the floor's rectangles, metres.
 LINE_TOL = 1e-6

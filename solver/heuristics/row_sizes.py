@@ -12,9 +12,9 @@ from typing import Any
 
 from pyscipopt import Model, quicksum
 
-from models import Room
-from solver.geometry import Box, Edge
-from solver.heuristics.row_search import Demands, RowPlan
+from floorplan.models import Room
+from floorplan.solver.geometry import Box, Edge
+from floorplan.solver.heuristics.row_search import Demands, RowPlan
 
 
 def size_bounds(room: Room) -> tuple[tuple[float, float], tuple[float, float]]:

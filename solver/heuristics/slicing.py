@@ -24,10 +24,17 @@ from dataclasses import dataclass, field
 
 import shapely
 
-from models import Problem, Room
-from solver.geometry import Box, Domain, largest_box_around, rectangles_of
-from solver.heuristics.row_search import Demands, RowPlan, anneal_rows, energy, kicked, sizeable
-from solver.heuristics.row_sizes import aimed_size, size_bounds, size_rows
+from floorplan.models import Problem, Room
+from floorplan.solver.geometry import Box, Domain, largest_box_around, rectangles_of
+from floorplan.solver.heuristics.row_search import (
+    Demands,
+    RowPlan,
+    anneal_rows,
+    energy,
+    kicked,
+    sizeable,
+)
+from floorplan.solver.heuristics.row_sizes import aimed_size, size_bounds, size_rows
 
 #: Row counts tried per region, relative to the region's depth over the typical
 #: target depth; the plan with the least E_size wins.

@@ -38,10 +38,10 @@ import zlib
 
 from pyscipopt import quicksum
 
-from models import Problem, Room
-from solver.heuristics.level_one import may_start_as_l, started_as_l
-from solver.miqp.model import LevelModel
-from solver.miqp.spec import free_rects
+from floorplan.models import Problem, Room
+from floorplan.solver.heuristics.level_one import may_start_as_l, started_as_l
+from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.spec import free_rects
 
 #: Weight of the random pull per metre a room's centre moves, against Eq. 12 (m²):
 #: small, so that it chooses among layouts Eq. 12 finds nearly equal rather than

@@ -34,9 +34,9 @@ from dataclasses import dataclass
 import shapely
 from shapely.geometry import Polygon
 
-from models import Problem
-from solver.geometry import Box, Domain, bounding_box, rectangles_of
-from solver.heuristics.reshape import (
+from floorplan.models import Problem
+from floorplan.solver.geometry import Box, Domain, bounding_box, rectangles_of
+from floorplan.solver.heuristics.reshape import (
     CORNER_WEIGHT,
     COVER_GOAL,
     GAP,

@@ -19,12 +19,12 @@ from typing import Any
 
 from pyscipopt import Model, Variable, quicksum
 
-from solver.families import FAMILIES as REGISTERED
-from solver.geometry import EPS, Box, Edge, Notch
-from solver.miqp.model import LevelModel, RectVars, add_rect_vars
-from solver.miqp.objective import e_objective, e_violation
-from solver.miqp.spec import EnvelopeSpec, LevelSpec, RectSpec, free_rects
-from solver.soft import (
+from floorplan.solver.families import FAMILIES as REGISTERED
+from floorplan.solver.geometry import EPS, Box, Edge, Notch
+from floorplan.solver.miqp.model import LevelModel, RectVars, add_rect_vars
+from floorplan.solver.miqp.objective import e_objective, e_violation
+from floorplan.solver.miqp.spec import EnvelopeSpec, LevelSpec, RectSpec, free_rects
+from floorplan.solver.soft import (
     SOFT_EDGE_CONTACT,
 )
 

@@ -8,7 +8,7 @@ from typing import Any
 
 from pyscipopt import Model, Variable
 
-from solver.miqp.spec import LevelSpec
+from floorplan.solver.miqp.spec import LevelSpec
 
 
 @dataclass

@@ -8,8 +8,8 @@ from typing import Any
 
 from pyscipopt import quicksum
 
-from solver.miqp.model import LevelModel
-from solver.miqp.spec import aim, free_rects
+from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.spec import aim, free_rects
 
 
 def e_objective(lm: LevelModel) -> None:

@@ -10,8 +10,8 @@ from enum import StrEnum
 
 from pyscipopt import SCIP_EVENTTYPE, SCIP_PARAMSETTING, Model
 
-from solver.geometry import Box
-from solver.miqp.model import LevelModel
+from floorplan.solver.geometry import Box
+from floorplan.solver.miqp.model import LevelModel
 
 #: SCIP's memory limit per solve in MiB: below a worker's budget so SCIP stops cleanly.
 MEMORY_LIMIT_MB = 4096

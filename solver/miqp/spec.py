@@ -8,8 +8,8 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from solver.geometry import Box, Edge, Notch, bounding_box, encloses
-from solver.soft import (
+from floorplan.solver.geometry import Box, Edge, Notch, bounding_box, encloses
+from floorplan.solver.soft import (
     SOFT_EDGE_CONTACT,
     contact_shortfall,
     edge_shortfall,

@@ -7,7 +7,7 @@ from collections.abc import Mapping
 
 import shapely
 
-from models import (
+from floorplan.models import (
     ConstraintCheck,
     Infeasibility,
     Layout,
@@ -17,9 +17,9 @@ from models import (
     Termination,
     Weights,
 )
-from models.storeys import draft_floor, floor_view
-from solver.events import Phase
-from solver.geometry import (
+from floorplan.models.storeys import draft_floor, floor_view
+from floorplan.solver.events import Phase
+from floorplan.solver.geometry import (
     Box,
     Domain,
     GeometryError,
@@ -30,19 +30,19 @@ from solver.geometry import (
     wall_moves,
     walls_moved,
 )
-from solver.miqp.scip_run import LevelStatus
-from solver.openings import Openings, add_openings
-from solver.pipeline.hierarchy import Piece, room_boxes
-from solver.pipeline.run import OUTPUT_SNAP, Run
-from solver.soft import hard_part
-from solver.verify.checker import (
+from floorplan.solver.miqp.scip_run import LevelStatus
+from floorplan.solver.openings import Openings, add_openings
+from floorplan.solver.pipeline.hierarchy import Piece, room_boxes
+from floorplan.solver.pipeline.run import OUTPUT_SNAP, Run
+from floorplan.solver.soft import hard_part
+from floorplan.solver.verify.checker import (
     DEFAULT_TOL,
     CheckResult,
     check_layout,
     place_rooms,
     size_error,
 )
-from solver.verify.conflicts import find_conflict
+from floorplan.solver.verify.conflicts import find_conflict
 
 #: Walls of the answer closer than this (metres) are put on one line: a jog thinner than
 #: a wall is where the search's walls happened to stop, not a design (issue 19).

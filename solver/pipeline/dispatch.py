@@ -8,14 +8,14 @@ and regions steps are handed this very function for their floors and parts."""
 
 from __future__ import annotations
 
-from models import Layout, Problem
-from solver.events import EventSink, StopFlag
-from solver.pipeline.fixed import has_fixed, solve_fixed
-from solver.pipeline.floor import solve_floor
-from solver.pipeline.regions import regions_apply, solve_regions
-from solver.pipeline.storeys import solve_storeys
-from solver.pipeline.subdomains import SubdomainExecutor
-from solver.pipeline.variants import solve_variants
+from floorplan.models import Layout, Problem
+from floorplan.solver.events import EventSink, StopFlag
+from floorplan.solver.pipeline.fixed import has_fixed, solve_fixed
+from floorplan.solver.pipeline.floor import solve_floor
+from floorplan.solver.pipeline.regions import regions_apply, solve_regions
+from floorplan.solver.pipeline.storeys import solve_storeys
+from floorplan.solver.pipeline.subdomains import SubdomainExecutor
+from floorplan.solver.pipeline.variants import solve_variants
 
 
 def solve(

@@ -32,24 +32,30 @@ from dataclasses import dataclass, field, replace
 
 import shapely
 
-from models import Problem, Termination
-from solver.events import EventSink, Phase, SolveEvent, StopFlag
-from solver.geometry import Box, Domain, boundary_edges, rectangles_of
-from solver.heuristics.level_one import (
+from floorplan.models import Problem, Termination
+from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
+from floorplan.solver.geometry import Box, Domain, boundary_edges, rectangles_of
+from floorplan.solver.heuristics.level_one import (
     WING_MARK,
     level_one_spec,
     shape_allowance,
     wing_names,
     wings_wanted,
 )
-from solver.miqp.formulation import build_level
-from solver.miqp.scip_run import Incumbent, LevelResult, LevelStatus, complete_start, run_level
-from solver.miqp.spec import ContactSpec, LevelSpec, RectSpec
-from solver.openings import connection_demands
-from solver.pipeline.hierarchy import GAP_AREA, absorb_gaps, room_boxes
-from solver.pipeline.refine import refine
-from solver.pipeline.run import COVER_MARGIN, Run, covered
-from solver.verify.checker import COVERAGE_GOAL
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.scip_run import (
+    Incumbent,
+    LevelResult,
+    LevelStatus,
+    complete_start,
+    run_level,
+)
+from floorplan.solver.miqp.spec import ContactSpec, LevelSpec, RectSpec
+from floorplan.solver.openings import connection_demands
+from floorplan.solver.pipeline.hierarchy import GAP_AREA, absorb_gaps, room_boxes
+from floorplan.solver.pipeline.refine import refine
+from floorplan.solver.pipeline.run import COVER_MARGIN, Run, covered
+from floorplan.solver.verify.checker import COVERAGE_GOAL
 
 #: The edit path applies when at least this share of the rooms is fixed.
 EDIT_SHARE = 0.5

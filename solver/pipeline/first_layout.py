@@ -9,14 +9,14 @@ import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import Future, wait
 
-from models import ExtraRectangles, Infeasibility, Layout, Problem, Termination
-from solver.events import Phase
-from solver.geometry import Box, Domain, make_domain
-from solver.heuristics.construct import construct
-from solver.heuristics.guillotine import MAX_ROOMS as GUILLOTINE_MAX_ROOMS
-from solver.heuristics.guillotine import applies as guillotine_applies
-from solver.heuristics.guillotine import guillotine_layout
-from solver.heuristics.level_one import (
+from floorplan.models import ExtraRectangles, Infeasibility, Layout, Problem, Termination
+from floorplan.solver.events import Phase
+from floorplan.solver.geometry import Box, Domain, make_domain
+from floorplan.solver.heuristics.construct import construct
+from floorplan.solver.heuristics.guillotine import MAX_ROOMS as GUILLOTINE_MAX_ROOMS
+from floorplan.solver.heuristics.guillotine import applies as guillotine_applies
+from floorplan.solver.heuristics.guillotine import guillotine_layout
+from floorplan.solver.heuristics.level_one import (
     FIRST_BAND,
     level_one_spec,
     may_start_as_l,
@@ -28,30 +28,30 @@ from solver.heuristics.level_one import (
     wing_order,
     wings_wanted,
 )
-from solver.heuristics.slicing import (
+from floorplan.solver.heuristics.slicing import (
     note_slicing,
     slicing_applies,
     slicing_has_demands,
     slicing_known_to_fail,
     slicing_layout,
 )
-from solver.heuristics.variety import pull_to_anchors
-from solver.miqp.formulation import active_families, build_level
-from solver.miqp.objective import e_band_shortfall
-from solver.miqp.scip_run import LevelResult, LevelStatus
-from solver.pipeline.assemble import explained, no_layout
-from solver.pipeline.hierarchy import Piece, absorb_gaps, absorbed, as_pieces, room_boxes
-from solver.pipeline.improve import improve_level_one
-from solver.pipeline.run import Run, covers, layout_objective
-from solver.pipeline.subdomains import (
+from floorplan.solver.heuristics.variety import pull_to_anchors
+from floorplan.solver.miqp.formulation import active_families, build_level
+from floorplan.solver.miqp.objective import e_band_shortfall
+from floorplan.solver.miqp.scip_run import LevelResult, LevelStatus
+from floorplan.solver.pipeline.assemble import explained, no_layout
+from floorplan.solver.pipeline.hierarchy import Piece, absorb_gaps, absorbed, as_pieces, room_boxes
+from floorplan.solver.pipeline.improve import improve_level_one
+from floorplan.solver.pipeline.run import Run, covers, layout_objective
+from floorplan.solver.pipeline.subdomains import (
     LATE_SECONDS,
     LevelOneOutcome,
     LevelOneTask,
     SubdomainExecutor,
 )
-from solver.soft import has_soft
-from solver.verify.checker import check_layout
-from solver.verify.precheck import find_impossibilities
+from floorplan.solver.soft import has_soft
+from floorplan.solver.verify.checker import check_layout
+from floorplan.solver.verify.precheck import find_impossibilities
 
 #: The second level-1 search of a portfolio runs under the seed plus this.
 SECOND_SEED_STEP = 1_000_003

@@ -30,7 +30,7 @@ from collections.abc import Callable, Mapping
 
 from shapely.geometry import Polygon
 
-from models import (
+from floorplan.models import (
     ConflictItem,
     ConflictSet,
     Infeasibility,
@@ -40,15 +40,15 @@ from models import (
     Report,
     Termination,
 )
-from solver.budget import default_time_limit
-from solver.events import EventSink, Phase, SolveEvent, StopFlag
-from solver.geometry import Box, domain_lines, rectangles_of, snap_rooms
-from solver.openings import connection_demands
-from solver.pipeline.assemble import drawn_rooms, remade_report
-from solver.pipeline.edit import edit_applies, solve_edit
-from solver.pipeline.run import OUTPUT_SNAP
-from solver.pipeline.subdomains import SubdomainExecutor
-from solver.verify.checker import check_layout
+from floorplan.solver.budget import default_time_limit
+from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
+from floorplan.solver.geometry import Box, domain_lines, rectangles_of, snap_rooms
+from floorplan.solver.openings import connection_demands
+from floorplan.solver.pipeline.assemble import drawn_rooms, remade_report
+from floorplan.solver.pipeline.edit import edit_applies, solve_edit
+from floorplan.solver.pipeline.run import OUTPUT_SNAP
+from floorplan.solver.pipeline.subdomains import SubdomainExecutor
+from floorplan.solver.verify.checker import check_layout
 
 #: The fields a pinned room's conflict items name: all of them its `fixed` polygon.
 PINNED_FIELDS = frozenset({"min_size", "max_size", "target_size", "positions"})

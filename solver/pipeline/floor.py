@@ -13,20 +13,20 @@ from __future__ import annotations
 import math
 import time
 
-from models import Infeasibility, Layout, Problem, Termination
-from models.parts import REDRAW_SEED_STEP as WHOLE_REDRAW_SEED_STEP
-from solver.budget import default_time_limit
-from solver.events import EventSink, Phase, SolveEvent, StopFlag
-from solver.geometry import Domain, make_domain
-from solver.heuristics.variety import (
+from floorplan.models import Infeasibility, Layout, Problem, Termination
+from floorplan.models.parts import REDRAW_SEED_STEP as WHOLE_REDRAW_SEED_STEP
+from floorplan.solver.budget import default_time_limit
+from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
+from floorplan.solver.geometry import Domain, make_domain
+from floorplan.solver.heuristics.variety import (
     REDRAW_MIN_SHARE,
     REDRAW_SEED_STEP,
     REDRAWS,
     diverse_problem,
 )
-from solver.openings import connection_demands
-from solver.pipeline.assemble import explained, final_layout, no_layout
-from solver.pipeline.first_layout import (
+from floorplan.solver.openings import connection_demands
+from floorplan.solver.pipeline.assemble import explained, final_layout, no_layout
+from floorplan.solver.pipeline.first_layout import (
     GUILLOTINE,
     awaited,
     better_final,
@@ -36,7 +36,7 @@ from solver.pipeline.first_layout import (
     second_start,
     tilings_first,
 )
-from solver.pipeline.hierarchy import (
+from floorplan.solver.pipeline.hierarchy import (
     GAP_AREA,
     Piece,
     absorb_gaps,
@@ -45,13 +45,13 @@ from solver.pipeline.hierarchy import (
     room_boxes,
     slides,
 )
-from solver.pipeline.refine import refine, reshaped
-from solver.pipeline.repair import repaired
-from solver.pipeline.run import Run, covered, covers
-from solver.pipeline.subdomains import LevelOneOutcome, SubdomainExecutor
-from solver.stopping import GoodEnough, good_rank
-from solver.verify.checker import check_layout
-from solver.verify.precheck import find_impossibilities
+from floorplan.solver.pipeline.refine import refine, reshaped
+from floorplan.solver.pipeline.repair import repaired
+from floorplan.solver.pipeline.run import Run, covered, covers
+from floorplan.solver.pipeline.subdomains import LevelOneOutcome, SubdomainExecutor
+from floorplan.solver.stopping import GoodEnough, good_rank
+from floorplan.solver.verify.checker import check_layout
+from floorplan.solver.verify.precheck import find_impossibilities
 
 #: Share of the time limit level 1 may use.
 LEVEL_ONE_SHARE = 0.9

@@ -20,10 +20,10 @@ import shapely
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
-from models import Problem
-from solver.geometry import EPS, Box, Domain, Edge, bounding_box, on_edge, rectangles_of
-from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
-from solver.soft import room_soft
+from floorplan.models import Problem
+from floorplan.solver.geometry import EPS, Box, Domain, Edge, bounding_box, on_edge, rectangles_of
+from floorplan.solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
+from floorplan.solver.soft import room_soft
 
 #: Uncovered parts smaller than this (m²) are numerical dust, not gaps.
 GAP_AREA = 1e-3

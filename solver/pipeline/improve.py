@@ -8,23 +8,23 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from models import ExtraRectangles
-from solver.events import Phase
-from solver.geometry import Box, Domain
-from solver.heuristics.level_one import level_one_spec, reach_wing, wing_names
-from solver.heuristics.neighbourhood import (
+from floorplan.models import ExtraRectangles
+from floorplan.solver.events import Phase
+from floorplan.solver.geometry import Box, Domain
+from floorplan.solver.heuristics.level_one import level_one_spec, reach_wing, wing_names
+from floorplan.solver.heuristics.neighbourhood import (
     GAP_AREA,
     NEIGHBOURHOOD_SIZE,
     coverage_first,
     covered_area,
     search_neighbourhoods,
 )
-from solver.heuristics.variety import pull_at_random
-from solver.miqp.formulation import build_level
-from solver.miqp.model import LevelModel
-from solver.miqp.scip_run import Incumbent, complete_start
-from solver.pipeline.hierarchy import absorbed
-from solver.pipeline.run import Run, covered, goal_area
+from floorplan.solver.heuristics.variety import pull_at_random
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.scip_run import Incumbent, complete_start
+from floorplan.solver.pipeline.hierarchy import absorbed
+from floorplan.solver.pipeline.run import Run, covered, goal_area
 
 #: Share of the neighbourhood search spent with coverage weighted first.
 COVERAGE_PHASE_SHARE = 0.85

@@ -7,13 +7,13 @@ import random
 import time
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 
-from solver.events import Phase
-from solver.geometry import Box, Domain, domain_lines, snap_rooms
-from solver.heuristics.reshape import reshape
-from solver.heuristics.wall_slide import slide_walls
-from solver.miqp.formulation import build_level
-from solver.miqp.scip_run import complete_start
-from solver.pipeline.hierarchy import (
+from floorplan.solver.events import Phase
+from floorplan.solver.geometry import Box, Domain, domain_lines, snap_rooms
+from floorplan.solver.heuristics.reshape import reshape
+from floorplan.solver.heuristics.wall_slide import slide_walls
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.scip_run import complete_start
+from floorplan.solver.pipeline.hierarchy import (
     Piece,
     RefinementPlan,
     SubDomain,
@@ -23,8 +23,8 @@ from solver.pipeline.hierarchy import (
     room_boxes,
     select_subdomains,
 )
-from solver.pipeline.run import OUTPUT_SNAP, Run, covers, layout_objective
-from solver.pipeline.subdomains import (
+from floorplan.solver.pipeline.run import OUTPUT_SNAP, Run, covers, layout_objective
+from floorplan.solver.pipeline.subdomains import (
     LATE_SECONDS,
     SubdomainExecutor,
     SubdomainOutcome,
@@ -32,7 +32,7 @@ from solver.pipeline.subdomains import (
     overlaps_others,
     solve_subdomain,
 )
-from solver.verify.checker import check_layout
+from floorplan.solver.verify.checker import check_layout
 
 #: The reshaping's steps and the share of its time each ends at: the annealing
 #: (solver/heuristics/reshape.py), sliding whole walls (wall_slide.py: tens of

@@ -16,13 +16,13 @@ import time
 
 from shapely.geometry import Polygon
 
-from models import Problem
-from solver.events import Phase
-from solver.geometry import Domain
-from solver.heuristics.reshape import shape_of
-from solver.pipeline.edit import solve_edit
-from solver.pipeline.fixed import has_fixed
-from solver.pipeline.hierarchy import (
+from floorplan.models import Problem
+from floorplan.solver.events import Phase
+from floorplan.solver.geometry import Domain
+from floorplan.solver.heuristics.reshape import shape_of
+from floorplan.solver.pipeline.edit import solve_edit
+from floorplan.solver.pipeline.fixed import has_fixed
+from floorplan.solver.pipeline.hierarchy import (
     GAP_AREA,
     Piece,
     as_pieces,
@@ -30,8 +30,8 @@ from solver.pipeline.hierarchy import (
     touching,
     uncovered_gaps,
 )
-from solver.pipeline.run import Run, covered, covers
-from solver.verify.checker import check_layout
+from floorplan.solver.pipeline.run import Run, covered, covers
+from floorplan.solver.verify.checker import check_layout
 
 #: Rings of neighbours freed besides the rooms along the gaps, tried in turn: one more
 #: ring is a larger MIQP that the edit's time may not solve.

@@ -9,9 +9,9 @@ from dataclasses import dataclass, field
 
 import shapely
 
-from models import ExtraRectangles, Problem
-from solver.events import EventSink, Phase, SolveEvent
-from solver.geometry import (
+from floorplan.models import ExtraRectangles, Problem
+from floorplan.solver.events import EventSink, Phase, SolveEvent
+from floorplan.solver.geometry import (
     Box,
     Domain,
     bounding_box,
@@ -21,13 +21,13 @@ from solver.geometry import (
     snap_rooms,
     unwrapped,
 )
-from solver.heuristics.level_one import wing_names
-from solver.heuristics.neighbourhood import covered_area
-from solver.miqp.model import LevelModel
-from solver.miqp.scip_run import Incumbent, LevelResult, LevelStatus, run_level
-from solver.pipeline.hierarchy import Piece, absorbed, as_pieces, room_boxes
-from solver.soft import room_soft
-from solver.verify.checker import COVERAGE_GOAL, CheckResult, check_layout
+from floorplan.solver.heuristics.level_one import wing_names
+from floorplan.solver.heuristics.neighbourhood import covered_area
+from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.scip_run import Incumbent, LevelResult, LevelStatus, run_level
+from floorplan.solver.pipeline.hierarchy import Piece, absorbed, as_pieces, room_boxes
+from floorplan.solver.soft import room_soft
+from floorplan.solver.verify.checker import COVERAGE_GOAL, CheckResult, check_layout
 
 #: Separates a room's id from the number of a rectangle around an obstacle it wraps.
 WRAP_MARK = "~around"

@@ -23,15 +23,15 @@ from collections.abc import Iterator, Mapping, Sequence
 
 import numpy as np
 
-from models import Layout, Problem
-from solver.distinct import CELL, SAME_PLAN_SHARE, floor_grid
-from solver.geometry import Box, domain_lines, make_domain
-from solver.heuristics.reshape import reshape
-from solver.heuristics.variety import diverse_problem
-from solver.openings import connection_demands
-from solver.pipeline.assemble import with_rooms
-from solver.soft import room_soft
-from solver.verify.checker import CheckResult, check_layout
+from floorplan.models import Layout, Problem
+from floorplan.solver.distinct import CELL, SAME_PLAN_SHARE, floor_grid
+from floorplan.solver.geometry import Box, domain_lines, make_domain
+from floorplan.solver.heuristics.reshape import reshape
+from floorplan.solver.heuristics.variety import diverse_problem
+from floorplan.solver.openings import connection_demands
+from floorplan.solver.pipeline.assemble import with_rooms
+from floorplan.solver.soft import room_soft
+from floorplan.solver.verify.checker import CheckResult, check_layout
 
 #: Seconds a layout's spreading takes at most (it ends sooner when it succeeds, 30 ms
 #: on apartment-5, or finds no move).

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field, replace
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from models import (
+from floorplan.models import (
     ConflictItem,
     ConflictSet,
     ConstraintCheck,
@@ -40,17 +40,17 @@ from models import (
     Report,
     Termination,
 )
-from models.storeys import (
+from floorplan.models.storeys import (
     common_free_area,
     floor_problem,
     spanned_floors,
     user_path,
     verticals_on,
 )
-from solver.budget import default_time_limit
-from solver.events import EventSink, Solve, SolveEvent
-from solver.geometry import Box, bounding_box
-from solver.pipeline.subdomains import SubdomainExecutor
+from floorplan.solver.budget import default_time_limit
+from floorplan.solver.events import EventSink, Solve, SolveEvent
+from floorplan.solver.geometry import Box, bounding_box
+from floorplan.solver.pipeline.subdomains import SubdomainExecutor
 
 #: Two footprints are the same when they differ by less than this area (m²) ...
 SAME_FOOTPRINT_AREA = 1e-6

@@ -27,12 +27,12 @@ from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor
 from dataclasses import dataclass
 
-from models import ExtraRectangles, Problem
-from solver.geometry import Box
-from solver.miqp.formulation import build_level
-from solver.miqp.scip_run import complete_start, run_level
-from solver.miqp.spec import LevelSpec
-from solver.pipeline.hierarchy import Piece
+from floorplan.models import ExtraRectangles, Problem
+from floorplan.solver.geometry import Box
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.scip_run import complete_start, run_level
+from floorplan.solver.miqp.spec import LevelSpec
+from floorplan.solver.pipeline.hierarchy import Piece
 
 #: Overlap (m²) below which two rectangles count as touching, not overlapping.
 OVERLAP_TOLERANCE = 1e-6

@@ -30,13 +30,13 @@ from collections.abc import Callable
 
 from shapely.geometry import Polygon
 
-from models import Adjacency, Layout, Problem, VariantInfo
-from solver.events import EventSink, Phase, SolveEvent, StopFlag
-from solver.geometry import shared_wall_length
-from solver.pipeline.fixed import relaid
-from solver.pipeline.regions import regions_apply
-from solver.pipeline.storeys import job_time_limit
-from solver.pipeline.subdomains import SubdomainExecutor
+from floorplan.models import Adjacency, Layout, Problem, VariantInfo
+from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
+from floorplan.solver.geometry import shared_wall_length
+from floorplan.solver.pipeline.fixed import relaid
+from floorplan.solver.pipeline.regions import regions_apply
+from floorplan.solver.pipeline.storeys import job_time_limit
+from floorplan.solver.pipeline.subdomains import SubdomainExecutor
 
 #: Two rooms are neighbours in the topology when they share this much wall (metres).
 TOPOLOGY_CONTACT = 0.9

@@ -21,9 +21,9 @@ import shapely
 from shapely.geometry import LineString, Point
 from shapely.geometry.base import BaseGeometry
 
-from models import Adjacency, ConstraintCheck, Problem, Room
-from solver.families import FAMILIES
-from solver.geometry import (
+from floorplan.models import Adjacency, ConstraintCheck, Problem, Room
+from floorplan.solver.families import FAMILIES
+from floorplan.solver.geometry import (
     GRID,
     Box,
     GeometryError,
@@ -35,7 +35,7 @@ from solver.geometry import (
     shared_wall_length,
     snap_rooms,
 )
-from solver.soft import (
+from floorplan.solver.soft import (
     adjacency_soft,
     contact_shortfall,
     edge_shortfall,

@@ -8,8 +8,8 @@ from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
-from models import ConflictItem, Problem
-from solver.geometry import EPS, Domain, Edge, edges_named
+from floorplan.models import ConflictItem, Problem
+from floorplan.solver.geometry import EPS, Domain, Edge, edges_named
 
 
 class Kind(StrEnum):

@@ -34,15 +34,21 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import TypeVar
 
-from models import ConflictSet, Problem
-from solver.geometry import EPS, Domain, make_domain
-from solver.heuristics.level_one import level_one_spec, wings_wanted
-from solver.miqp.formulation import build_level
-from solver.miqp.scip_run import LevelStatus, run_level
-from solver.openings import connection_demands
-from solver.soft import hard_part
-from solver.verify.conflict_groups import DROP_ORDER, Group, Kind, describe_all, explanation
-from solver.verify.precheck import find_impossibilities
+from floorplan.models import ConflictSet, Problem
+from floorplan.solver.geometry import EPS, Domain, make_domain
+from floorplan.solver.heuristics.level_one import level_one_spec, wings_wanted
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.scip_run import LevelStatus, run_level
+from floorplan.solver.openings import connection_demands
+from floorplan.solver.soft import hard_part
+from floorplan.solver.verify.conflict_groups import (
+    DROP_ORDER,
+    Group,
+    Kind,
+    describe_all,
+    explanation,
+)
+from floorplan.solver.verify.precheck import find_impossibilities
 
 #: A SCIP check gets this share of the time left ...
 CHECK_SHARE = 0.25

@@ -8,9 +8,9 @@ from functools import lru_cache
 from shapely import affinity
 from shapely.geometry.base import BaseGeometry
 
-from models import Problem, Room
-from solver.geometry import EPS, Domain, edges_named
-from solver.soft import hard_part
+from floorplan.models import Problem, Room
+from floorplan.solver.geometry import EPS, Domain, edges_named
+from floorplan.solver.soft import hard_part
 
 
 def find_impossibilities(

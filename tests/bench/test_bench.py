@@ -11,7 +11,7 @@ import pytest
 from bench.cli import main
 from bench.evaluate import RunRecord
 from bench.report import build_results, complexity, markdown
-from models import Problem
+from floorplan.models import Problem
 
 #: End to end (benchmark runs): left out by `pytest -m "not slow"`.
 pytestmark = pytest.mark.slow
@@ -93,7 +93,7 @@ def test_aisles_count_as_covered_floor_and_are_checked() -> None:
 
     from bench.evaluate import evaluate
     from bench.solvers import Trace
-    from solver.geometry import Box, make_domain
+    from floorplan.solver.geometry import Box, make_domain
 
     problem = Problem.model_validate({
         "boundary": [[0, 0], [10, 0], [10, 4], [0, 4]],

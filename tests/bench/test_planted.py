@@ -17,8 +17,8 @@ from bench.planted_report import (
     parse_seeds,
     summarise,
 )
-from models import Problem
-from solver import check_layout
+from floorplan.models import Problem
+from floorplan.solver import check_layout
 from tests.paths import ROOT
 
 SHARED = ROOT.parent / "shared" / "bench" / "planted"

@@ -16,6 +16,8 @@ from typing import Any
 
 import httpx2 as httpx
 import pytest
+
+from floorplan.models import Layout, Problem, Termination
 from floorplan_client import (
     APIConnectionError,
     APITimeoutError,
@@ -37,8 +39,6 @@ from floorplan_client import (
     Unauthorized,
     WaitTimeout,
 )
-
-from models import Layout, Problem, Termination
 from tests.paths import ROOT
 from tests.servers import BACKENDS, AnyServer, service
 from tests.service.test_service import LONG, SMALL

@@ -1,4 +1,4 @@
-"""`floorplan submit`, run for real (``python -m service submit``) against a real
+"""`floorplan submit`, run for real (``python -m floorplan.service submit``) against a real
 `floorplan serve` process."""
 
 from __future__ import annotations
@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+
+from floorplan.models import Layout, Termination
 from floorplan_client import (
     Client,
     Event,
@@ -31,8 +33,6 @@ from floorplan_client.cli import (
     RichDisplay,
 )
 from floorplan_client.types import Progress
-
-from models import Layout, Termination
 from tests.client.test_client import CROWDED
 from tests.servers import Server
 from tests.service.test_service import LONG, SMALL
@@ -55,7 +55,7 @@ def problem_file(tmp_path: Path, problem: dict[str, Any], name: str = "problem.j
 
 
 def submit(*args: str | Path, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "service", "submit", *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "floorplan.service", "submit", *map(str, args)],
                           capture_output=True, text=True, timeout=120, cwd=cwd)
 
 
@@ -119,7 +119,7 @@ def test_ctrl_c_cancels_the_job_and_writes_the_best_layout(server: Server,
         # without job control starts background jobs (a CI runner's, say) with SIGINT
         # ignored, and Python then installs no KeyboardInterrupt handler at all.
         process = subprocess.Popen(
-            [sys.executable, "-m", "service", "submit", str(problem_file(tmp_path, LONG)),
+            [sys.executable, "-m", "floorplan.service", "submit", str(problem_file(tmp_path, LONG)),
              "--server", server.url, "-o", "layout.json"],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
             preexec_fn=_default_sigint,
@@ -178,12 +178,14 @@ def test_the_floorplan_command_loads_no_client_until_submit_runs() -> None:
     """`floorplan solve` builds the same parser and must import numpy only later. Of
     `models`, only `models.formats` (standard library only) may load: submit's --format
     choices come from it."""
-    code = ("import sys; from service.cli import add_serve; from service.cli.solve import "
-            "build_parser; from floorplan_client.cli import add_submit; "
+    code = ("import sys; from floorplan.service.cli import add_serve; "
+            "from floorplan.service.cli.solve import build_parser; "
+            "from floorplan_client.cli import add_submit; "
             "build_parser((add_serve, add_submit)).parse_args(['submit', 'p.json']); "
-            "print(sorted({m.split('.')[0] for m in sys.modules "
-            "if m not in ('models', 'models.formats')} & "
-            "{'numpy', 'models', 'httpx2', 'pydantic', 'rich'}))")
+            "print(sorted({m.split('.')[0] for m in sys.modules} & "
+            "{'numpy', 'httpx2', 'pydantic', 'rich'}) + sorted("
+            "m for m in sys.modules if m.rsplit('.', 1)[0].endswith('models') "
+            "and not m.endswith('.formats')))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True)
     assert done.stdout.strip() == "[]"

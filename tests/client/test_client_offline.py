@@ -10,9 +10,10 @@ from datetime import UTC, datetime, timedelta
 from email.utils import format_datetime
 from typing import Any
 
-import floorplan_client
 import httpx2 as httpx
 import pytest
+
+import floorplan_client
 from floorplan_client import (
     APIConnectionError,
     APIStatusError,

@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 from pydantic import ValidationError
 
-from models import Problem
+from floorplan.models import Problem
 from tests.paths import ROOT
 
 APARTMENT: dict[str, Any] = json.loads((ROOT / "examples" / "apartment-5.json").read_text())

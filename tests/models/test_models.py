@@ -13,7 +13,7 @@ import pytest
 from pydantic import ValidationError
 from shapely.geometry import Polygon
 
-from models import DEFAULT_MAX_ROOMS, Problem
+from floorplan.models import DEFAULT_MAX_ROOMS, Problem
 from tests.paths import CASES
 
 RECTANGLE = [[0, 0], [10, 0], [10, 8], [0, 8]]

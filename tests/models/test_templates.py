@@ -12,11 +12,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from models import Problem
-from models.templates import KNOWN_TYPES, RESIDENTIAL, TemplatedProblem, expand
-from solver import solve
-from solver.geometry import make_domain
-from solver.verify.precheck import find_impossibilities
+from floorplan.models import Problem
+from floorplan.models.templates import KNOWN_TYPES, RESIDENTIAL, TemplatedProblem, expand
+from floorplan.solver import solve
+from floorplan.solver.geometry import make_domain
+from floorplan.solver.verify.precheck import find_impossibilities
 from tests.paths import EXAMPLES
 
 FLAT: list[str] = ["living", "kitchen", "bedroom", "bedroom", "bathroom"]

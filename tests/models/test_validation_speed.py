@@ -8,7 +8,7 @@ import time
 import pytest
 from pydantic import ValidationError
 
-from models import Problem
+from floorplan.models import Problem
 
 
 def staircase(steps: int = 499) -> list[list[int]]:

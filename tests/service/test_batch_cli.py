@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from service.cli.exits import EXIT_INTERRUPTED, EXIT_OK
-from service.cli.pool import WarmPool
+from floorplan.service.cli.exits import EXIT_INTERRUPTED, EXIT_OK
+from floorplan.service.cli.pool import WarmPool
 from tests.service.test_cli import TINY, _env, floorplan, write_problem
 
 pytestmark = pytest.mark.slow
@@ -76,7 +76,7 @@ def test_rerun_skips_what_is_done_and_goes_on(tmp_path: Path) -> None:
 def test_ctrl_c_stops_and_keeps_what_is_done(tmp_path: Path) -> None:
     brief = write_problem(tmp_path, TINY, "tiny.json")
     proc = subprocess.Popen(
-        [sys.executable, "-m", "service", "batch", str(brief), "-n", "500", "-o", "out",
+        [sys.executable, "-m", "floorplan.service", "batch", str(brief), "-n", "500", "-o", "out",
          "--time-limit", "1", "--processes", "2"],
         cwd=tmp_path, env=_env(), stderr=subprocess.PIPE, text=True)
     out = tmp_path / "out"

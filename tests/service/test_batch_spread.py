@@ -9,14 +9,14 @@ import math
 import time
 from pathlib import Path
 
-from models import Layout, Problem
-from models.jobs import JobStatus
-from service.batch import MOVED_APART, LayoutTask, apart_from_held, job_problem
-from service.jobs.processes import Runner
-from service.settings import Settings
-from service.store import JobStore
-from solver import solve
-from solver.distinct import DistinctPlans
+from floorplan.models import Layout, Problem
+from floorplan.models.jobs import JobStatus
+from floorplan.service.batch import MOVED_APART, LayoutTask, apart_from_held, job_problem
+from floorplan.service.jobs.processes import Runner
+from floorplan.service.settings import Settings
+from floorplan.service.store import JobStore
+from floorplan.solver import solve
+from floorplan.solver.distinct import DistinctPlans
 
 APARTMENT = json.loads(Path("examples/apartment-5.json").read_text())
 

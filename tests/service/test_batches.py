@@ -160,7 +160,6 @@ def test_the_client_and_floorplan_submit_make_and_read_batches(server: AnyServer
     import sys
 
     from floorplan_client import BatchLine, Client
-
     from tests.service.test_cli import _env
 
     with Client(server.url) as fp:
@@ -181,7 +180,7 @@ def test_the_client_and_floorplan_submit_make_and_read_batches(server: AnyServer
     brief = tmp_path / "tiny.json"
     brief.write_text(json.dumps(TINY))
     done = subprocess.run(
-        [sys.executable, "-m", "service", "submit", str(brief), "--server", server.url,
+        [sys.executable, "-m", "floorplan.service", "submit", str(brief), "--server", server.url,
          "--count", "2", "--time-limit", "1", "--out", str(tmp_path / "out")],
         capture_output=True, text=True, timeout=180, env=_env())
     assert done.returncode == 0, done.stderr

@@ -1,4 +1,4 @@
-"""The `floorplan` command, run for real (``python -m service``) in a subprocess."""
+"""The `floorplan` command, run for real (``python -m floorplan.service``) in a subprocess."""
 
 from __future__ import annotations
 
@@ -15,11 +15,11 @@ from typing import Any
 
 import pytest
 
-from models import ConstraintCheck, Layout, Report
-from service.cli.exits import EXIT_INTERRUPTED, EXIT_INVALID, EXIT_NO_LAYOUT, EXIT_OK
-from service.cli.progress import ProgressPrinter, invalid_layout_warning
-from service.cli.progress import progress_line as format_progress
-from solver.events import Phase, SolveEvent
+from floorplan.models import ConstraintCheck, Layout, Report
+from floorplan.service.cli.exits import EXIT_INTERRUPTED, EXIT_INVALID, EXIT_NO_LAYOUT, EXIT_OK
+from floorplan.service.cli.progress import ProgressPrinter, invalid_layout_warning
+from floorplan.service.cli.progress import progress_line as format_progress
+from floorplan.solver.events import Phase, SolveEvent
 from tests.paths import ROOT
 from tests.solver.pipeline.test_parallel import TWO_WINGS
 
@@ -45,7 +45,7 @@ SUMMARY = re.compile(
 
 
 def floorplan(*args: str | Path, cwd: Path, **kw: Any) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "service", *map(str, args)], cwd=cwd,
+    return subprocess.run([sys.executable, "-m", "floorplan.service", *map(str, args)], cwd=cwd,
                           capture_output=True, text=True, timeout=60, env=_env(), **kw)
 
 
@@ -166,7 +166,7 @@ def test_infeasible_problem_exits_3_and_the_json_says_why(tmp_path: Path) -> Non
 def test_ctrl_c_stops_the_solve_and_writes_the_layout(tmp_path: Path, processes: str) -> None:
     problem = ROOT / "examples" / "apartment-15-obstacles.json"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "service", "solve", str(problem), "-o", "layout.json",
+        [sys.executable, "-m", "floorplan.service", "solve", str(problem), "-o", "layout.json",
          "--time-limit", "30", "--processes", processes],
         cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
         env=_env(),
@@ -198,7 +198,7 @@ def test_ctrl_c_stops_the_solve_and_writes_the_layout(tmp_path: Path, processes:
 @pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="POSIX signals")
 def test_ctrl_c_before_any_layout_exits_130(tmp_path: Path) -> None:
     proc = subprocess.Popen(
-        [sys.executable, "-m", "service", "solve",
+        [sys.executable, "-m", "floorplan.service", "solve",
          str(ROOT / "examples" / "apartment-15-obstacles.json"),
          "-o", "layout.json", "--time-limit", "30"],
         cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,

@@ -15,7 +15,7 @@ from typing import Any
 import pytest
 import yaml
 
-from service.settings import Settings
+from floorplan.service.settings import Settings
 from tests.paths import ROOT
 
 #: End to end (the deployment files against real processes): left out by `pytest -m "not slow"`.
@@ -77,8 +77,8 @@ def test_every_floorplan_variable_in_compose_is_a_setting() -> None:
 
 def test_the_commands_compose_runs_exist() -> None:
     api = compose()["services"]["api"]["command"]
-    assert api[:2] == ["uvicorn", "service.api.app:create_app"] and "--factory" in api
-    for argv in (["-m", "service", "worker", "--help"], ["-m", "uvicorn", "--help"]):
+    assert api[:2] == ["uvicorn", "floorplan.service.api.app:create_app"] and "--factory" in api
+    for argv in (["-m", "floorplan.service", "worker", "--help"], ["-m", "uvicorn", "--help"]):
         subprocess.run([sys.executable, *argv], check=True, capture_output=True)
 
 

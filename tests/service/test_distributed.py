@@ -22,9 +22,9 @@ import redis
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 
-from models.jobs import JobStatus
-from service.store import JobStore
-from service.tables import metadata
+from floorplan.models.jobs import JobStatus
+from floorplan.service.store import JobStore
+from floorplan.service.tables import metadata
 from tests.paths import ROOT
 from tests.servers import Cluster, free_port, schema_url
 from tests.service.test_service import LONG, SMALL, TERMINAL, solve_processes, submit, wait
@@ -125,7 +125,7 @@ def test_a_cancel_reaches_the_worker_holding_the_job_and_keeps_its_incumbent(
             # The worker carries on with the next job.
             assert wait(client, submit(client, SMALL)["id"])["status"] == "succeeded"
         # The container health check of a worker: one of this host is alive.
-        health = [sys.executable, "-m", "service", "worker", "--health"]
+        health = [sys.executable, "-m", "floorplan.service", "worker", "--health"]
         env = {**os.environ, **cluster.env}
         assert subprocess.run(health, env=env).returncode == 0
         assert subprocess.run(health, env={**env, "FLOORPLAN_NAMESPACE": "none"}).returncode == 1

@@ -24,19 +24,19 @@ import redis
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 
-from models.jobs import JobStatus
-from service.jobs.broker.codec import (
+from floorplan.models.jobs import JobStatus
+from floorplan.service.jobs.broker.codec import (
     CodecError,
     decode_outcome,
     decode_task,
     encode_outcome,
     encode_task,
 )
-from service.store import JobStore
-from service.tables import metadata
-from solver.geometry import Box, Edge, Notch
-from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine
-from solver.pipeline.subdomains import SubdomainExecutor, SubdomainOutcome, SubdomainTask
+from floorplan.service.store import JobStore
+from floorplan.service.tables import metadata
+from floorplan.solver.geometry import Box, Edge, Notch
+from floorplan.solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine
+from floorplan.solver.pipeline.subdomains import SubdomainExecutor, SubdomainOutcome, SubdomainTask
 from tests.servers import Cluster, Server, schema_url
 from tests.service.test_service import SMALL, wait
 
@@ -217,7 +217,7 @@ def test_the_migration_keeps_a_duplicated_key_on_the_oldest_job_only(
     from alembic import command
     from sqlalchemy import create_engine, text
 
-    from service.migrations import alembic_config
+    from floorplan.service.migrations import alembic_config
 
     url = (f"sqlite:///{tmp_path / 'jobs.sqlite3'}" if database == "sqlite"
            else schema_url(f"fptest_{uuid.uuid4().hex[:12]}"))
@@ -287,8 +287,8 @@ def test_a_sub_domain_task_and_its_outcome_round_trip_through_json() -> None:
 
 
 def test_real_sub_domains_round_trip_and_solve_through_the_codec() -> None:
-    from models import Problem
-    from solver import solve
+    from floorplan.models import Problem
+    from floorplan.solver import solve
     from tests.solver.pipeline.test_parallel import TWO_WINGS
 
     sent: list[SubdomainTask] = []
@@ -348,8 +348,8 @@ def test_a_pickled_payload_fails_to_decode_and_runs_nothing(tmp_path: Path) -> N
 def test_a_sub_domain_worker_refuses_a_pickle_and_runs_no_code(tmp_path: Path) -> None:
     from celery import Celery
 
-    from service.jobs.broker.config import SUBDOMAIN_TASK, Keys, make_celery
-    from service.settings import Settings
+    from floorplan.service.jobs.broker.config import SUBDOMAIN_TASK, Keys, make_celery
+    from floorplan.service.settings import Settings
     from tests.solver.pipeline.test_parallel import TWO_WINGS
 
     cluster = Cluster(tmp_path / "cluster", workers=1, WORKERS="1",
@@ -466,7 +466,7 @@ def test_json_with_a_charset_and_the_python_client_and_cli_still_get_through(
         job.cancel()
     problem = tmp_path / "small.json"
     problem.write_text(json.dumps(SMALL))
-    done = subprocess.run([sys.executable, "-m", "service", "submit", str(problem),
+    done = subprocess.run([sys.executable, "-m", "floorplan.service", "submit", str(problem),
                            "--server", open_server.url, "-q"],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
@@ -605,8 +605,8 @@ def test_the_dispatcher_backs_off_while_the_store_refuses_writes(
     # every 0.5 s; now one, then a line per try, each wait twice the last.
     import logging
 
-    from service.jobs.processes import Runner
-    from service.settings import Settings
+    from floorplan.service.jobs.processes import Runner
+    from floorplan.service.settings import Settings
 
     settings = Settings(data_dir=small_disk, workers=1, subdomain_processes=1)
     store = JobStore(settings.store_url)

@@ -16,9 +16,9 @@ from typing import Any
 
 import httpx2 as httpx
 import pytest
-from floorplan_client import Client, NotFound
 
-from models import Layout
+from floorplan.models import Layout
+from floorplan_client import Client, NotFound
 from tests.paths import ROOT
 from tests.servers import Server
 
@@ -122,8 +122,9 @@ def test_the_client_fetches_variants(server: Server, job_id: str) -> None:
 def test_the_command_line_writes_one_file_per_variant(tmp_path: Path) -> None:
     out = tmp_path / "variants"
     done = subprocess.run(
-        [sys.executable, "-m", "service", "solve", str(ROOT / "examples" / "apartment-5.json"),
-         "--variants", "2", "--time-limit", "4", "-o", f"{out}/", "--svg", f"{out}/", "-q"],
+        [sys.executable, "-m", "floorplan.service", "solve",
+         str(ROOT / "examples" / "apartment-5.json"), "--variants", "2", "--time-limit", "4",
+         "-o", f"{out}/", "--svg", f"{out}/", "-q"],
         capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     written = sorted(p.name for p in out.iterdir())

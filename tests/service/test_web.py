@@ -22,7 +22,7 @@ from typing import Any
 import httpx2 as httpx
 import pytest
 
-from models import Problem
+from floorplan.models import Problem
 from tests.paths import EXAMPLES, ROOT
 from tests.servers import Server
 

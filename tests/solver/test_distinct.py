@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from models import Layout, Report, RoomLayout
-from models.layout import Rect
-from solver.distinct import DistinctPlans, adjacency_graph, count_distinct
+from floorplan.models import Layout, Report, RoomLayout
+from floorplan.models.layout import Rect
+from floorplan.solver.distinct import DistinctPlans, adjacency_graph, count_distinct
 
 
 def _room(room_id: str, x: float, y: float, w: float, d: float) -> RoomLayout:

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import re
 
-from solver.families import FAMILIES, family, markdown_table
-from solver.miqp import formulation
-from solver.verify.checker import FAMILY_CHECKS
+from floorplan.solver.families import FAMILIES, family, markdown_table
+from floorplan.solver.miqp import formulation
+from floorplan.solver.verify.checker import FAMILY_CHECKS
 from tests.paths import ROOT
 
 
@@ -27,8 +27,8 @@ def test_every_checked_family_has_its_check_and_no_check_is_orphaned() -> None:
 
 
 def test_active_families_name_registered_families_only() -> None:
-    from solver.geometry import Box
-    from solver.miqp.spec import LevelSpec
+    from floorplan.solver.geometry import Box
+    from floorplan.solver.miqp.spec import LevelSpec
 
     spec = LevelSpec(name="t", region=Box(0, 0, 4, 4), blocked=(), free_area=16.0, rects=())
     names = formulation.active_families(spec)

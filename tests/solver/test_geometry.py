@@ -6,7 +6,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from solver.geometry import Box, rectangles_of, unusable_space, wall_moves, walls_moved
+from floorplan.solver.geometry import Box, rectangles_of, unusable_space, wall_moves, walls_moved
 
 REGION = Box(0, 0, 10, 10)
 

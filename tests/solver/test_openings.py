@@ -7,8 +7,8 @@ from typing import Any
 import pytest
 from shapely.geometry import LineString, Point, Polygon, box
 
-from models import OUTSIDE, Problem
-from solver.openings import (
+from floorplan.models import OUTSIDE, Problem
+from floorplan.solver.openings import (
     FACADE_THICKNESS,
     MAX_WINDOWS_PER_WALL,
     add_openings,

@@ -13,16 +13,16 @@ import httpx2 as httpx
 import pytest
 from pydantic import ValidationError
 
-from models import Layout, Problem, Termination
-from service.cli.progress import summary_line
-from solver import solve
-from solver.geometry import Box, make_domain
-from solver.heuristics.level_one import level_one_spec
-from solver.miqp.formulation import build_level
-from solver.miqp.scip_run import LevelStatus, run_level
-from solver.miqp.spec import level_objective, spec_shortfall
-from solver.verify.checker import check_layout
-from solver.verify.precheck import find_impossibilities
+from floorplan.models import Layout, Problem, Termination
+from floorplan.service.cli.progress import summary_line
+from floorplan.solver import solve
+from floorplan.solver.geometry import Box, make_domain
+from floorplan.solver.heuristics.level_one import level_one_spec
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.scip_run import LevelStatus, run_level
+from floorplan.solver.miqp.spec import level_objective, spec_shortfall
+from floorplan.solver.verify.checker import check_layout
+from floorplan.solver.verify.precheck import find_impossibilities
 from tests.paths import ROOT
 from tests.servers import Server
 from tests.solver.verify.test_conflicts import CHAIN, CONTRADICTIONS, CROWDED, OUT_OF_REACH

@@ -3,10 +3,10 @@
     from floorplan_client import Client
 
     with Client("http://127.0.0.1:8000") as fp:
-        job = fp.submit("examples/apartment-5.json")   # a path, a dict or a models.Problem
+        job = fp.submit("examples/apartment-5.json")   # a path, a dict or a Problem
         for event in job.events():                     # status, progress, incumbent
             print(event)
-        layout = job.wait(timeout=120)                 # a models.Layout
+        layout = job.wait(timeout=120)                 # a floorplan_client.models.Layout
         svg = job.result(format="svg")
 
 `AsyncClient` has the same calls, awaited. Errors are `FloorplanError`s, each about
@@ -14,7 +14,7 @@ something the service said carrying its problem document (see `_exceptions`).
 
 The names below are imported on first use, not with the package: the `floorplan`
 command imports `floorplan_client.cli` to offer ``submit``, and ``floorplan solve``
-must not load numpy (through `models`) before it has set up its Ctrl-C handling.
+must not load numpy (through `floorplan_client.models`) before it has set up its Ctrl-C handling.
 """
 
 from __future__ import annotations

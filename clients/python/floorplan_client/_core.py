@@ -42,6 +42,7 @@ from floorplan_client._exceptions import (
     ServerError,
     Unauthorized,
 )
+from floorplan_client.models.formats import DxfLayers, FormatName, RenderedFormatName
 from floorplan_client.types import (
     BatchLine,
     Event,
@@ -57,7 +58,6 @@ from floorplan_client.types import (
     Termination,
     event_from,
 )
-from models.formats import DxfLayers, FormatName, RenderedFormatName
 
 T = TypeVar("T", bound=BaseModel)
 
@@ -486,14 +486,15 @@ def problem_document(response: httpx.Response) -> ProblemDocument:
 
 
 def problem_body(problem: ProblemInput) -> Any:
-    """The JSON to send for a problem given as a `models.Problem`, a dict or a path."""
-    if isinstance(problem, Problem):
+    """The JSON to send for a problem given as a `Problem`, a dict or a path. Any pydantic
+    model dumps as itself, so the service's own `floorplan.models.Problem` goes too."""
+    if isinstance(problem, Problem | BaseModel):
         return problem.model_dump(mode="json")
     if isinstance(problem, Mapping):
         return dict(problem)
     if isinstance(problem, str | os.PathLike):
         return read_problem_file(Path(problem))
-    raise TypeError(f"a problem is a models.Problem, a dict or a path, not "
+    raise TypeError(f"a problem is a Problem, a dict or a path, not "
                     f"{type(problem).__name__}")
 
 

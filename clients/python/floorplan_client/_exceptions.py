@@ -31,8 +31,8 @@ from typing import TYPE_CHECKING
 import httpx2 as httpx
 
 if TYPE_CHECKING:
+    from floorplan_client.models import ConflictSet
     from floorplan_client.types import FieldError, JobInfo, ProblemDocument
-    from models import ConflictSet
 
 
 class FloorplanError(Exception):

@@ -34,7 +34,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, TextIO
 
-from models.formats import (
+from floorplan_client.models.formats import (
     DEFAULT_STOREY_HEIGHT,
     DXF_LAYERS,
     FORMAT_NAMES,
@@ -47,7 +47,7 @@ if TYPE_CHECKING:
     from rich.console import Console
 
     from floorplan_client import Event, Job
-    from models import Layout
+    from floorplan_client.models import Layout
 
 EXIT_OK = 0
 """A layout was written (after a Ctrl-C too: ``report.termination`` is then
@@ -404,7 +404,7 @@ class JobState:
 
     def objective_text(self) -> str:
         """E.g. ``objective 12.41``; "" before the first incumbent."""
-        from models.jobs import format_number
+        from floorplan_client.models.jobs import format_number
 
         return "" if self.objective is None else f"objective {format_number(self.objective)}"
 

@@ -12,8 +12,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import ConfigDict, Field
 
-from models import Layout, Problem, Termination
-from models.jobs import (
+from floorplan_client.models import Layout, Problem, Termination
+from floorplan_client.models.jobs import (
     BatchLayoutLine,
     BatchPublic,
     FieldError,

@@ -17,16 +17,16 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
-from models import Layout
-from models.jobs import BatchLayoutLine, BatchPublic, BatchRequest, JobError, JobStatus
-from service.api.body import parse_problem
-from service.api.deps import BackendDep, OwnerDep, SettingsDep, StoreDep
-from service.api.errors import STORE_RETRY_AFTER, ApiError
-from service.api.limits import too_many
-from service.api.routes.layouts import RETRY_AFTER, effective_time_limit
-from service.batch import GOOD_COVERAGE, LayoutTask, job_problem
-from service.records import Batch, BatchLayout
-from service.store import JobStore
+from floorplan.models import Layout
+from floorplan.models.jobs import BatchLayoutLine, BatchPublic, BatchRequest, JobError, JobStatus
+from floorplan.service.api.body import parse_problem
+from floorplan.service.api.deps import BackendDep, OwnerDep, SettingsDep, StoreDep
+from floorplan.service.api.errors import STORE_RETRY_AFTER, ApiError
+from floorplan.service.api.limits import too_many
+from floorplan.service.api.routes.layouts import RETRY_AFTER, effective_time_limit
+from floorplan.service.batch import GOOD_COVERAGE, LayoutTask, job_problem
+from floorplan.service.records import Batch, BatchLayout
+from floorplan.service.store import JobStore
 
 NDJSON = "application/x-ndjson"
 ZIP = "application/zip"
@@ -211,7 +211,7 @@ def batch_public(store: JobStore, batch: Batch, *, summary: bool = False) -> Bat
 
 
 def _summary(store: JobStore, batch: Batch) -> tuple[int, int, int]:
-    from solver.distinct import DistinctPlans
+    from floorplan.solver.distinct import DistinctPlans
 
     plans = DistinctPlans()
     valid, after = 0, -1

@@ -5,7 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
-from service.api.deps import BackendDep, TrustedDep
+from floorplan.service.api.deps import BackendDep, TrustedDep
 
 router = APIRouter(tags=["service"])
 

@@ -13,9 +13,9 @@ from typing import Annotated
 from fastapi import APIRouter, Header, Query, Response
 from fastapi.responses import StreamingResponse
 
-from models import Layout
-from models import Problem as LayoutProblem
-from models.formats import (
+from floorplan.models import Layout
+from floorplan.models import Problem as LayoutProblem
+from floorplan.models.formats import (
     BY_NAME,
     DEFAULT_FORMAT,
     DEFAULT_STOREY_HEIGHT,
@@ -27,19 +27,26 @@ from models.formats import (
     ExportOptions,
     FormatName,
 )
-from models.jobs import JobStatus
-from models.parts import MAX_VARIANTS
-from service.api.body import PROBLEM_BODY_DOC, ProblemBody
-from service.api.deps import BackendDep, JobDep, LimitsDep, OwnerDep, SettingsDep, StoreDep
-from service.api.errors import STORE_RETRY_AFTER, ApiError
-from service.api.limits import too_many
-from service.api.schemas import JobPage, JobPublic, job_public
-from service.jobs.backend import JobBackend
-from service.records import Job
-from service.store import IdempotencyConflict
-from solver.export import render
-from solver.pipeline.storeys import job_time_limit
-from solver.pipeline.variants import variant_time_factor
+from floorplan.models.jobs import JobStatus
+from floorplan.models.parts import MAX_VARIANTS
+from floorplan.service.api.body import PROBLEM_BODY_DOC, ProblemBody
+from floorplan.service.api.deps import (
+    BackendDep,
+    JobDep,
+    LimitsDep,
+    OwnerDep,
+    SettingsDep,
+    StoreDep,
+)
+from floorplan.service.api.errors import STORE_RETRY_AFTER, ApiError
+from floorplan.service.api.limits import too_many
+from floorplan.service.api.schemas import JobPage, JobPublic, job_public
+from floorplan.service.jobs.backend import JobBackend
+from floorplan.service.records import Job
+from floorplan.service.store import IdempotencyConflict
+from floorplan.solver.export import render
+from floorplan.solver.pipeline.storeys import job_time_limit
+from floorplan.solver.pipeline.variants import variant_time_factor
 
 #: Longest wait between two looks at the store while streaming events (the backend
 #: wakes the stream sooner when it knows of new events).

@@ -8,13 +8,13 @@ from typing import Annotated
 
 from fastapi import APIRouter, Query, Request
 
-from service.api.body import PROBLEM_BODY_DOC, problem_body, run_off_loop
-from service.api.deps import LimitsDep, OwnerDep, SettingsDep
-from service.api.errors import ApiError
-from service.api.schemas import Validation
-from solver.geometry import make_domain
-from solver.verify.conflicts import diagnose
-from solver.verify.precheck import find_impossibilities
+from floorplan.service.api.body import PROBLEM_BODY_DOC, problem_body, run_off_loop
+from floorplan.service.api.deps import LimitsDep, OwnerDep, SettingsDep
+from floorplan.service.api.errors import ApiError
+from floorplan.service.api.schemas import Validation
+from floorplan.solver.geometry import make_domain
+from floorplan.solver.verify.conflicts import diagnose
+from floorplan.solver.verify.precheck import find_impossibilities
 
 #: Seconds POST /v1/validate?explain=true spends by default, and at most (never more
 #: than FLOORPLAN_MAX_TIME_LIMIT either).

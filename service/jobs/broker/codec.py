@@ -18,9 +18,9 @@ from collections.abc import Callable
 from dataclasses import fields
 from typing import Any, TypeVar, cast
 
-from solver.geometry import Box, Edge, Facing, Notch
-from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
-from solver.pipeline.subdomains import SubdomainOutcome, SubdomainTask
+from floorplan.solver.geometry import Box, Edge, Facing, Notch
+from floorplan.solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec, Refine, Split
+from floorplan.solver.pipeline.subdomains import SubdomainOutcome, SubdomainTask
 
 #: The format's version, the "v" of every payload: a mismatch is refused.
 VERSION = 1

@@ -8,7 +8,7 @@ from typing import Any
 import redis
 from celery import Celery
 
-from service.settings import Settings
+from floorplan.service.settings import Settings
 
 TASK_NAME = "floorplan.solve"
 SUBDOMAIN_TASK = "floorplan.subdomain"

@@ -16,8 +16,8 @@ from typing import Any
 
 import redis
 
-from service.jobs.broker.config import SUBDOMAIN_TASK, Keys, make_celery, redis_client
-from service.settings import Settings
+from floorplan.service.jobs.broker.config import SUBDOMAIN_TASK, Keys, make_celery, redis_client
+from floorplan.service.settings import Settings
 
 log = logging.getLogger("floorplan.distributed")
 
@@ -47,8 +47,8 @@ class CelerySubdomains(Executor):
         self._poller: threading.Thread | None = None
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
-        from service.jobs.broker.codec import encode_task
-        from solver.pipeline.subdomains import SubdomainTask, solve_subdomain
+        from floorplan.service.jobs.broker.codec import encode_task
+        from floorplan.solver.pipeline.subdomains import SubdomainTask, solve_subdomain
 
         (task,) = args
         if fn is not solve_subdomain or kwargs or not isinstance(task, SubdomainTask):
@@ -68,7 +68,7 @@ class CelerySubdomains(Executor):
         return future
 
     def _poll(self) -> None:
-        from service.jobs.broker.codec import decode_outcome
+        from floorplan.service.jobs.broker.codec import decode_outcome
 
         while not self._closed.is_set():
             with self._lock:

@@ -34,5 +34,5 @@ The Celery configuration, the Redis names and the sub-domain executor (all a sol
 process needs) are in `service.jobs.broker`. The modules here, each importing only
 those above it in this list: dispatch.py (sending jobs, reconciling), backend.py (the API node's
 side), runtime.py (a worker process's side), worker.py (the Celery application, its
-tasks and signals: `celery -A service.jobs.celery.worker worker`).
+tasks and signals: `celery -A floorplan.service.jobs.celery.worker worker`).
 """

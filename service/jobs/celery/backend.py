@@ -14,13 +14,13 @@ from typing import Any
 import redis
 import redis.asyncio as aioredis
 
-from models.jobs import JobStatus
-from service.jobs.backend import JobBackend
-from service.jobs.broker.config import REDIS_CONNECT_TIMEOUT, Keys, make_celery
-from service.jobs.celery.dispatch import Dispatcher, Reconciler
-from service.records import Job
-from service.settings import Settings
-from service.store import JobStore
+from floorplan.models.jobs import JobStatus
+from floorplan.service.jobs.backend import JobBackend
+from floorplan.service.jobs.broker.config import REDIS_CONNECT_TIMEOUT, Keys, make_celery
+from floorplan.service.jobs.celery.dispatch import Dispatcher, Reconciler
+from floorplan.service.records import Job
+from floorplan.service.settings import Settings
+from floorplan.service.store import JobStore
 
 log = logging.getLogger("floorplan.distributed")
 

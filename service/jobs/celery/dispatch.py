@@ -12,9 +12,9 @@ from collections.abc import Callable
 import redis
 from celery import Celery
 
-from service.jobs.broker.config import TASK_NAME, Keys, redis_client
-from service.settings import Settings
-from service.store import JobStore
+from floorplan.service.jobs.broker.config import TASK_NAME, Keys, redis_client
+from floorplan.service.settings import Settings
+from floorplan.service.store import JobStore
 
 log = logging.getLogger("floorplan.distributed")
 

@@ -15,12 +15,12 @@ import redis
 from celery import Celery
 from celery.exceptions import Reject
 
-from models.jobs import JobStatus
-from service.jobs.broker.config import Keys, redis_client
-from service.jobs.celery.dispatch import Dispatcher, Reconciler
-from service.jobs.processes import Child, Lease, SolveProcesses, watch
-from service.settings import Settings
-from service.store import JobStore
+from floorplan.models.jobs import JobStatus
+from floorplan.service.jobs.broker.config import Keys, redis_client
+from floorplan.service.jobs.celery.dispatch import Dispatcher, Reconciler
+from floorplan.service.jobs.processes import Child, Lease, SolveProcesses, watch
+from floorplan.service.settings import Settings
+from floorplan.service.store import JobStore
 
 log = logging.getLogger("floorplan.distributed")
 

@@ -1,4 +1,4 @@
-"""The Celery application that `celery -A service.jobs.celery.worker worker` and
+"""The Celery application that `celery -A floorplan.service.jobs.celery.worker worker` and
 `floorplan worker` run: its two tasks, the signals that start and stop a worker's
 runtime, and for the command line `run_worker` and `worker_alive`. Settings come from
 the environment, or from `configure`."""
@@ -11,7 +11,7 @@ from typing import Any
 import redis
 from celery import signals
 
-from service.jobs.broker.config import (
+from floorplan.service.jobs.broker.config import (
     SUBDOMAIN_TASK,
     TASK_NAME,
     Keys,
@@ -19,8 +19,8 @@ from service.jobs.broker.config import (
     make_celery,
     redis_client,
 )
-from service.jobs.celery.runtime import SubdomainWorkerRuntime, WorkerRuntime
-from service.settings import Settings, get_settings
+from floorplan.service.jobs.celery.runtime import SubdomainWorkerRuntime, WorkerRuntime
+from floorplan.service.settings import Settings, get_settings
 
 app = make_celery(get_settings())
 _worker_settings: Settings = get_settings()
@@ -52,8 +52,8 @@ def solve_subdomain_task(payload: str) -> str:
     """One sub-domain, in a process of a sub-domain worker's prefork pool. Not acked
     late: a sub-domain whose worker died is not worth solving after its level ended.
     The payload is JSON read field by field: anything else fails here (CodecError)."""
-    from service.jobs.broker.codec import decode_task, encode_outcome
-    from solver.pipeline.subdomains import solve_subdomain
+    from floorplan.service.jobs.broker.codec import decode_task, encode_outcome
+    from floorplan.solver.pipeline.subdomains import solve_subdomain
 
     return encode_outcome(solve_subdomain(decode_task(payload)))
 

@@ -14,7 +14,7 @@
    else onto a neighbour that leads to one), windows, and checked independently.
 """
 
-from solver.pipeline.regions.partition import regions_apply
-from solver.pipeline.regions.run import solve_regions
+from floorplan.solver.pipeline.regions.partition import regions_apply
+from floorplan.solver.pipeline.regions.run import solve_regions
 
 __all__ = ["regions_apply", "solve_regions"]

@@ -17,7 +17,7 @@ import shapely
 from shapely.geometry import LineString, MultiPolygon, Point, Polygon, box
 from shapely.geometry.base import BaseGeometry
 
-from solver.geometry import GRID
+from floorplan.solver.geometry import GRID
 
 #: Areas below this (m²) are slivers of floating-point, not floor.
 SLIVER_AREA = 1e-4

@@ -11,17 +11,17 @@ from collections.abc import Sequence
 import shapely
 from shapely.geometry import Polygon
 
-from models import (
+from floorplan.models import (
     Problem,
 )
-from solver.pipeline.regions.partition import (
+from floorplan.solver.pipeline.regions.partition import (
     ACCESS_PRICE,
     REGION_ROOMS,
     THINNEST_BAND,
     room_area,
     typical_area,
 )
-from solver.pipeline.regions.parts import polygon_pieces
+from floorplan.solver.pipeline.regions.parts import polygon_pieces
 
 
 def band_regions(problem: Problem) -> dict[str, Polygon] | None:

@@ -9,16 +9,16 @@ from collections.abc import Mapping, Sequence
 import shapely
 from shapely.geometry import LineString, Polygon
 
-from models import (
+from floorplan.models import (
     OUTSIDE,
     Circulation,
     Door,
     Problem,
 )
-from solver.geometry import longest_shared_wall
-from solver.openings import door_segment as _door_segment
-from solver.openings import front_door, may_connect
-from solver.pipeline.regions.partition import rooms_only
+from floorplan.solver.geometry import longest_shared_wall
+from floorplan.solver.openings import door_segment as _door_segment
+from floorplan.solver.openings import front_door, may_connect
+from floorplan.solver.pipeline.regions.partition import rooms_only
 
 
 def aisle_doors(problem: Problem, rooms: Mapping[str, Polygon],

@@ -8,7 +8,7 @@ import statistics
 from collections import deque
 from collections.abc import Sequence
 
-from models import (
+from floorplan.models import (
     Adjacency,
     Problem,
     Region,

@@ -7,12 +7,12 @@ from collections.abc import Mapping, Sequence
 
 from shapely.geometry import LineString, Point, Polygon
 
-from models import (
+from floorplan.models import (
     Problem,
     Region,
     Room,
 )
-from solver.geometry import (
+from floorplan.solver.geometry import (
     Edge,
     boundary_edges,
     edges_named,
@@ -20,14 +20,14 @@ from solver.geometry import (
     polygon_coords,
     rectangles_of,
 )
-from solver.pipeline.regions.aisles import AisleNetwork
-from solver.pipeline.regions.partition import (
+from floorplan.solver.pipeline.regions.aisles import AisleNetwork
+from floorplan.solver.pipeline.regions.partition import (
     room_adjacency,
     room_area,
     room_units,
     typical_area,
 )
-from solver.verify.precheck import find_impossibilities
+from floorplan.solver.verify.precheck import find_impossibilities
 
 #: Rounds of dealing an automatic partition's rooms again when a part cannot hold them.
 DEAL_ROUNDS = 3

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field, replace
 import shapely
 from shapely.geometry import Polygon
 
-from models import (
+from floorplan.models import (
     Aisle,
     ConstraintCheck,
     Layout,
@@ -21,27 +21,32 @@ from models import (
     RoomLayout,
     Termination,
 )
-from solver.budget import default_time_limit
-from solver.events import EventSink, Phase, Solve, SolveEvent
-from solver.geometry import (
+from floorplan.solver.budget import default_time_limit
+from floorplan.solver.events import EventSink, Phase, Solve, SolveEvent
+from floorplan.solver.geometry import (
     Box,
     make_domain,
     polygon_coords,
     rectangles_of,
     room_polygon,
 )
-from solver.heuristics.slicing import slicing_has_demands
-from solver.openings import (
+from floorplan.solver.heuristics.slicing import slicing_has_demands
+from floorplan.solver.openings import (
     place_windows,
     requested_doors,
 )
-from solver.pipeline.regions.aisles import AisleNetwork, aisle_network, aisle_pieces
-from solver.pipeline.regions.bands import band_regions
-from solver.pipeline.regions.doors import aisle_doors, entrance_door, through_doors, walk_aisles
-from solver.pipeline.regions.partition import partition, region_problem, rooms_only
-from solver.pipeline.regions.parts import points_kept, region_jobs, room_problem
-from solver.verify.checker import SOFT_KINDS, check_aisles, check_layout
-from solver.verify.precheck import find_impossibilities
+from floorplan.solver.pipeline.regions.aisles import AisleNetwork, aisle_network, aisle_pieces
+from floorplan.solver.pipeline.regions.bands import band_regions
+from floorplan.solver.pipeline.regions.doors import (
+    aisle_doors,
+    entrance_door,
+    through_doors,
+    walk_aisles,
+)
+from floorplan.solver.pipeline.regions.partition import partition, region_problem, rooms_only
+from floorplan.solver.pipeline.regions.parts import points_kept, region_jobs, room_problem
+from floorplan.solver.verify.checker import SOFT_KINDS, check_aisles, check_layout
+from floorplan.solver.verify.precheck import find_impossibilities
 
 #: Share of the time limit the region layout may use ...
 REGION_SHARE = 0.2

@@ -7,8 +7,8 @@ import functools
 
 import pytest
 
-from models import Layout, Problem
-from solver import solve
+from floorplan.models import Layout, Problem
+from floorplan.solver import solve
 from tests.paths import CASES, EXAMPLES
 
 #: Seconds each is solved for (house-13's default is 11 s).

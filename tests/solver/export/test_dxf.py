@@ -13,10 +13,10 @@ from ezdxf.document import Drawing
 from ezdxf.layouts import BaseLayout
 from shapely.geometry import LineString, Polygon
 
-from models import OUTSIDE, Layout, Problem
-from models.storeys import floor_view
-from solver.export import render
-from solver.export.floors import floor_layout
+from floorplan.models import OUTSIDE, Layout, Problem
+from floorplan.models.storeys import floor_view
+from floorplan.solver.export import render
+from floorplan.solver.export.floors import floor_layout
 from tests.paths import EXAMPLES
 
 NCS = {"A-WALL", "A-WALL-PATT", "A-DOOR", "A-GLAZ", "A-AREA", "A-AREA-IDEN", "A-FLOR-OTLN"}

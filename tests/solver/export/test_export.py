@@ -13,10 +13,10 @@ import ifcopenshell
 import pytest
 from shapely.geometry import shape
 
-from models import Layout, Problem
-from models.formats import ExportOptions
-from solver.export import render
-from solver.export.geojson import to_geojson
+from floorplan.models import Layout, Problem
+from floorplan.models.formats import ExportOptions
+from floorplan.solver.export import render
+from floorplan.solver.export.geojson import to_geojson
 from tests.paths import EXAMPLES
 
 
@@ -83,7 +83,7 @@ def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) 
     # The file's format is under test, not the layout: one second a solve.
     out = tmp_path / "plan.dxf"
     done = subprocess.run(
-        [sys.executable, "-m", "service", "solve", str(EXAMPLES / "apartment-5.json"),
+        [sys.executable, "-m", "floorplan.service", "solve", str(EXAMPLES / "apartment-5.json"),
          "-o", str(out), "--time-limit", "1", "--quiet"], capture_output=True, text=True,
         timeout=60,
     )
@@ -91,7 +91,7 @@ def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) 
     assert ezdxf.readfile(out).modelspace()
     geo = tmp_path / "plan.json"
     done = subprocess.run(
-        [sys.executable, "-m", "service", "solve", str(EXAMPLES / "apartment-5.json"),
+        [sys.executable, "-m", "floorplan.service", "solve", str(EXAMPLES / "apartment-5.json"),
          "-o", str(geo), "--format", "geojson", "--time-limit", "1", "--quiet"],
         capture_output=True, text=True, timeout=60,
     )
@@ -99,7 +99,7 @@ def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) 
     assert json.loads(geo.read_text())["type"] == "FeatureCollection"
     ifc = tmp_path / "plan.ifc"
     done = subprocess.run(
-        [sys.executable, "-m", "service", "solve", str(EXAMPLES / "apartment-5.json"),
+        [sys.executable, "-m", "floorplan.service", "solve", str(EXAMPLES / "apartment-5.json"),
          "-o", str(ifc), "--storey-height", "2.8", "--time-limit", "1", "--quiet"],
         capture_output=True, text=True, timeout=60,
     )
@@ -110,7 +110,7 @@ def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) 
 
 
 def test_every_output_format_has_a_writer() -> None:
-    from models.formats import FORMAT_NAMES
-    from solver.export import WRITERS
+    from floorplan.models.formats import FORMAT_NAMES
+    from floorplan.solver.export import WRITERS
 
     assert tuple(WRITERS) == FORMAT_NAMES

@@ -16,10 +16,10 @@ import ifcopenshell.validate
 import pytest
 from shapely.geometry import LineString, Point
 
-from models import Layout, Problem
-from solver.export import render
-from solver.export.ifc import DOOR_HEIGHT, to_ifc
-from solver.export.walls import FACADE_THICKNESS
+from floorplan.models import Layout, Problem
+from floorplan.solver.export import render
+from floorplan.solver.export.ifc import DOOR_HEIGHT, to_ifc
+from floorplan.solver.export.walls import FACADE_THICKNESS
 from tests.paths import EXAMPLES
 from tests.solver.export.conftest import READ_BACK, solved
 

@@ -7,8 +7,8 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from models import Layout, Problem, Rect, Report, RoomLayout
-from solver.export.svg import PALETTE, render_svg, room_fill, scale_bar_length
+from floorplan.models import Layout, Problem, Rect, Report, RoomLayout
+from floorplan.solver.export.svg import PALETTE, render_svg, room_fill, scale_bar_length
 
 NS = {"svg": "http://www.w3.org/2000/svg"}
 
@@ -185,8 +185,8 @@ def test_scale_sets_the_drawing_size(problem: Problem, layout: Layout) -> None:
 
 
 def test_doors_swing_into_their_room_windows_sit_in_walls_and_north_is_marked() -> None:
-    from models import Problem
-    from solver import solve
+    from floorplan.models import Problem
+    from floorplan.solver import solve
 
     problem = Problem.model_validate({
         "boundary": [[0, 0], [8, 0], [8, 5], [0, 5]], "entrance": [2, 0],

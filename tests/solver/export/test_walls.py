@@ -9,8 +9,8 @@ import pytest
 import shapely
 from shapely.geometry import Polygon, box
 
-from models import Layout, Problem
-from solver.export.walls import (
+from floorplan.models import Layout, Problem
+from floorplan.solver.export.walls import (
     FACADE_THICKNESS,
     PARTITION_THICKNESS,
     WallSegment,

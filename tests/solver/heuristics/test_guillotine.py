@@ -8,19 +8,19 @@ import random
 import pytest
 
 from bench.planted import draw
-from models import Problem
-from solver.geometry import make_domain
-from solver.heuristics import guillotine
-from solver.heuristics.guillotine import (
+from floorplan.models import Problem
+from floorplan.solver.geometry import make_domain
+from floorplan.solver.heuristics import guillotine
+from floorplan.solver.heuristics.guillotine import (
     HORIZONTAL,
     VERTICAL,
     applies,
     cut_region,
     guillotine_layout,
 )
-from solver.openings import connection_demands
-from solver.pipeline.run import covers, layout_objective
-from solver.verify.checker import check_layout
+from floorplan.solver.openings import connection_demands
+from floorplan.solver.pipeline.run import covers, layout_objective
+from floorplan.solver.verify.checker import check_layout
 
 
 def l_living_brief() -> Problem:

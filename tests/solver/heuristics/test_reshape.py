@@ -11,12 +11,12 @@ import pytest
 import shapely
 from shapely.geometry import box
 
-from models import Problem
-from solver.geometry import Box, make_domain, rectangles_of
-from solver.heuristics.level_one import unfitting_targets
-from solver.heuristics.reshape import _strip_extent, reshape
-from solver.pipeline.run import layout_objective
-from solver.verify.checker import check_layout
+from floorplan.models import Problem
+from floorplan.solver.geometry import Box, make_domain, rectangles_of
+from floorplan.solver.heuristics.level_one import unfitting_targets
+from floorplan.solver.heuristics.reshape import _strip_extent, reshape
+from floorplan.solver.pipeline.run import layout_objective
+from floorplan.solver.verify.checker import check_layout
 
 Rooms = dict[str, list[Box]]
 

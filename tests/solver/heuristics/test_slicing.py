@@ -7,16 +7,16 @@ from typing import Any
 
 import pytest
 
-from models import Adjacency, Problem, Termination
-from solver import solve
-from solver.geometry import make_domain
-from solver.heuristics.slicing import (
+from floorplan.models import Adjacency, Problem, Termination
+from floorplan.solver import solve
+from floorplan.solver.geometry import make_domain
+from floorplan.solver.heuristics.slicing import (
     DEMANDS_UP_TO,
     DOOR_TREE_UP_TO,
     slicing_applies,
     slicing_layout,
 )
-from solver.verify.checker import check_layout
+from floorplan.solver.verify.checker import check_layout
 
 
 def offices(count: int, **fields: Any) -> Problem:

@@ -8,7 +8,14 @@ import math
 import pytest
 
 from bench.planted import draw
-from solver.heuristics.tiling import HORIZONTAL, VERTICAL, Fillers, Tiling, _Search, tilings
+from floorplan.solver.heuristics.tiling import (
+    HORIZONTAL,
+    VERTICAL,
+    Fillers,
+    Tiling,
+    _Search,
+    tilings,
+)
 
 #: A 12 x 12 m floor cut exactly by ten rooms: a 12 x 2 strip of three along the south,
 #: a 4 x 10 column of two, and an 8 x 10 block of five.

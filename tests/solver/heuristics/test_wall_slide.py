@@ -7,10 +7,10 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from models import Problem
-from solver.geometry import Box, make_domain
-from solver.heuristics.wall_slide import slide_walls
-from solver.verify.checker import check_layout
+from floorplan.models import Problem
+from floorplan.solver.geometry import Box, make_domain
+from floorplan.solver.heuristics.wall_slide import slide_walls
+from floorplan.solver.verify.checker import check_layout
 
 Rooms = dict[str, list[Box]]
 

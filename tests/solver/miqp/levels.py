@@ -8,14 +8,14 @@ from typing import Any
 
 from pyscipopt import Expr
 
-from solver.geometry import Box, boundary_edges
-from solver.miqp.formulation import (
+from floorplan.solver.geometry import Box, boundary_edges
+from floorplan.solver.miqp.formulation import (
     Family,
     build_level,
 )
-from solver.miqp.model import LevelModel
-from solver.miqp.scip_run import LevelResult, LevelStatus, run_level
-from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec
+from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.scip_run import LevelResult, LevelStatus, run_level
+from floorplan.solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, RectSpec
 
 #: Every solve here is tiny; a generous cap that none should come near.
 TIME_LIMIT = 5.0

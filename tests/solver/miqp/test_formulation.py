@@ -12,8 +12,8 @@ from __future__ import annotations
 import pytest
 from pyscipopt import Expr
 
-from solver.geometry import Box, Edge, boundary_edges
-from solver.miqp.formulation import (
+from floorplan.solver.geometry import Box, Edge, boundary_edges
+from floorplan.solver.miqp.formulation import (
     c_boundary,
     c_inside,
     c_overlap,
@@ -21,8 +21,8 @@ from solver.miqp.formulation import (
     c_ratio,
     c_size,
 )
-from solver.miqp.model import LevelModel
-from solver.miqp.scip_run import LevelStatus
+from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.scip_run import LevelStatus
 from tests.solver.miqp.levels import (
     L_BLOCKED,
     L_EDGES,

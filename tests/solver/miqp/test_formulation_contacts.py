@@ -8,8 +8,8 @@ import pytest
 import shapely
 from pyscipopt import Expr
 
-from solver.geometry import Box
-from solver.miqp.formulation import (
+from floorplan.solver.geometry import Box
+from floorplan.solver.miqp.formulation import (
     c_adj,
     c_envelope,
     c_inside,
@@ -17,8 +17,8 @@ from solver.miqp.formulation import (
     c_refine,
     c_size,
 )
-from solver.miqp.model import LevelModel
-from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, Refine, Split
+from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, Refine, Split
 from tests.solver.miqp.levels import (
     SOLVED,
     TOL,

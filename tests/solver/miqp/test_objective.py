@@ -10,15 +10,15 @@ from collections.abc import Sequence
 
 import pytest
 
-from solver.geometry import Box
-from solver.miqp.formulation import (
+from floorplan.solver.geometry import Box
+from floorplan.solver.miqp.formulation import (
     FAMILIES,
     build_level,
     c_inside,
     c_size,
 )
-from solver.miqp.scip_run import LevelStatus, run_level
-from solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, Refine
+from floorplan.solver.miqp.scip_run import LevelStatus, run_level
+from floorplan.solver.miqp.spec import ContactSpec, EnvelopeSpec, LevelSpec, Refine
 from tests.solver.miqp.levels import (
     ARGMIN_TOL,
     L_BLOCKED,

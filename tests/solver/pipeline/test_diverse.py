@@ -7,10 +7,10 @@ import json
 
 import pytest
 
-from models import Layout, Problem
-from models.programme import vary_programme
-from solver import solve
-from solver.distinct import count_distinct
+from floorplan.models import Layout, Problem
+from floorplan.models.programme import vary_programme
+from floorplan.solver import solve
+from floorplan.solver.distinct import count_distinct
 from tests.paths import ROOT
 
 APARTMENT = json.loads((ROOT / "examples/apartment-5.json").read_text())
@@ -18,7 +18,7 @@ FLAT_7 = json.loads((ROOT / "examples/flat-7-template.json").read_text())
 
 
 def test_diverse_seeds_break_ties_differently() -> None:
-    from solver.distinct import DistinctPlans
+    from floorplan.solver.distinct import DistinctPlans
 
     problem = Problem.model_validate(APARTMENT)
     layouts = [solve(problem.with_options(seed=seed, time_limit=1.5, diverse=True))
@@ -64,7 +64,7 @@ def test_a_drawn_programme_is_laid_out_validly() -> None:
 
 
 def test_good_enough_stops_at_the_first_good_layout() -> None:
-    from solver.stopping import GoodEnough
+    from floorplan.solver.stopping import GoodEnough
 
     # Not diverse: solving on then lowers the very Eq. 12 the report measures (a diverse
     # solve aims at drawn sizes, and its report measures the brief's).
@@ -81,7 +81,7 @@ def test_good_enough_stops_at_the_first_good_layout() -> None:
 
 
 def test_drawn_sizes_stay_within_each_rooms_bounds() -> None:
-    from models.programme import vary_sizes
+    from floorplan.models.programme import vary_sizes
 
     problem = Problem.model_validate(APARTMENT)
     drawn = [vary_sizes(problem, seed) for seed in range(10)]
@@ -92,7 +92,7 @@ def test_drawn_sizes_stay_within_each_rooms_bounds() -> None:
 
 
 def test_drawn_targets_lie_within_each_rooms_bounds_and_spread() -> None:
-    from solver.heuristics.variety import drawn_targets
+    from floorplan.solver.heuristics.variety import drawn_targets
 
     problem = Problem.model_validate(APARTMENT)
     drawn = [drawn_targets(problem, seed) for seed in range(16)]
@@ -107,7 +107,10 @@ def test_drawn_targets_lie_within_each_rooms_bounds_and_spread() -> None:
 
 @pytest.mark.slow
 def test_diverse_seeds_give_distinct_valid_plans_reported_against_the_brief() -> None:
-    from service.batch import LayoutTask, lay_out  # a batch's layout: redrawn when not good
+    from floorplan.service.batch import (  # a batch's layout: redrawn when not good
+        LayoutTask,
+        lay_out,
+    )
 
     problem = Problem.model_validate(APARTMENT)
     layouts = [lay_out(LayoutTask(APARTMENT, seed, 2.0, good_enough=float("inf")))[1]
@@ -127,7 +130,7 @@ def test_diverse_seeds_give_distinct_valid_plans_reported_against_the_brief() ->
 
 
 def test_some_seeds_start_one_room_as_an_l() -> None:
-    from solver.heuristics.variety import drawn_shape
+    from floorplan.solver.heuristics.variety import drawn_shape
 
     problem = Problem.model_validate(APARTMENT)
     shaped = [drawn_shape(problem, seed) for seed in range(40)]
@@ -145,7 +148,7 @@ def test_some_seeds_start_one_room_as_an_l() -> None:
 
 @pytest.mark.slow
 def test_drawn_programmes_of_a_batch_are_all_laid_out_well() -> None:
-    from service.batch import GOOD_COVERAGE, LayoutTask, lay_out
+    from floorplan.service.batch import GOOD_COVERAGE, LayoutTask, lay_out
 
     # A batch's layout of a drawn programme (first good layout, redrawn when not good):
     # before the redraws, 14 of 20 seeds of flat-7 came back valid.
@@ -169,7 +172,7 @@ def test_stop_when_good_ends_the_solve_at_its_first_good_layout() -> None:
 
 
 def _level_ones(problem: Problem) -> tuple[Layout, int]:
-    from solver.events import Phase, SolveEvent
+    from floorplan.solver.events import Phase, SolveEvent
 
     events: list[SolveEvent] = []
     layout = solve(problem, on_event=events.append)

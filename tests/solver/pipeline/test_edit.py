@@ -14,10 +14,10 @@ from typing import Any
 import shapely
 from shapely.geometry import Polygon
 
-from models import Layout, Problem
-from solver import SolveEvent, solve
-from solver.geometry import Box
-from solver.pipeline.edit import EDIT_SHARE, edit_applies, wing_plans
+from floorplan.models import Layout, Problem
+from floorplan.solver import SolveEvent, solve
+from floorplan.solver.geometry import Box
+from floorplan.solver.pipeline.edit import EDIT_SHARE, edit_applies, wing_plans
 from tests.paths import ROOT
 
 HOUSE: dict[str, Any] = json.loads((ROOT / "examples" / "house-13.json").read_text())

@@ -13,9 +13,9 @@ from typing import Any
 
 from shapely.geometry import Polygon
 
-from models import Layout, Problem, Termination
-from solver import solve
-from solver.pipeline.variants import topology
+from floorplan.models import Layout, Problem, Termination
+from floorplan.solver import solve
+from floorplan.solver.pipeline.variants import topology
 from tests.paths import ROOT
 
 APARTMENT: dict[str, Any] = json.loads((ROOT / "examples" / "apartment-5.json").read_text())

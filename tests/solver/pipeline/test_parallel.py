@@ -18,25 +18,25 @@ from typing import Any
 import httpx2 as httpx
 import pytest
 
-from models import Problem
-from service.jobs.child import run_job, standby
-from service.jobs.processes import SolveProcesses
-from solver import solve
-from solver.events import Phase, SolveEvent
-from solver.geometry import Box, make_domain
-from solver.openings import connection_demands
-from solver.pipeline.first_layout import awaited, better_start, level_one_alone
-from solver.pipeline.hierarchy import SubDomain, room_boxes
-from solver.pipeline.pool import PARENT_POLL, subdomain_pool
-from solver.pipeline.refine import _disjoint_batches
-from solver.pipeline.run import Run
-from solver.pipeline.subdomains import (
+from floorplan.models import Problem
+from floorplan.service.jobs.child import run_job, standby
+from floorplan.service.jobs.processes import SolveProcesses
+from floorplan.solver import solve
+from floorplan.solver.events import Phase, SolveEvent
+from floorplan.solver.geometry import Box, make_domain
+from floorplan.solver.openings import connection_demands
+from floorplan.solver.pipeline.first_layout import awaited, better_start, level_one_alone
+from floorplan.solver.pipeline.hierarchy import SubDomain, room_boxes
+from floorplan.solver.pipeline.pool import PARENT_POLL, subdomain_pool
+from floorplan.solver.pipeline.refine import _disjoint_batches
+from floorplan.solver.pipeline.run import Run
+from floorplan.solver.pipeline.subdomains import (
     LevelOneOutcome,
     LevelOneTask,
     SubdomainExecutor,
     overlaps_others,
 )
-from solver.verify.checker import check_layout
+from floorplan.solver.verify.checker import check_layout
 from tests.servers import Server
 from tests.service.test_service import submit, wait
 

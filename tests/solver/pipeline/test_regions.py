@@ -13,15 +13,15 @@ import shapely
 from pydantic import ValidationError
 from shapely.geometry import Point, Polygon
 
-from models import Layout, Problem
-from solver import solve
-from solver.budget import default_time_limit
-from solver.events import Phase, SolveEvent
-from solver.geometry import Box, shared_wall_length
-from solver.pipeline.regions.aisles import aisle_network
-from solver.pipeline.regions.bands import band_regions
-from solver.pipeline.regions.partition import auto_partition, regions_apply
-from solver.verify.checker import check_layout
+from floorplan.models import Layout, Problem
+from floorplan.solver import solve
+from floorplan.solver.budget import default_time_limit
+from floorplan.solver.events import Phase, SolveEvent
+from floorplan.solver.geometry import Box, shared_wall_length
+from floorplan.solver.pipeline.regions.aisles import aisle_network
+from floorplan.solver.pipeline.regions.bands import band_regions
+from floorplan.solver.pipeline.regions.partition import auto_partition, regions_apply
+from floorplan.solver.verify.checker import check_layout
 from tests.paths import CASES
 
 #: End to end (large layouts of up to 150 rooms): left out by `pytest -m "not slow"`.
@@ -257,8 +257,8 @@ def test_a_part_out_of_time_is_retried_with_its_share_before_anything_is_relaxed
     # layout honour every minimum size (it once came back relaxed and invalid).
     # On a fast machine a part's first row plan can still be done within that
     # millisecond, so slicing given less than 10 ms finds nothing here, as under load.
-    import solver.pipeline.first_layout as solve_module
-    import solver.pipeline.regions.run as regions
+    import floorplan.solver.pipeline.first_layout as solve_module
+    import floorplan.solver.pipeline.regions.run as regions
 
     monkeypatch.setattr(regions, "MIN_PART_SECONDS", 1e-3)
     monkeypatch.setattr(regions, "PART_SECONDS_PER_ROOM", 1e-6)

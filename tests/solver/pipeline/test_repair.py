@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import time
 
-from models import Problem
-from solver.geometry import Box, make_domain
-from solver.pipeline.hierarchy import as_pieces, room_boxes
-from solver.pipeline.repair import repaired
-from solver.pipeline.run import Run, covers
-from solver.verify.checker import check_layout
+from floorplan.models import Problem
+from floorplan.solver.geometry import Box, make_domain
+from floorplan.solver.pipeline.hierarchy import as_pieces, room_boxes
+from floorplan.solver.pipeline.repair import repaired
+from floorplan.solver.pipeline.run import Run, covers
+from floorplan.solver.verify.checker import check_layout
 
 
 def _three_rooms() -> Problem:

@@ -11,26 +11,31 @@ import pytest
 from pydantic import ValidationError
 
 from bench.planted import draw
-from models import Layout, Problem, Termination
-from solver import solve
-from solver.events import Phase, SolveEvent
-from solver.geometry import Box, make_domain
-from solver.heuristics.level_one import demand_order, level_one_spec, reach_wing, wing_order
-from solver.miqp.formulation import build_level
-from solver.miqp.scip_run import LevelStatus, run_level
-from solver.miqp.spec import level_objective
-from solver.openings import connection_demands
-from solver.pipeline.assemble import final_layout
-from solver.pipeline.first_layout import (
+from floorplan.models import Layout, Problem, Termination
+from floorplan.solver import solve
+from floorplan.solver.events import Phase, SolveEvent
+from floorplan.solver.geometry import Box, make_domain
+from floorplan.solver.heuristics.level_one import (
+    demand_order,
+    level_one_spec,
+    reach_wing,
+    wing_order,
+)
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.scip_run import LevelStatus, run_level
+from floorplan.solver.miqp.spec import level_objective
+from floorplan.solver.openings import connection_demands
+from floorplan.solver.pipeline.assemble import final_layout
+from floorplan.solver.pipeline.first_layout import (
     L_START_REASON,
     l_started,
     level_one_alone,
     no_first_layout,
     targets_over_ask,
 )
-from solver.pipeline.hierarchy import Piece
-from solver.pipeline.run import Run
-from solver.pipeline.subdomains import LevelOneTask
+from floorplan.solver.pipeline.hierarchy import Piece
+from floorplan.solver.pipeline.run import Run
+from floorplan.solver.pipeline.subdomains import LevelOneTask
 from tests.paths import EXAMPLES
 
 

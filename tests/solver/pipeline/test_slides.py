@@ -6,11 +6,11 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from models import Problem
-from solver.geometry import Box, make_domain
-from solver.pipeline.floor import _slid
-from solver.pipeline.hierarchy import absorb_gaps, as_pieces, room_boxes
-from solver.pipeline.run import Run, covers
+from floorplan.models import Problem
+from floorplan.solver.geometry import Box, make_domain
+from floorplan.solver.pipeline.floor import _slid
+from floorplan.solver.pipeline.hierarchy import absorb_gaps, as_pieces, room_boxes
+from floorplan.solver.pipeline.run import Run, covers
 
 #   +----+-------------+-----------+  y 4
 #   |gap | kitchen     | bedroom   |

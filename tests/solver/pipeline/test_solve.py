@@ -12,15 +12,15 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from models import Problem, Termination
-from solver import solve
-from solver.events import Phase, SolveEvent
-from solver.geometry import Box, make_domain, shared_wall_length
-from solver.heuristics.level_one import FIRST_BAND, level_one_spec, target_bands
-from solver.miqp.formulation import build_level
-from solver.miqp.objective import e_band_shortfall
-from solver.miqp.scip_run import LevelStatus, run_level
-from solver.verify.checker import check_layout
+from floorplan.models import Problem, Termination
+from floorplan.solver import solve
+from floorplan.solver.events import Phase, SolveEvent
+from floorplan.solver.geometry import Box, make_domain, shared_wall_length
+from floorplan.solver.heuristics.level_one import FIRST_BAND, level_one_spec, target_bands
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.objective import e_band_shortfall
+from floorplan.solver.miqp.scip_run import LevelStatus, run_level
+from floorplan.solver.verify.checker import check_layout
 from tests.paths import EXAMPLES
 
 
@@ -247,8 +247,8 @@ def test_problems_above_twenty_rooms_get_a_constructive_start_and_come_back_vali
 
 
 def test_rectangles_that_do_not_join_fail_a_check_instead_of_raising() -> None:
-    from solver.geometry import Box
-    from solver.pipeline.assemble import outline_of
+    from floorplan.solver.geometry import Box
+    from floorplan.solver.pipeline.assemble import outline_of
 
     polygon = outline_of([Box(0, 0, 2, 2), Box(2.001, 0, 4, 1)])
     assert polygon.area == pytest.approx(4.0)  # the larger part stands for the room
@@ -308,9 +308,9 @@ def two_bedrooms(**room: Any) -> Problem:
 
 
 def test_the_best_covering_incumbent_replaces_a_final_layout_that_lost_coverage() -> None:
-    from solver.geometry import make_domain
-    from solver.pipeline.hierarchy import Piece
-    from solver.pipeline.run import Run
+    from floorplan.solver.geometry import make_domain
+    from floorplan.solver.pipeline.hierarchy import Piece
+    from floorplan.solver.pipeline.run import Run
 
     two = two_bedrooms()
     domain = make_domain(two)
@@ -329,10 +329,10 @@ def test_the_best_covering_incumbent_replaces_a_final_layout_that_lost_coverage(
 
 def test_a_second_level_one_search_that_ends_better_is_returned_with_its_gaps_absorbed(
 ) -> None:
-    from solver.pipeline.first_layout import better_final
-    from solver.pipeline.hierarchy import Piece, room_boxes
-    from solver.pipeline.run import Run
-    from solver.pipeline.subdomains import LevelOneOutcome
+    from floorplan.solver.pipeline.first_layout import better_final
+    from floorplan.solver.pipeline.hierarchy import Piece, room_boxes
+    from floorplan.solver.pipeline.run import Run
+    from floorplan.solver.pipeline.subdomains import LevelOneOutcome
 
     # A second level-1 search's pieces leave the gaps level 1 leaves; the incumbent it
     # announced had them absorbed, and so must the answer (CI once returned 86 % for
@@ -354,9 +354,9 @@ def test_a_second_level_one_search_that_ends_better_is_returned_with_its_gaps_ab
 
 
 def test_levels_that_end_short_of_coverage_get_a_second_round_from_the_reshaping() -> None:
-    from solver.pipeline.floor import _refined
-    from solver.pipeline.hierarchy import Piece, absorbed, room_boxes
-    from solver.pipeline.run import Run, covers
+    from floorplan.solver.pipeline.floor import _refined
+    from floorplan.solver.pipeline.hierarchy import Piece, absorbed, room_boxes
+    from floorplan.solver.pipeline.run import Run, covers
 
     # The search time is spent (level 1 took it), so the first round of levels does
     # nothing. `a` and `b` are at their largest widths and leave a strip on the west
@@ -387,9 +387,9 @@ def test_levels_that_end_short_of_coverage_get_a_second_round_from_the_reshaping
 
 def test_the_reshaping_slides_a_room_at_its_largest_across_a_gap_the_strips_cannot_fill(
 ) -> None:
-    from solver.pipeline.hierarchy import Piece, room_boxes
-    from solver.pipeline.refine import reshaped
-    from solver.pipeline.run import Run, covers
+    from floorplan.solver.pipeline.hierarchy import Piece, room_boxes
+    from floorplan.solver.pipeline.refine import reshaped
+    from floorplan.solver.pipeline.run import Run, covers
 
     # a | b | gap | c across a 9 x 6 floor, b and c at their largest width, a on the
     # west wall and c on the east: no strip fills the gap (b or c would pass its
@@ -414,8 +414,8 @@ def test_the_reshaping_slides_a_room_at_its_largest_across_a_gap_the_strips_cann
 
 
 def test_a_gap_side_bordered_by_a_room_over_part_of_its_length_is_absorbed_there() -> None:
-    from solver.geometry import make_domain
-    from solver.pipeline.hierarchy import Piece, absorb_gaps, room_boxes
+    from floorplan.solver.geometry import make_domain
+    from floorplan.solver.pipeline.hierarchy import Piece, absorb_gaps, room_boxes
 
     # The strip above both rooms is one gap cell; only `a` borders part of its south
     # side, and only `a` may grow (to its maximum depth of 2.5).

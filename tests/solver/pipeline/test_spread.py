@@ -12,17 +12,17 @@ from typing import Any
 import numpy as np
 import pytest
 
-from models import Problem
-from solver import solve
-from solver.distinct import SAME_PLAN_SHARE, floor_grid, raster
-from solver.geometry import Box
-from solver.pipeline.spread import (
+from floorplan.models import Problem
+from floorplan.solver import solve
+from floorplan.solver.distinct import SAME_PLAN_SHARE, floor_grid, raster
+from floorplan.solver.geometry import Box
+from floorplan.solver.pipeline.spread import (
     _line_moves,
     _toward_other_sizes,
     spread_apart,
     spread_layout,
 )
-from solver.verify.checker import check_layout
+from floorplan.solver.verify.checker import check_layout
 
 
 def two_rooms(width_bounds: tuple[float, float]) -> Problem:

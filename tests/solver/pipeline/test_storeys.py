@@ -17,12 +17,12 @@ import pytest
 import shapely
 from pydantic import ValidationError
 
-from models import Layout, Problem, Termination
-from solver import solve
-from solver.events import Phase, SolveEvent
-from solver.export.dxf import to_dxf
-from solver.export.geojson import to_geojson
-from solver.export.svg import render_svg
+from floorplan.models import Layout, Problem, Termination
+from floorplan.solver import solve
+from floorplan.solver.events import Phase, SolveEvent
+from floorplan.solver.export.dxf import to_dxf
+from floorplan.solver.export.geojson import to_geojson
+from floorplan.solver.export.svg import render_svg
 from tests.paths import EXAMPLES
 from tests.servers import Server
 

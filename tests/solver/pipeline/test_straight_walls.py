@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from models import Problem
-from solver.geometry import Box
-from solver.pipeline.assemble import straight_walls
-from solver.verify.checker import check_layout
+from floorplan.models import Problem
+from floorplan.solver.geometry import Box
+from floorplan.solver.pipeline.assemble import straight_walls
+from floorplan.solver.verify.checker import check_layout
 
 #   +----------+------+  y 8 (the bath stops at 7.99; the bed takes the 1 cm strip above it)
 #   |  bed     | bath |

@@ -6,9 +6,9 @@ from typing import Any
 
 import pytest
 
-from models import ConstraintCheck, Problem
-from solver.geometry import Box
-from solver.verify.checker import CheckResult, check_layout
+from floorplan.models import ConstraintCheck, Problem
+from floorplan.solver.geometry import Box
+from floorplan.solver.verify.checker import CheckResult, check_layout
 
 # A 10 x 6 rectangle: edge 0 south, 1 east, 2 north, 3 west.
 OUTLINE = [[0, 0], [10, 0], [10, 6], [0, 6]]

@@ -18,13 +18,13 @@ from typing import Any
 import httpx2 as httpx
 import pytest
 
-from models import ConflictSet, Problem, Termination
-from solver import solve
-from solver.geometry import make_domain
-from solver.heuristics.level_one import level_one_spec
-from solver.miqp.formulation import build_level
-from solver.miqp.scip_run import LevelStatus, run_level
-from solver.verify.conflicts import Verdict, deletion_filter, diagnose, find_conflict
+from floorplan.models import ConflictSet, Problem, Termination
+from floorplan.solver import solve
+from floorplan.solver.geometry import make_domain
+from floorplan.solver.heuristics.level_one import level_one_spec
+from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.scip_run import LevelStatus, run_level
+from floorplan.solver.verify.conflicts import Verdict, deletion_filter, diagnose, find_conflict
 from tests.paths import ROOT
 from tests.servers import Server
 
@@ -279,7 +279,7 @@ def test_diagnose_tells_feasible_from_infeasible_without_solving() -> None:
 def test_the_command_line_prints_the_conflict_and_exits_3(tmp_path: Path) -> None:
     (tmp_path / "chain.json").write_text(json.dumps(CHAIN))
     done = subprocess.run(
-        [sys.executable, "-m", "service", "solve", "chain.json", "-o", "layout.json"],
+        [sys.executable, "-m", "floorplan.service", "solve", "chain.json", "-o", "layout.json"],
         cwd=tmp_path, capture_output=True, text=True, timeout=60,
         env={**os.environ, "PYTHONPATH": str(ROOT)},
     )
