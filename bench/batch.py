@@ -2,7 +2,7 @@
 
     python -m bench batch [--count N] [--processes P] [--out FILE] [--table FILE] [BRIEF ...]
 
-Each brief (default: apartment-5 and house-13 of the shared cases, and the templated
+Each brief (default: apartment-5 and house-13 of the committed cases (bench/data/cases), and the templated
 7-room flat of examples/) is laid out `--count` times on a warm pool of `--processes`
 processes, by our solver as `floorplan batch` runs it (``options.diverse``, the batch's
 per-layout time limit, each solve stopped at its first good layout, options.stop_when_good,
@@ -33,7 +33,7 @@ from floorplan.solver.distinct import NEAR_SHARE, DistinctPlans
 from floorplan.solver.stopping import good_rank
 
 ROOT = Path(__file__).resolve().parent.parent
-CASES = ROOT.parent / "shared" / "bench" / "cases"
+CASES = ROOT / "bench" / "data" / "cases"
 DEFAULT_BRIEFS = (CASES / "apartment-5.json", CASES / "house-13.json",
                   ROOT / "examples" / "flat-7-template.json")
 #: As service.batch's defaults (bench may not import service): seconds per room, least.

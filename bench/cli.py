@@ -31,7 +31,8 @@ from floorplan.solver.geometry import make_domain
 
 #: Cases with more rooms than this run `--repeat-large` times.
 LARGE_ABOVE = 20
-DEFAULT_CASES = Path(__file__).resolve().parent.parent.parent / "shared" / "bench" / "cases"
+#: The paper cases (bench/data/cases, a copy of the team's benchmark set).
+DEFAULT_CASES = Path(__file__).resolve().parent / "data" / "cases"
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:

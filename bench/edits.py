@@ -3,7 +3,7 @@
     python -m bench edits [--cases DIR] [--only NAME ...] [--per-case N]
                           [--via service|solver] [--no-start] [--out DIR]
 
-For each case (default: the shared cases of 8 to 60 rooms), the first layout is
+For each case (default: the cases of bench/data/cases of 8 to 60 rooms), the first layout is
 solved in-process (not timed). Each edit then takes one room with a target and the
 three rooms sharing the longest walls with it as the free rooms, fixes every other
 room at its polygon of the first layout, and scales the free room's target by 0.9
@@ -43,7 +43,7 @@ from shapely.geometry import Polygon
 from floorplan.models import Layout, Problem
 
 ROOT = Path(__file__).resolve().parent.parent
-CASES = ROOT.parent / "shared" / "bench" / "cases"
+CASES = ROOT / "bench" / "data" / "cases"
 #: Cases with fewer rooms cannot fix most of them around four free ones; larger ones
 #: take minutes for their first layout.
 MIN_ROOMS, MAX_ROOMS = 8, 60

@@ -6,10 +6,10 @@ designer would extract from it, so that the optimum of Eq. 12 is known.
 The plan: a rectangle, L, U or T outline on a 5 cm grid; a guillotine subdivision of its
 bounding box into cells; one or two pairs of cells merged into L or T rooms; the whole
 cut to the outline (cells outside drop out, cells across it keep their inside, which
-makes more L rooms: ../shared/bench/planted/ was drawn this way); types by size and
+makes more L rooms: bench/data/planted/ was drawn this way); types by size and
 shape; doors along a spanning tree of the walls the rooms share (at least 0.9 m),
 searched breadth first from the room at the entrance. The brief is extracted as
-../shared/bench/README.md ("Planted briefs") states. All geometry is drawn in integer
+bench/data/README.md ("Planted briefs") states. All geometry is drawn in integer
 grid units and converted to metres (2 decimals) only when the brief is written.
 """
 
@@ -70,7 +70,7 @@ class PlantedRoom:
 
 @dataclass(frozen=True)
 class Truth:
-    """The planted plan, in the shape of ../shared/bench/planted/NAME.truth.json."""
+    """The planted plan, in the shape of bench/data/planted/NAME.truth.json."""
 
     name: str
     seed: int | None
@@ -393,12 +393,12 @@ def load(path: Path) -> tuple[Problem, Truth]:
 
 
 def brief_json(problem: Problem) -> dict[str, Any]:
-    """The brief as the shared files hold it: the fields given, nothing defaulted."""
+    """The brief as the files of bench/data hold it: the fields given, nothing defaulted."""
     return problem.model_dump(mode="json", exclude_unset=True)
 
 
 def write(problem: Problem, truth: Truth, out: Path) -> list[Path]:
-    """NAME.json and NAME.truth.json in `out`, formatted as the shared files are."""
+    """NAME.json and NAME.truth.json in `out`, formatted as the files of bench/data are."""
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / f"{truth.name}.json", out / f"{truth.name}.truth.json"]
     for path, data in zip(paths, (brief_json(problem), truth.to_json()), strict=True):

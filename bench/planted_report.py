@@ -36,7 +36,7 @@ from floorplan.solver import check_layout, layout_objective
 from floorplan.solver.geometry import make_domain
 from floorplan.solver.verify.checker import COVERAGE_GOAL
 
-DEFAULT_BRIEFS = Path(__file__).resolve().parent.parent.parent / "shared" / "bench" / "planted"
+DEFAULT_BRIEFS = Path(__file__).resolve().parent / "data" / "planted"
 #: Columns of each brief's row: the plan, then the solvers ("ours-parallel": ours with
 #: a pool of one process per core, as the service and `floorplan solve` run it).
 COLUMNS = ("plan", "ours", "ours-parallel", "flat")

@@ -19,9 +19,8 @@ from bench.planted_report import (
 )
 from floorplan.models import Problem
 from floorplan.solver import check_layout
-from tests.paths import ROOT
+from tests.paths import PLANTED, PLANTED_COMPLEX
 
-SHARED = ROOT.parent / "shared" / "bench" / "planted"
 SEEDS = range(20)
 
 
@@ -49,7 +48,7 @@ def test_drawn_plan_meets_its_brief(seed: int) -> None:
 
 
 def test_plans_are_cut_from_their_bounding_box_to_the_outline() -> None:
-    # As ../shared/bench/planted was drawn: a cell across the outline keeps its inside,
+    # As bench/data/planted was drawn: a cell across the outline keeps its inside,
     # so some plans have more L rooms than merged pairs (at most two), and some rooms
     # cross the lines between the outline's own rectangles.
     shaped = []
@@ -80,9 +79,9 @@ def test_cli_writes_what_load_reads(tmp_path: Path) -> None:
     assert brief_json(problem) == brief_json(drawn) and truth == planted
 
 
-@pytest.mark.skipif(not SHARED.is_dir(), reason="no ../shared/bench/planted")
-def test_shared_briefs_load_and_their_plans_are_valid() -> None:
-    paths = sorted(SHARED.glob("*.truth.json"))
+@pytest.mark.parametrize("folder", [PLANTED, PLANTED_COMPLEX], ids=lambda p: p.name)
+def test_the_committed_briefs_load_and_their_plans_are_valid(folder: Path) -> None:
+    paths = sorted(folder.glob("*.truth.json"))
     assert len(paths) == 24
     for path in paths:
         problem, truth = load(path)

@@ -130,7 +130,6 @@ def test_automatic_regions_with_or_without_an_entrance() -> None:
     assert not regions_apply(Problem.model_validate(data | {"rooms": _offices(40, seed=2)}))
 
 
-@pytest.mark.skipif(not CASES.is_dir(), reason=f"no benchmark cases at {CASES}")
 def test_planned_bars_tile_the_floor_and_keep_only_the_aisles_needed() -> None:
     # Geometry only (no SCIP): office-154 is a plain 66 x 30 m floor of offices about
     # 3.1 m deep; mall-140 has two 6 x 6 m atria.
@@ -175,7 +174,6 @@ def test_planned_bars_tile_the_floor_and_keep_only_the_aisles_needed() -> None:
         assert beside and all(abs(g.area - g.envelope.area) <= 1e-6 for g in beside)
 
 
-@pytest.mark.skipif(not CASES.is_dir(), reason=f"no benchmark cases at {CASES}")
 @pytest.mark.parametrize("case", ["office-154", "mall-140"])
 def test_large_bench_cases_are_solved_through_regions(case: str) -> None:
     # The bench's large floors (no entrance, no regions) at their default time limit.
