@@ -14,12 +14,15 @@ class Termination(StrEnum):
     """Why the solve stopped."""
 
     OPTIMAL = "optimal"
-    """Every MIQP was solved to optimality (within SCIP's default gap)."""
+    """SCIP proved the returned layout optimal for its model (the whole floor's MIQP,
+    within a relative gap of 1e-3): `Report.bound` and `Report.gap` say how close."""
     TIME_LIMIT = "timelimit"
     """The time limit was reached; the best layout found so far is returned."""
     STALLED = "stalled"
-    """Ended before the time limit: the layout covers the whole floor and the search
-    stopped improving its size error (a local optimum, not a proven one)."""
+    """Ended before the time limit because more time was unlikely to buy anything (the
+    best covering layout stopped improving, `options.stop`), or every stage ended with
+    a layout that no model proved optimal (heuristics, neighbourhoods, refinement levels:
+    a local optimum, not a proven one)."""
     INFEASIBLE = "infeasible"
     """No layout satisfies the hard constraints (see `Report.infeasibility`)."""
     INTERRUPTED = "interrupted"
@@ -216,6 +219,13 @@ class Report(BaseModel):
         description="per room with a target: (W-W*)^2 + (D-D*)^2 of its bounding box (Eq. 6)",
     )
     objective: float | None = None
+    bound: float | None = Field(
+        None, description="SCIP's dual bound on Eq. 12 for the model whose solution the "
+        "layout is (the whole floor's MIQP); null when the layout is not a solution SCIP "
+        "returned for such a model (it came from refinement levels or a heuristic)")
+    gap: float | None = Field(
+        None, description="(objective - bound) / max(|objective|, 1e-9), with `bound`; "
+        "null without it")
     levels: int = 0
     solve_time: float = 0.0
     termination: Termination = Termination.OPTIMAL

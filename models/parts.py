@@ -326,6 +326,13 @@ class Options(_Strict):
         "the report measures Eq. 12 against the brief's own targets (batches turn it on; "
         "issue 23)",
     )
+    stop: Literal["stalled", "limit"] = Field(
+        "stalled", description="when the solve ends: \"stalled\" (default) as soon as more "
+        "time is unlikely to buy anything (SCIP proved the layout optimal, or the best "
+        "covering layout's Eq. 12 has not improved by 0.5 % in a window of 30 % of the time "
+        "spent, at least 0.25 s; docs/method.md, \"When a solve ends\"); \"limit\": use the "
+        "whole time limit. time_limit is a ceiling either way",
+    )
     stop_when_good: bool = Field(
         False, description="stop at the first layout that passes every hard constraint "
         "and covers 99 % of the floor, instead of improving Eq. 12 to the time limit (a "

@@ -23,3 +23,30 @@ def default_time_limit(rooms: int) -> float:
     proportional 0.25 s a room gives more (49 rooms on)."""
     mid = BASE_TIME + PER_MID_ROOM * max(0, min(rooms, MID_TOP) - MID_ROOMS)
     return max(mid, BASE_TIME * rooms / BASE_ROOMS)
+
+
+# When a solve ends (`options.stop: "stalled"`, docs/method.md, "When a solve ends"): the
+# time limit is a ceiling. Once a layout covers the floor, the solve ends when its best
+# Eq. 12 has not improved by `STALL_GAIN` of its value within the last `STALL_SHARE` of
+# the time spent, and never sooner than `STALL_SECONDS` after the last gain: a search that
+# improved at 2 s gets until 2.9 s to improve again (2 / (1 - 0.3) ≈ 2.9), one that
+# improved at 8 s until 11.4 s.
+#: Relative lowering of Eq. 12 that counts as progress (smaller is noise to a user).
+STALL_GAIN = 0.005
+#: Absolute lowering that always counts (m² of Eq. 12), for objectives near zero.
+STALL_GAIN_ABS = 1e-3
+#: Share of the time spent so far that the search may go without progress ...
+STALL_SHARE = 0.3
+#: ... and at least this many seconds.
+STALL_SECONDS = 0.25
+
+
+def stall_window(elapsed: float) -> float:
+    """Seconds without progress after which a solve that has spent `elapsed` seconds
+    ends."""
+    return max(STALL_SECONDS, STALL_SHARE * elapsed)
+
+
+def significant_gain(before: float, after: float) -> bool:
+    """Whether lowering Eq. 12 from `before` to `after` counts as progress."""
+    return before - after > max(STALL_GAIN * abs(before), STALL_GAIN_ABS)

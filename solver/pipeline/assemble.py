@@ -3,6 +3,7 @@ checked report; the report of why there is none; drafts of incumbents for progre
 
 from __future__ import annotations
 
+import time
 from collections.abc import Mapping
 
 import shapely
@@ -30,7 +31,6 @@ from floorplan.solver.geometry import (
     wall_moves,
     walls_moved,
 )
-from floorplan.solver.miqp.scip_run import LevelStatus
 from floorplan.solver.openings import Openings, add_openings
 from floorplan.solver.pipeline.hierarchy import Piece, room_boxes
 from floorplan.solver.pipeline.run import OUTPUT_SNAP, Run
@@ -55,16 +55,44 @@ STRAIGHTEN_COST = 0.02
 STRAIGHTEN_RUNS = 12
 
 
-def termination(run: Run) -> Termination:
+#: A solve that ended this many seconds before its end ended on its own (stalled).
+END_SLACK = 0.05
+#: Two layouts are the same answer when no wall of one lies farther than this (metres)
+#: from the other's: the output's snapping (`OUTPUT_SNAP`) moves walls less.
+SAME_LAYOUT_TOL = 1e-3
+
+
+def termination(run: Run, rooms: Mapping[str, list[Box]]) -> tuple[Termination, float | None]:
+    """Why the solve of the layout `rooms` ended, and SCIP's bound on its Eq. 12 when the
+    layout is SCIP's answer for the whole floor's model: `optimal` only when SCIP proved
+    this very layout optimal; a layout changed after SCIP's last word (refinement levels,
+    heuristics) ended `stalled` when the solve ended before its time limit, else
+    `timelimit`."""
     if run.stopped():
-        return Termination.INTERRUPTED
-    if all(s is LevelStatus.OPTIMAL for s in run.statuses[-1:]) and all(
-        s in (LevelStatus.OPTIMAL, LevelStatus.INFEASIBLE) for s in run.statuses
-    ):
-        return Termination.OPTIMAL
-    if run.stalled and run.remaining() > 0:
-        return Termination.STALLED
-    return Termination.TIME_LIMIT
+        return Termination.INTERRUPTED, None
+    answer, bound = run.scip_answer, None
+    if answer is not None and same_layout(answer.rooms, rooms):
+        if answer.optimal:
+            return Termination.OPTIMAL, answer.bound
+        bound = answer.bound
+    if run.stall_ended or time.monotonic() < run.end - END_SLACK:
+        return Termination.STALLED, bound
+    return Termination.TIME_LIMIT, bound
+
+
+def same_layout(a: Mapping[str, list[Box]], b: Mapping[str, list[Box]]) -> bool:
+    """Whether two layouts have the same rooms of the same rectangles, walls within
+    `SAME_LAYOUT_TOL` (rectangles compared in order of their corners)."""
+    if a.keys() != b.keys():
+        return False
+    for room, boxes in a.items():
+        mine = sorted((r.x0, r.y0, r.x1, r.y1) for r in boxes)
+        theirs = sorted((r.x0, r.y0, r.x1, r.y1) for r in b[room])
+        if len(mine) != len(theirs) or any(
+                abs(p - q) > SAME_LAYOUT_TOL for x, y in zip(mine, theirs, strict=True)
+                for p, q in zip(x, y, strict=True)):
+            return False
+    return True
 
 
 def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> Layout:
@@ -79,7 +107,7 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
     rooms, check = straight_walls(problem, rooms, check)
     out, openings = drawn_rooms(problem, rooms)
     constraints, valid = with_circulation(problem, check, openings)
-    ended, why = termination(run), None
+    (ended, bound), why = termination(run, rooms), None
     if not valid and ended is not Termination.INTERRUPTED:
         # Issue 19: a layout breaking a hard constraint is no answer; it is kept as a
         # diagnostic of how near the search came.
@@ -101,11 +129,15 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
     report = Report(
         coverage=check.coverage, uncovered_area=check.uncovered_area,
         constraints=constraints, size_error=size_errors,
-        objective=objective, levels=levels, solve_time=run.elapsed(),
+        objective=objective, bound=bound, gap=_gap(objective, bound), levels=levels,
+        solve_time=run.elapsed(),
         termination=ended, valid=valid, infeasibility=why, circulation=openings.circulation,
         relaxation=run.window, extra_rectangles=run.extra,
         violations=violations, total_shortfall=round(shortfall, 6),
     )
+    if not same_layout(run.announced or {}, rooms):
+        # The last incumbent announced is the layout returned.
+        run.emit(Phase.INCUMBENT, rooms=rooms, objective=objective, dual_bound=bound)
     run.emit(Phase.DONE, objective=objective, detail=f"coverage {check.coverage:.1%}")
     return Layout(name=problem.name, rooms=out, doors=openings.doors, windows=openings.windows,
                   report=report)
@@ -283,3 +315,10 @@ def no_layout(run: Run, termination: Termination, why: Infeasibility) -> Layout:
                     infeasibility=why, solve_time=run.elapsed())
     run.emit(Phase.DONE, detail=why.reason)
     return Layout(name=run.problem.name, report=report)
+
+
+def _gap(objective: float | None, bound: float | None) -> float | None:
+    """The relative gap between the layout's Eq. 12 and SCIP's bound on it."""
+    if objective is None or bound is None:
+        return None
+    return max(objective - bound, 0.0) / max(abs(objective), 1e-9)

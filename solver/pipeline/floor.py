@@ -25,7 +25,7 @@ from floorplan.solver.heuristics.variety import (
     diverse_problem,
 )
 from floorplan.solver.openings import connection_demands
-from floorplan.solver.pipeline.assemble import explained, final_layout, no_layout
+from floorplan.solver.pipeline.assemble import explained, final_layout, no_layout, same_layout
 from floorplan.solver.pipeline.first_layout import (
     GUILLOTINE,
     awaited,
@@ -132,7 +132,8 @@ def solve_floor(
             pieces = better_start(run, domain, pieces, other)
     elif (candidate is None or candidate.pieces is None) and (
             failure is None or failure.report.termination is not Termination.INFEASIBLE
-    ) and not (good is not None and problem.options.diverse):
+    ) and not (good is not None and problem.options.diverse) and not _settled(
+            run, domain, pieces):
         # (Not for a batch's layout, which stops when good: when level 1 gave none,
         # another draw of level 1 (`_redrawn`) gives one sooner than this search.)
         candidate = guillotine_here(run, domain)
@@ -148,6 +149,10 @@ def solve_floor(
         # Stopped when good: that layout, not whatever SCIP reported after it.
         pieces = as_pieces(good.rooms)
         return final_layout(run, domain, pieces, 1)
+    if _settled(run, domain, pieces):
+        # SCIP proved the whole floor's MIQP optimal and its layout covers the floor: the
+        # gap is closed, so the solve ends here, as the paper's does.
+        return final_layout(run, domain, better_final(run, domain, pieces, candidate), 1)
     pieces, levels = _refined(run, domain, pieces, subdomains,
                               end - SHORT_RESHAPE_SHARE * reshaping)
     pieces = run.better_of(domain, pieces)
@@ -228,6 +233,18 @@ def _slid(run: Run, domain: Domain, pieces: list[Piece]) -> list[Piece]:
         run.incumbent(domain, room_boxes(better))
         pieces = better
     return pieces
+
+
+def _settled(run: Run, domain: Domain, pieces: list[Piece] | None) -> bool:
+    """Whether `pieces` are SCIP's proven optimum of the whole floor's MIQP and cover
+    the floor, with `options.stop` "stalled": no stage after level 1 can lower Eq. 12
+    within the model, so none runs."""
+    answer = run.scip_answer
+    if pieces is None or answer is None or not answer.optimal or (
+            run.problem.options.stop != "stalled"):
+        return False
+    rooms = room_boxes(pieces)
+    return same_layout(answer.rooms, rooms) and covers(domain, rooms)
 
 
 def _stop_when_good(good: GoodEnough, on_event: EventSink | None,

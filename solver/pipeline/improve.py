@@ -22,9 +22,9 @@ from floorplan.solver.heuristics.neighbourhood import (
 from floorplan.solver.heuristics.variety import pull_at_random
 from floorplan.solver.miqp.formulation import build_level
 from floorplan.solver.miqp.model import LevelModel
-from floorplan.solver.miqp.scip_run import Incumbent, complete_start
+from floorplan.solver.miqp.scip_run import Incumbent, LevelStatus, complete_start
 from floorplan.solver.pipeline.hierarchy import absorbed
-from floorplan.solver.pipeline.run import Run, covered, goal_area
+from floorplan.solver.pipeline.run import Run, ScipAnswer, covered, goal_area
 
 #: Share of the neighbourhood search spent with coverage weighted first.
 COVERAGE_PHASE_SHARE = 0.85
@@ -117,7 +117,14 @@ def improve_level_one(
             run.incumbent(domain, run.by_room(domain, inc.rects), inc.dual_bound)
 
         direct = run.run(lm, deadline - time.monotonic(), on_incumbent=announce)
-        return direct.rects if direct.rects is not None else start.rects
+        if direct.rects is None:
+            return start.rects
+        # The whole floor's MIQP under the user's bounds: what SCIP says of its answer
+        # is what the report may say, if this layout is the one returned.
+        run.scip_answer = ScipAnswer(run.by_room(domain, direct.rects),
+                                     direct.status is LevelStatus.OPTIMAL,
+                                     _eq12_bound(run, lm, direct.dual_bound))
+        return direct.rects
     def improved(rects: dict[str, Box]) -> None:
         run.incumbent(domain, run.by_room(domain, rects))
 
@@ -136,7 +143,7 @@ def improve_level_one(
     best = search_neighbourhoods(
         lm.spec, rects, domain,
         deadline=deadline, rng=rng,
-        step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
+        step=lambda model, limit: run.run(model, limit), should_stop=run.ending,
         keep_coverage=True, patience=STALL_STEPS if covers else None,
         on_improvement=improved,
     )
@@ -167,7 +174,7 @@ def _coverage_passes(
         # gaps absorbed, meets the coverage goal, or when it stalls.
         grown = search_neighbourhoods(
             coverage_first(lm.spec), rects, domain, deadline=middle, rng=rng,
-            step=lambda model, limit: run.run(model, limit), should_stop=run.should_stop,
+            step=lambda model, limit: run.run(model, limit), should_stop=run.ending,
             on_improvement=improved, good_enough=good_enough, patience=COVER_PATIENCE,
             stall_seconds=stall,
         )
@@ -192,3 +199,16 @@ def _coverage_passes(
         lm, rects = widened
         wings += 1
     return lm, rects, steps, improvements
+
+
+def _eq12_bound(run: Run, lm: LevelModel, dual_bound: float | None) -> float | None:
+    """SCIP's dual bound of the level-1 model as a bound on Eq. 12: the model's
+    objective (`spec.level_objective`) is Eq. 12 itself when every room has a target and
+    is one rectangle, and nothing is added (growth term, priced slacks, sizes drawn at
+    random); otherwise None."""
+    spec = lm.spec
+    if (dual_bound is None or spec.growth_weight or run.soft or run.problem.options.diverse
+            or lm.slacks or run.wings
+            or any(room.target_size is None for room in run.problem.rooms)):
+        return None
+    return max(dual_bound, 0.0)

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import shapely
 
 from floorplan.models import ExtraRectangles, Problem
+from floorplan.solver.budget import significant_gain, stall_window
 from floorplan.solver.events import EventSink, Phase, SolveEvent
 from floorplan.solver.geometry import (
     Box,
@@ -40,6 +41,17 @@ KEPT_BESTS = 8
 #: Share of the floor a layout must cover beyond the checker's goal to count as
 #: covering while solving.
 COVER_MARGIN = 5e-4
+
+
+@dataclass(frozen=True)
+class ScipAnswer:
+    """The best solution SCIP returned for a model of the whole floor (level 1, one
+    rectangle per room and its wings), as rooms, with whether SCIP proved it optimal and
+    its dual bound on Eq. 12: what the report may claim when this is the layout returned."""
+
+    rooms: dict[str, list[Box]]
+    optimal: bool
+    bound: float | None
 
 
 @dataclass
@@ -76,6 +88,16 @@ class Run:
     #: one) last, at most `KEPT_BESTS`: the answer falls back on the newest that passes
     #: the checker.
     bests: list[dict[str, list[Box]]] = field(default_factory=list)
+    #: When the best covering incumbent last improved by a significant share
+    #: (`solver.budget.significant_gain`); None before the first covering one.
+    last_gain: float | None = None
+    #: The solve ended because it stalled (`options.stop`: "stalled"): the stall rule
+    #: fired once, and every stage since has ended at once.
+    stall_ended: bool = False
+    #: The last whole-floor MIQP's answer, if any (`ScipAnswer`).
+    scip_answer: ScipAnswer | None = None
+    #: The rooms of the last incumbent announced (gaps absorbed), if any.
+    announced: dict[str, list[Box]] | None = None
 
     def room_of(self, rect: str) -> str:
         """The room a level-1 rectangle belongs to."""
@@ -116,7 +138,26 @@ class Run:
         return time.monotonic() - self.started
 
     def stopped(self) -> bool:
+        """The user (or a stop-when-good rule) asked the solve to stop."""
         return self.should_stop is not None and self.should_stop()
+
+    def stalled_now(self) -> bool:
+        """More time is unlikely to buy anything: the best covering layout has not
+        improved significantly within the stall window (`solver.budget.stall_window`).
+        Never with `options.stop: "limit"`, nor before a covering layout exists. Once
+        true, stays true."""
+        if self.stall_ended:
+            return True
+        if self.last_gain is None or self.problem.options.stop != "stalled":
+            return False
+        now = time.monotonic()
+        self.stall_ended = now - self.last_gain > stall_window(now - self.started)
+        return self.stall_ended
+
+    def ending(self) -> bool:
+        """Whether an improving stage should end now: stopped, or stalled. Stages that
+        only improve a covering layout take this as their `should_stop`."""
+        return self.stopped() or self.stalled_now()
 
     def emit(self, phase: Phase, **kw: object) -> None:
         if self.on_event is not None:
@@ -132,9 +173,13 @@ class Run:
         objective = layout_objective(self.problem, domain, rooms, soft=self.soft)
         if covers(domain, rooms) and (self.best_objective is None
                                       or objective < self.best_objective):
+            if self.best_objective is None or significant_gain(self.best_objective,
+                                                               objective):
+                self.last_gain = time.monotonic()
             self.best_objective = objective
             self.bests = [*self.bests[1 - KEPT_BESTS:], rooms]
         if self.on_event is not None:
+            self.announced = rooms
             self.emit(Phase.INCUMBENT, subdomain=sub, subdomains=subs, rooms=rooms,
                       objective=objective, dual_bound=dual_bound)
 
@@ -163,7 +208,7 @@ class Run:
     def run(self, lm: LevelModel, limit: float, *,
             on_incumbent: Callable[[Incumbent], None] | None = None) -> LevelResult:
         result = run_level(lm, time_limit=limit, seed=self.problem.options.seed,
-                           on_incumbent=on_incumbent, should_stop=self.should_stop)
+                           on_incumbent=on_incumbent, should_stop=self.ending)
         self.statuses.append(result.status)
         return result
 
