@@ -7,6 +7,7 @@ import random
 import time
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 
+from floorplan.solver.budget import significant_gain
 from floorplan.solver.events import Phase
 from floorplan.solver.geometry import Box, Domain, domain_lines, snap_rooms
 from floorplan.solver.heuristics.reshape import reshape
@@ -62,9 +63,18 @@ def refine(
     # Planning a sub-domain costs Python time in proportion to the rooms: do not
     # start one that cannot finish.
     overhead = 0.05 + PLAN_SECONDS_PER_ROOM * len(problem.rooms)
+    run.begin_stage()
+    before: float | None = None  # Eq. 12 before the last level
     for level in range(after + 1, last + 1):
-        if run.remaining() <= overhead or run.stopped():
+        if run.remaining() <= overhead or run.ending():
             break
+        objective = layout_objective(problem, domain, room_boxes(pieces), soft=run.soft)
+        if before is not None and problem.options.stop == "stalled" and not significant_gain(
+                before, objective):
+            # The last level lowered nothing: the next would select the same sub-domains
+            # and re-solve them to the same optimum.
+            break
+        before = objective
         subs = select_subdomains(problem, domain, pieces)
         if not subs:
             break
@@ -75,7 +85,7 @@ def refine(
         if subdomains is not None and len(subs) > 1:
             level_seconds = run.remaining() / levels_left
             for batch in _disjoint_batches(subs):
-                if run.remaining() <= overhead or run.stopped():
+                if run.remaining() <= overhead or run.ending():
                     break
                 # Planned from the layout as the previous batch left it.
                 plans = [(i, plan_refinement(problem, domain, pieces, sub, level=level,
@@ -85,7 +95,7 @@ def refine(
                                          subdomains)
             continue
         for i, sub in enumerate(subs):
-            if run.remaining() <= overhead or run.stopped():
+            if run.remaining() <= overhead or run.ending():
                 break
             budget = run.remaining() / levels_left / (len(subs) - i)
             plan = plan_refinement(problem, domain, pieces, sub, level=level, index=i, rng=rng)
@@ -136,7 +146,7 @@ def _refine_at_once(
         for i, plan in plans}
     outcomes: dict[int, SubdomainOutcome] = {}
     pending = set(futures)
-    while pending and not run.stopped() and time.time() < deadline + LATE_SECONDS:
+    while pending and not run.ending() and time.time() < deadline + LATE_SECONDS:
         done, pending = wait(pending, timeout=0.1, return_when=FIRST_COMPLETED)
         for future in done:
             try:
@@ -171,7 +181,8 @@ def reshaped(run: Run, domain: Domain, pieces: list[Piece], deadline: float) -> 
     gives back floor and a neighbour becomes an L or a T, and whole walls slide
     (`reshaping_stages`). Kept only when the result is valid, covers, and lowers Eq. 12, or
     covers where the layout did not."""
-    if deadline <= time.monotonic() or run.stopped():
+    run.begin_stage()
+    if deadline <= time.monotonic() or run.ending():
         return pieces
     # Walls SCIP placed 1e-7 apart made one, as the output will have them.
     rooms = snap_rooms(room_boxes(pieces), *domain_lines(run.problem), OUTPUT_SNAP)
@@ -197,7 +208,7 @@ def reshaping_stages(run: Run, domain: Domain, rooms: dict[str, list[Box]],
     then the annealing and a slide, twice (`RESHAPE_SCHEDULE`), the second annealing
     from the slid layout under another seed: the annealing cannot chain what a slide
     does, and after a slide it starts somewhere new."""
-    problem, stop = run.problem, run.should_stop
+    problem, stop = run.problem, run.ending
     stages: list[dict[str, list[Box]]] = []
     if short:
         now = time.monotonic()
@@ -207,7 +218,7 @@ def reshaping_stages(run: Run, domain: Domain, rooms: dict[str, list[Box]],
             stages.append(rooms := closed)
     now = time.monotonic()
     for k, (step, until) in enumerate(RESHAPE_SCHEDULE):
-        if time.monotonic() >= deadline or run.stopped():
+        if time.monotonic() >= deadline or run.ending():
             break
         end = now + until * (deadline - now)
         if step == "anneal":

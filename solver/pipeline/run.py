@@ -91,9 +91,11 @@ class Run:
     #: When the best covering incumbent last improved by a significant share
     #: (`solver.budget.significant_gain`); None before the first covering one.
     last_gain: float | None = None
-    #: The solve ended because it stalled (`options.stop`: "stalled"): the stall rule
-    #: fired once, and every stage since has ended at once.
-    stall_ended: bool = False
+    #: The current stage stalled (`options.stop`: "stalled"): it ends, and the next
+    #: stage starts its own window (`begin_stage`).
+    stage_stalled: bool = False
+    #: Stages that ended because they stalled.
+    stalls: int = 0
     #: The last whole-floor MIQP's answer, if any (`ScipAnswer`).
     scip_answer: ScipAnswer | None = None
     #: The rooms of the last incumbent announced (gaps absorbed), if any.
@@ -145,14 +147,31 @@ class Run:
         """More time is unlikely to buy anything: the best covering layout has not
         improved significantly within the stall window (`solver.budget.stall_window`).
         Never with `options.stop: "limit"`, nor before a covering layout exists. Once
-        true, stays true."""
-        if self.stall_ended:
+        true, stays true until the next stage begins."""
+        if self.stage_stalled:
             return True
         if self.last_gain is None or self.problem.options.stop != "stalled":
             return False
         now = time.monotonic()
-        self.stall_ended = now - self.last_gain > stall_window(now - self.started)
-        return self.stall_ended
+        if now - self.last_gain > stall_window(now - self.started):
+            self.stage_stalled = True
+            self.stalls += 1
+        return self.stage_stalled
+
+    def begin_stage(self) -> None:
+        """A stage of the portfolio (the level-1 search, the refinement levels, the
+        reshaping) starts: it has its own stall window from now, since another method
+        may gain where the last one stalled. Before a covering layout exists there is
+        nothing to stall on."""
+        self.stage_stalled = False
+        if self.last_gain is not None:
+            self.last_gain = time.monotonic()
+
+    def note_progress(self) -> None:
+        """A stage's own measure improved significantly (the reshaping lowers a cost of
+        its own before it hands back a layout): its stall window starts again."""
+        if self.last_gain is not None and not self.stage_stalled:
+            self.last_gain = time.monotonic()
 
     def ending(self) -> bool:
         """Whether an improving stage should end now: stopped, or stalled. Stages that
