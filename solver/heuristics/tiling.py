@@ -1,4 +1,5 @@
-"""Exact tilings of a floor by its rooms' target rectangles (issue 19), as slicing trees.
+"""Exact tilings of a floor by its rooms' target rectangles, as slicing trees
+(docs/method.md, "Whole layouts by guillotine cuts", step 1).
 
 A brief extracted from a real plan gives each rectangular room its exact width and
 depth (its bounding box), and an L or T room its bounding box only. Such a plan is
@@ -177,7 +178,8 @@ class _Search:
         self.notches = (None if notches is None or not self.shaped else
                         (notches[0] * 1e4 - slack, notches[1] * 1e4 + slack))
         # Two fillers of open sides in one row would leave two unknowns on one side (a
-        # T-shaped outline's two corners, planted-07-6838): a filler spanning a part
+        # T-shaped outline's two corners; bench/NOTES.md, "Fillers with a known side,
+        # one probe"): a filler spanning a part
         # outside the outline may enter with that part's side known. Not beside Ls:
         # their open sides make the search far slower there.
         self.filler_sides = sorted({(axis, _cm(side)) for part in filler_parts

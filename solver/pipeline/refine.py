@@ -166,11 +166,11 @@ def _refine_at_once(
 
 
 def reshaped(run: Run, domain: Domain, pieces: list[Piece], deadline: float) -> list[Piece]:
-    """The size-error trigger of Sec. 5.3 carried to its end (issue 19): strips of
-    floor move between neighbouring rooms, so a room the first layout had to stretch
-    gives back floor and a neighbour becomes an L or a T, and whole walls slide
-    (`reshaping_stages`). Kept only when the result is valid, covers, and lowers Eq. 12, or
-    covers where the layout did not."""
+    """The size-error trigger of Sec. 5.3 carried to its end (docs/method.md, "The
+    steps", step 6): strips of floor move between neighbouring rooms, so a room the
+    first layout had to stretch gives back floor and a neighbour becomes an L or a T,
+    and whole walls slide (`reshaping_stages`). Kept only when the result is valid,
+    covers, and lowers Eq. 12, or covers where the layout did not."""
     if deadline <= time.monotonic() or run.stopped():
         return pieces
     # Walls SCIP placed 1e-7 apart made one, as the output will have them.
