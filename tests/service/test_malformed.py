@@ -1,6 +1,6 @@
-"""Issue 20, 10: every malformed header, cursor, body and number is a 4xx problem
-document (RFC 9457), never a 500; replayed against a real `floorplan serve` on loopback,
-then fuzzed over the OpenAPI schema with invalid headers and query strings included."""
+"""Every malformed header, cursor, body and number is a 4xx problem document (RFC 9457),
+never a 500; replayed against a real `floorplan serve` on loopback, then fuzzed over the
+OpenAPI schema with invalid headers and query strings included."""
 
 from __future__ import annotations
 
