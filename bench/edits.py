@@ -54,7 +54,7 @@ NEIGHBOURS = 3
 FACTORS = (0.9, 1.1)
 #: How far (m) a fixed room's polygon may lie from the one asked.
 KEPT_TOLERANCE = 1e-4
-#: The issue's bound on an edit's round trip (seconds).
+#: The bound an edit's round trip should keep (seconds): an edit is interactive.
 ROUND_TRIP_GOAL = 1.5
 POLL_SECONDS = 0.01
 DEFAULT_OUT = ROOT / "bench" / "results" / "edits"

@@ -24,11 +24,11 @@ pytestmark = pytest.mark.slow
 QUIET = {"WORKERS": "1", "FLOORPLAN_SUBDOMAIN_PROCESSES": "1"}
 #: Seconds /healthz may wait while large bodies are validated (it once waited 15 s).
 #: The validation runs in worker threads, but one pydantic-core call holds the GIL while
-#: it runs, so /healthz waits for the longest one: about 0.5 s for the issue's body on a
+#: it runs, so /healthz waits for the longest one: about 0.5 s for `big_body` on a
 #: typical machine, up to 1.4 s on a slow one. Within 0.2 s would need the parsing in a
 #: process of its own (as explain has).
 HEALTHZ_WITHIN = 2.0
-#: The issue's body within the limits: it is validated, it is not refused.
+#: `big_body` within the limits: it is validated, it is not refused.
 ROOMY = {"FLOORPLAN_MAX_VERTICES": "1000", "FLOORPLAN_MAX_REGIONS": "100000"}
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 JSON = {"Content-Type": "application/json"}
@@ -43,8 +43,8 @@ def staircase(steps: int = 499) -> list[list[int]]:
 
 
 def big_body() -> bytes:
-    """The issue's body: 20,000 regions on a 1,000-vertex outline, about 700 KB; it took
-    15 s to validate, on the event loop."""
+    """The body the security review sent: 20,000 regions on a 1,000-vertex outline,
+    about 700 KB; it took 15 s to validate, on the event loop."""
     return json.dumps({
         "boundary": staircase(), "rooms": [{"id": "r0"}],
         "regions": [{"id": f"g{i}", "rooms": ["r0"]} for i in range(20000)],
@@ -66,7 +66,7 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
 
 @pytest.fixture(scope="module")
 def roomy(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    """Limits the issue's body fits in."""
+    """Limits `big_body` fits in."""
     running = Server(tmp_path_factory.mktemp("roomy"), **QUIET, **ROOMY).start()
     yield running
     running.stop()

@@ -517,7 +517,7 @@ def test_the_allowed_hosts_are_a_setting(tmp_path: Path) -> None:
 
 @pytest.fixture
 def small_disk(tmp_path: Path) -> Iterator[Path]:
-    """An 8 MB tmpfs: the issue used 3 MB (root is needed to mount it)."""
+    """An 8 MB tmpfs: the finding was made with 3 MB (root is needed to mount it)."""
     import subprocess
 
     mount = tmp_path / "data"
