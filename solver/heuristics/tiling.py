@@ -32,9 +32,10 @@ VERTICAL, HORIZONTAL = -1, -2
 #: Sides within this (m) match: briefs give sides to the centimetre.
 TOL = 0.011
 #: The part of an L room is at least this wide (m). The plans hold Ls with arms of 5-45
-#: cm (27 of 56 planted plans measured, bench/NOTES.md): a tiling must be able to have
-#: them; the annealing then decides (solver/heuristics/guillotine.py keeps what the
-#: outline cut thin and widens the rest).
+#: cm (27 of 56 planted plans measured; bench/NOTES.md, "Thin strips: the plans have
+#: them, the annealing refused them"): a tiling must be able to have them; the
+#: annealing then decides (solver/heuristics/guillotine.py keeps what the outline cut
+#: thin and widens the rest).
 MIN_PART = 0.05
 #: Nodes of the search per guess of which rooms are Ls in the first round (each round
 #: gives the guesses not yet searched through four times more), and in all.

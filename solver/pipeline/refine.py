@@ -39,7 +39,8 @@ from floorplan.solver.verify.checker import check_layout
 #: milliseconds on most floors of a dozen rooms), the annealing again from the slid
 #: layout, and a last slide. 94 planted briefs, two runs each: 83-84 within 2x the
 #: plan's area error, against 80-81 for one annealing and a slide and 79 for two
-#: rounds with equal time (bench/NOTES.md).
+#: rounds with equal time (bench/NOTES.md, "Whole walls slid, and the reshaping in two
+#: rounds").
 RESHAPE_SCHEDULE = (("anneal", 0.55), ("slide", 0.65), ("anneal", 0.9), ("slide", 1.0))
 #: Share of the reshaping's time a layout short of the coverage goal gives sliding walls
 #: first, to close its gaps (the annealing prices them at lambda_cover only).
