@@ -1,4 +1,4 @@
-"""Layouts per second of a batch (issue 23): ``python -m bench batch``.
+"""Layouts per second of a batch: ``python -m bench batch`` (bench/README.md, "Batches").
 
     python -m bench batch [--count N] [--processes P] [--out FILE] [--table FILE] [BRIEF ...]
 

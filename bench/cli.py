@@ -1,4 +1,4 @@
-"""The command line of the benchmark harness (issue 7).
+"""The command line of the benchmark harness (bench/NOTES.md, "Running it").
 
     python -m bench [--cases DIR] [--repeat N] [--repeat-large N] [--out DIR]
                     [--only NAME ...] [--solvers ours,flat,anneal] [--flat-limit S]
@@ -83,11 +83,11 @@ def load_cases(directory: Path, only: list[str] | None) -> dict[str, Problem]:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
-    if argv[:1] == ["planted"]:  # the gap to planted plans (issue 19): its own report
+    if argv[:1] == ["planted"]:  # the gap to planted plans: its own report
         return planted_main(argv[1:])
-    if argv[:1] == ["batch"]:  # layouts per second of a batch (issue 23)
+    if argv[:1] == ["batch"]:  # layouts per second of a batch
         return batch_main(argv[1:])
-    if argv[:1] == ["edits"]:  # edits around fixed rooms (issue 21)
+    if argv[:1] == ["edits"]:  # edits around fixed rooms
         return edits_main(argv[1:])
     args = parse_args(argv)
     if args.report_only:

@@ -1,4 +1,5 @@
-"""Edits around fixed rooms (issue 21): ``python -m bench edits``.
+"""Edits around fixed rooms: ``python -m bench edits`` (bench/NOTES.md, "Edits around
+fixed rooms").
 
     python -m bench edits [--cases DIR] [--only NAME ...] [--per-case N]
                           [--via service|solver] [--no-start] [--out DIR]
@@ -53,7 +54,7 @@ NEIGHBOURS = 3
 FACTORS = (0.9, 1.1)
 #: How far (m) a fixed room's polygon may lie from the one asked.
 KEPT_TOLERANCE = 1e-4
-#: The issue's bound on an edit's round trip (seconds).
+#: The bound an edit's round trip should keep (seconds): an edit is interactive.
 ROUND_TRIP_GOAL = 1.5
 POLL_SECONDS = 0.01
 DEFAULT_OUT = ROOT / "bench" / "results" / "edits"
@@ -242,7 +243,7 @@ def summary(records: list[EditRecord]) -> dict[str, Any]:
 def markdown(settings: dict[str, Any], records: list[EditRecord]) -> str:
     s = summary(records)
     lines = [
-        "# Edits around fixed rooms (issue 21)", "",
+        "# Edits around fixed rooms", "",
         f"`python -m bench edits` via {settings['via']}, start "
         f"{'given' if settings['start'] else 'not given'}, {settings['machine']}.", "",
         f"{s['edits']} edits: median round trip {s['median_seconds']:.3f} s, max "
@@ -274,7 +275,7 @@ def load_cases(directory: Path, only: list[str] | None) -> dict[str, Problem]:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m bench edits", description=(
         "Edits of first layouts around fixed rooms: round-trip time, validity and "
-        "fixed rooms kept (issue 21)."))
+        "fixed rooms kept."))
     p.add_argument("--cases", type=Path, default=CASES)
     p.add_argument("--only", nargs="+", default=None, metavar="NAME")
     p.add_argument("--per-case", type=int, default=5, help="edits per case")

@@ -1,5 +1,6 @@
-"""Planted briefs (issue 19): a random flat-like plan drawn for a seed, and the brief a
-designer would extract from it, so that the optimum of Eq. 12 is known.
+"""Planted briefs (bench/README.md, "Planted briefs"): a random flat-like plan drawn for
+a seed, and the brief a designer would extract from it, so that the optimum of Eq. 12 is
+known.
 
     python -m bench.planted --seed S [S ...] [--rooms N] --out DIR
 

@@ -1,18 +1,19 @@
-"""The gap to a known optimum (issue 19, part 1): our solver and the flat model on
-planted briefs (bench/planted.py), each layout measured as the planted plan is.
+"""The gap to a known optimum (bench/README.md, "Planted briefs"): our solver and the
+flat model on planted briefs (bench/planted.py), each layout measured as the planted
+plan is.
 
     python -m bench.planted_report [--briefs DIR ...] [--seeds 2001-2012] \\
         [--solvers ours,flat] [--repeat 1] [--flat-limit 10] [--out bench/results/planted]
     python -m bench.planted_report --report-only [--out DIR]
 
 Per brief and solver (one run each, at the seed in the brief's options; with --repeat N,
-N runs at that seed and the N - 1 after it, the row then holding their medians, as
-issue 19's done-criteria count them, and the runs themselves under "runs"): valid (the
-checker passes the final layout and it covers >= 99 %, as in bench/evaluate.py),
-coverage, mean room-area error (mean over rooms of |area - target area| / target area,
-the target area being target_size[0] x target_size[1]) and Eq. 12; the same for the
-plan itself. A layout is *within 2x* when it is valid and its area error is at most
-twice the plan's own.
+N runs at that seed and the N - 1 after it, the row then holding their medians, as the
+planted goals are counted (bench/README.md, "Planted briefs"), and the runs themselves
+under "runs"): valid (the checker passes the final layout and it covers >= 99 %, as in
+bench/evaluate.py), coverage, mean room-area error (mean over rooms of |area - target
+area| / target area, the target area being target_size[0] x target_size[1]) and Eq. 12;
+the same for the plan itself. A layout is *within 2x* when it is valid and its area
+error is at most twice the plan's own.
 """
 
 from __future__ import annotations

@@ -171,7 +171,7 @@ def format_number(value: float) -> str:
     return f"{value:.3g}" if abs(value) >= 1e6 else f"{round(value, 2) + 0.0:.2f}"
 
 
-# Batches (issue 23): many layouts of one brief, each its own job.
+# Batches: many layouts of one brief, each its own job (docs/service.md, "Endpoints").
 
 #: Most layouts one batch may ask for.
 MAX_BATCH_COUNT = 10_000

@@ -1,6 +1,6 @@
-"""A programme drawn at random from a templated brief (issue 23, ``--vary program``):
-room counts and sizes vary from seed to seed within what the template allows, so a
-batch of one brief gives flats of different programmes.
+"""A programme drawn at random from a templated brief (``--vary program``; docs/cli.md,
+"floorplan batch"): room counts and sizes vary from seed to seed within what the
+template allows, so a batch of one brief gives flats of different programmes.
 
 From the brief's rooms, a room given as a bare type (``"bedroom"``, not an object the
 user pinned down) whose type is in `OPTIONAL_TYPES` is left out with probability

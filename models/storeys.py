@@ -1,5 +1,5 @@
-"""Buildings of several storeys (issue 5, paper Fig. 11): how a `Problem` with `floors`
-is read, and its validation.
+"""Buildings of several storeys (paper Fig. 11; docs/problem.md, "Several storeys"): how a
+`Problem` with `floors` is read, and its validation.
 
 Each floor is an ordinary single-floor problem: its own rooms plus the vertical rooms
 spanning it, laid out in its own outline (the top-level one unless it has its own).

@@ -1,7 +1,8 @@
-"""Batches (issue 23): one brief laid out under many seeds. What the `floorplan batch`
-command and the service's batches share: the task of one layout (`LayoutTask`, run by
-`lay_out` in whatever process), the row a finished layout leaves in the summary
-(`LayoutRow`), and the summary itself (`BatchSummary`: counts, rate, distinct plans).
+"""Batches (docs/cli.md, "floorplan batch"): one brief laid out under many seeds. What
+the `floorplan batch` command and the service's batches share: the task of one layout
+(`LayoutTask`, run by `lay_out` in whatever process), the row a finished layout leaves
+in the summary (`LayoutRow`), and the summary itself (`BatchSummary`: counts, rate,
+distinct plans).
 
 Every layout of a batch is solved with ``options.diverse`` (the seed draws the sizes
 aimed at and the arrangement leaned to: solver/heuristics/variety.py) and
@@ -30,7 +31,7 @@ if TYPE_CHECKING:
 
 #: A batch's layouts get this per-layout time limit by default, seconds per room (and at
 #: least `BATCH_MIN_SECONDS`): a batch is many plans, each good rather than the best.
-#: Measured on apartment-5 in bench/README.md (issue 23).
+#: Measured in bench/README.md, "Batches".
 BATCH_SECONDS_PER_ROOM = 0.4
 BATCH_MIN_SECONDS = 1.0
 #: A layout still running this long after its time limit (times `HARD_LIMIT_FACTOR`,
@@ -46,7 +47,7 @@ REFERENCE_LAYOUTS = 4
 #: seed aims at its own drawn sizes (options.diverse), so the brief's Eq. 12 of a plan
 #: says how far the seed's draw is from the brief's targets, not how well it was
 #: solved, and solving on brings the plans back toward the brief's one optimum
-#: (measured, issue 23: bench/README.md#batches).
+#: (measured: bench/README.md, "Batches").
 DEFAULT_TOLERANCE = math.inf
 #: A layout that is not good (valid, covering `GOOD_COVERAGE`) is laid out again under
 #: another draw of sizes, at most this many times; the better of the tries is kept.
@@ -172,7 +173,7 @@ def task_problem(task: LayoutTask, seed: int | None = None) -> Problem:
 
 
 def job_problem(task: LayoutTask) -> Problem:
-    """The problem of a batch's layout run as a job of the service (issue 23):
+    """The problem of a batch's layout run as a job of the service:
     `task_problem`, laid out again whole under another draw by the solver itself when it
     ends without a good layout (`options.redraws` = `REDRAWS`, what `lay_out` does
     between solves for `floorplan batch`), its time limit the draws' total. A brief

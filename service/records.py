@@ -32,7 +32,7 @@ class Job:
     updated_at: float
     worker: str | None = None
     heartbeat_at: float | None = None
-    #: The batch the job is a layout of (issue 23), if any.
+    #: The batch the job is a layout of, if any.
     batch_id: str | None = None
 
 
@@ -47,7 +47,7 @@ class Event:
 
 @dataclass(frozen=True)
 class Batch:
-    """A batch of layouts (issue 23): its jobs name it in their `batch_id`."""
+    """A batch of layouts: its jobs name it in their `batch_id`."""
 
     id: str
     owner: str

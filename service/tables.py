@@ -41,8 +41,8 @@ jobs = Table(
     Column("worker", String(200)),
     Column("heartbeat_at", Float),
     Column("dispatched_at", Float),
-    # Issue 23: a job that is one layout of a batch, and its place in the batch (its
-    # seed is the batch's seed plus this).
+    # A job that is one layout of a batch, and its place in the batch (its seed is the
+    # batch's seed plus this).
     Column("batch_id", String(36), index=True),
     Column("batch_index", Integer),
     # A retried POST finds the job its Idempotency-Key made; concurrent ones that all
@@ -59,7 +59,7 @@ events = Table(
     Column("created_at", Float, nullable=False),
 )
 
-# Issue 23: a batch is ordinary jobs (jobs.batch_id), made in one transaction with it.
+# A batch is ordinary jobs (jobs.batch_id), made in one transaction with it.
 batches = Table(
     "batches", metadata,
     Column("id", String(36), primary_key=True),

@@ -12,7 +12,8 @@ BASE_ROOMS = 20
 #: swapped, and time for a dozen rooms"). 1.2 s rather than 0.6 s a room: on a 2-core
 #: Xeon about half as fast as the EPYC the first figure was measured on, 86 planted
 #: briefs gave 77-78 valid and covering and 61-65 within 2x their plan's area error,
-#: and 80 and 68 with the extra time (bench/NOTES.md, "Time for a dozen rooms, again").
+#: and 80 and 68 with the extra time (bench/NOTES.md, "A notch wall held from one side
+#: only; time for a dozen rooms, again").
 MID_ROOMS = 8
 PER_MID_ROOM = 1.2
 MID_TOP = 14

@@ -1,5 +1,5 @@
-"""How many different plans a batch holds (issue 23): plans compared as pictures, and
-their adjacency graphs.
+"""How many different plans a batch holds (docs/cli.md, "floorplan batch"): plans
+compared as pictures, and their adjacency graphs.
 
 Two plans are the same when at most `SAME_PLAN_SHARE` of their floor belongs to a
 different room (or to no room in one of them), the floor drawn on a grid of

@@ -233,8 +233,9 @@ def place_windows(
     problem: Problem, rooms: Mapping[str, Polygon], doors: list[Door]
 ) -> list[Window]:
     """Windows evenly spaced on each room's exterior walls, one per `window_spacing`
-    metres but at most `MAX_WINDOWS_PER_WALL` on one wall (issue 20, 4: a 200 km wall
-    made 266,663 windows of a 276-byte brief), none where a door is."""
+    metres but at most `MAX_WINDOWS_PER_WALL` on one wall (a 276-byte brief with a 200 km
+    wall once made 266,663 windows; docs/security.md, "Not covered"), none where a door
+    is."""
     openings = problem.openings
     outline = problem.outline().exterior
     inner = inner_corners(problem.outline())

@@ -1,5 +1,5 @@
-"""Soft constraints (issue 8): which constraints of a problem may be violated, and how
-far rectangles are from meeting each one.
+"""Soft constraints (docs/method.md, "Soft constraints"): which constraints of a problem
+may be violated, and how far rectangles are from meeting each one.
 
 A soft constraint is kept in the MIQP with a slack variable priced at
 `Weights.violation` per metre (solver/miqp/formulation.py). The shortfall of a constraint

@@ -1,5 +1,5 @@
-"""Stopping a solve at a good-enough layout (issue 23, batches): a batch wants many good
-plans, not each one's last hundredths of Eq. 12.
+"""Stopping a solve at a good-enough layout (batches; docs/cli.md, "floorplan batch"): a
+batch wants many good plans, not each one's last hundredths of Eq. 12.
 
 `GoodEnough` is an `on_event` sink for `solve` whose `reached` makes its `should_stop`:
 it turns true at the first incumbent that passes the checker (the layout as `solve`

@@ -18,8 +18,8 @@ from tests.paths import ROOT
 
 CONTRACT_TYPES = {"layers": LayersContract, "forbidden": ForbiddenContract,
                   "acyclic_siblings": AcyclicSiblingsContract}
-#: The cycles the code had before the restructure (issue 18), each as the imports that
-#: would bring it back in today's module names.
+#: The cycles the code had before it was split into layers (docs/architecture.md, "The
+#: layers"), each as the imports that would bring it back in today's module names.
 OLD_CYCLES = {
     "solve <-> regions": [
         ("floorplan.solver.pipeline.regions.run", "floorplan.solver.pipeline.dispatch")],

@@ -1,6 +1,6 @@
-"""Per-key fairness (issue 20, 5 and 6): open event streams per key and in all,
-explaining validations per key in their own bounded pool of processes, and the 429 each
-refusal answers, naming its limit. Counted in this API process (jobs per key are
+"""Per-key fairness (docs/security.md, "The limits"): open event streams per key and in
+all, explaining validations per key in their own bounded pool of processes, and the 429
+each refusal answers, naming its limit. Counted in this API process (jobs per key are
 counted in the store, by the route)."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """`floorplan batch`: many layouts of one brief or several, on a warm process pool
-(issue 23).
+(docs/cli.md, "floorplan batch").
 
     floorplan batch INPUT... --count N --out DIR [--processes P] [--seed S]
                     [--format json|svg|dxf|geojson] [--time-limit S] [--vary program]

@@ -91,7 +91,7 @@ def invalid_layout_warning(layout: Layout) -> str:
 
 
 def soft_violations_note(layout: Layout) -> str:
-    """The soft constraints a valid layout breaks (issue 8), each with its shortfall."""
+    """The soft constraints a valid layout breaks, each with its shortfall."""
     r = layout.report
     lines = [f"{PROG}: {len(r.violations)} soft constraint(s) not met, "
              f"{r.total_shortfall:.2f} m short in all:"]

@@ -147,7 +147,8 @@ def standby(
 
     # A local pool starts now too, so that its processes have imported SCIP when the job
     # comes: a second level-1 search that starts a second late rarely ends better
-    # (bench/NOTES.md). Celery sub-domain workers are chosen when the job comes.
+    # (bench/NOTES.md, "A restart alone, error-centred neighbourhoods, and the hall's
+    # floor"). Celery sub-domain workers are chosen when the job comes.
     pool = None
     if subdomain_processes > 1 and not subdomain_tasks:
         from floorplan.solver.pipeline.pool import subdomain_pool

@@ -20,9 +20,11 @@ WINDOW_START = 0.10
 #: ... and widen them by 10 % of the target at each failed attempt.
 WINDOW_STEP = 0.10
 #: When no window holds, the first layout under the user's own bounds keeps the rooms'
-#: sides as near target +-50 % as it can (`target_bands`). Measured on residential-15,
-#: seeds 10-29, median Eq. 12 of the final layout: 66.3 without, 63.9 at 10 %, 50.4 at
-#: 20 %, 50.1 at 30 %, 46.4 at 50 %, 47.4 at 70 % (bench/NOTES.md).
+#: sides as near target +-50 % as it can (`target_bands`). Measured on a 15-room brief
+#: whose hall must reach both side walls (no window holds), seeds 10-29, median Eq. 12
+#: of the final layout: 66.3 without, 63.9 at 10 %, 50.4 at 20 %, 50.1 at 30 %, 46.4 at
+#: 50 %, 47.4 at 70 % (bench/NOTES.md, "Ten runs against the flat model, a topology
+#: step, and a free-shaped hall").
 FIRST_BAND = 0.5
 #: An extra rectangle of a room shares at least this much wall with its main one
 #: (metres): wide enough to walk through, so the room stays one usable space ...
@@ -30,7 +32,8 @@ WING_JOIN = 1.2
 #: ... and is at least this wide and deep (metres).
 WING_MIN = 1.0
 #: Rectangles a room may become when the brief leaves it open (`max_rects` unset): an
-#: L takes two, a T, U or Z three (issue 19).
+#: L takes two, a T, U or Z three: the shapes rooms take in real plans (docs/method.md,
+#: "Rooms of several rectangles").
 DEFAULT_MAX_RECTS = 3
 #: Separates a room's id from the number of one of its extra rectangles.
 WING_MARK = "~wing"
@@ -93,12 +96,13 @@ def level_one_spec(
     wings: Mapping[str, int] | None = None, soft: bool = False, wrap: bool = True,
 ) -> LevelSpec:
     """Level 1: every room one rectangle, every constraint of the request; a room in
-    `wings` gets that many more rectangles (issue 8), each sharing at least
-    `WING_JOIN` metres of wall with the room's main rectangle, which answers for the
-    room's guide points, boundary and target, while its size maximum and aspect ratio
-    hold on the bounding box of all of them (an exact envelope). With `soft`, the
-    problem's soft constraints get slacks priced at `Weights.violation` per metre. With
-    `wrap`, a room may wrap around an obstacle on the outline (`Notch`)."""
+    `wings` gets that many more rectangles (docs/method.md, "Rooms of several
+    rectangles"), each sharing at least `WING_JOIN` metres of wall with the room's main
+    rectangle, which answers for the room's guide points, boundary and target, while its
+    size maximum and aspect ratio hold on the bounding box of all of them (an exact
+    envelope). With `soft`, the problem's soft constraints get slacks priced at
+    `Weights.violation` per metre. With `wrap`, a room may wrap around an obstacle on
+    the outline (`Notch`)."""
     wings = wings or {}
     rects = []
     contacts: list[ContactSpec] = []
@@ -208,9 +212,10 @@ def started_as_l(problem: Problem, room_id: str) -> Problem:
 def unfitting_targets(problem: Problem, domain: Domain) -> list[str]:
     """Rooms whose target rectangle fits nowhere in the free floor (a living room as
     tall as the outline's only in an arm narrower than it): in the plan they came from,
-    they are L- or T-shaped, so they start with a wing (issue 19). A rectangle that fits
-    can slide left and down until its corner meets the x and y of outline corners, so
-    those corners are the only places to try."""
+    they are L- or T-shaped, so they start with a wing (docs/method.md, "Rooms of
+    several rectangles"). A rectangle that fits can slide left and down until its corner
+    meets the x and y of outline corners, so those corners are the only places to
+    try."""
     free = domain.free
     xs = sorted({x for g in getattr(free, "geoms", [free]) for x, _ in g.exterior.coords})
     ys = sorted({y for g in getattr(free, "geoms", [free]) for _, y in g.exterior.coords})
@@ -246,8 +251,10 @@ def wing_order(problem: Problem) -> list[str]:
     plan draws as an L asks for more floor than it covers; in briefs extracted from
     plans that is most often the living room, the largest), then by demands
     (`demand_order`). On the planted briefs that needed wings, the largest rooms'
-    wings were the layouts SCIP found soonest (planted-12-1029: living room and
-    bedroom1 in 3 s, where the corridor's wing found nothing in 15 s)."""
+    wings were the layouts SCIP found soonest (on a 12-room brief needing two Ls, the
+    living room's and a bedroom's wings in 3 s, where the corridor's, the room with the
+    most demands, found nothing in 15 s: bench/NOTES.md, "A proof for the user's bounds,
+    wings to the largest rooms, gaps laid out afresh")."""
     rank = {room_id: k for k, room_id in enumerate(demand_order(problem))}
     area = {room.id: _aimed_area(room) for room in problem.rooms}
     return sorted(rank, key=lambda r: (-area[r], rank[r]))

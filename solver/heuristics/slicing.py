@@ -1,5 +1,6 @@
 """A first layout by slicing, for problems whose rooms ask only for sizes and guide
-points (issue 7: a constructive start).
+points: a constructive start, complete and covering at once (docs/method.md, "Size-only
+problems: slicing").
 
 The free floor is cut into rectangles (`rectangles_of`), each rectangle into rows,
 and the rooms are dealt to the rows by target area, a room with a guide point into
@@ -48,9 +49,10 @@ DEMANDS_UP_TO = 40
 #: ... and up to which a door tree is: every room but a few tied to another
 #: (adjacencies at least `DOOR_TREE_SHARE` of the rooms). Rows seldom hold a tree of
 #: doors on ten rooms or more: of 57 planted briefs of 10-14 rooms, rows were found
-#: for 2 (both also tiled), and house-13 and residential-15 get none; each failure cost
-#: 0.35-0.7 s of level 1. Without it their first valid layouts come 0.5-1.1 s sooner,
-#: Eq. 12 unchanged (bench/NOTES.md, session 20).
+#: for 2 (both also tiled), and the bench's 13- and 15-room cases get none; each failure
+#: cost 0.35-0.7 s of level 1. Without it their first valid layouts come 0.5-1.1 s
+#: sooner, Eq. 12 unchanged (bench/NOTES.md, "A slower machine, a stall stop for
+#: batches, window schedules, and where 14 rooms' time goes").
 DOOR_TREE_UP_TO = 9
 DOOR_TREE_SHARE = 0.5
 
@@ -68,7 +70,7 @@ KICK_SHARE = 4
 MIN_ROW_AREA = 1e-9
 
 
-#: With `options.diverse` (a batch's worker lays out one brief many times, issue 23):
+#: With `options.diverse` (a batch's worker lays out one brief many times):
 #: after row slicing found nothing this many times in this process for a brief's
 #: structure, and never anything, it is not tried again for that structure.
 SKIP_AFTER_FAILURES = 2
@@ -193,7 +195,8 @@ def _slice_with_demands(
 def _floor_regions(problem: Problem, domain: Domain) -> list[Box]:
     """The free floor as rectangles that can each hold a room, bottom to top. A guide
     point that no such rectangle holds (one in a sliver beside an aisle's notch, as in
-    a mall-140 part) gets the largest rectangle around it first, the rest of the floor
+    a part of a large layout: bench/NOTES.md, "Parts that would not slice, and a second
+    level-1 search") gets the largest rectangle around it first, the rest of the floor
     is cut as before: its room can then be sliced into a row that reaches the point."""
     kept: list[Box] = []
     while True:
@@ -266,8 +269,10 @@ def _plan_rows(
 def _order_along(row: _Row) -> list[Room]:
     """The row's rooms by x: pinned rooms in the order of their points, the others
     spread evenly in the order they were dealt, each moved as little as it takes not
-    to sit between two pinned rooms too close to let it in (measured: mall-140 had a
-    shop dealt between two guide points 1.4 m apart, and no plan could be sized)."""
+    to sit between two pinned rooms too close to let it in (measured: a part of a
+    140-room mall had a shop dealt between two guide points 1.4 m apart, and no plan
+    could be sized; bench/NOTES.md, "Parts that would not slice, and a second level-1
+    search")."""
     loose = [r for r in row.rooms if not r.positions]
     step = row.band.width / max(1, len(loose))
     slot = {r.id: statistics.mean(x for x, _ in r.positions) if r.positions

@@ -1,4 +1,5 @@
-"""Exact tilings of a floor by its rooms' target rectangles (issue 19), as slicing trees.
+"""Exact tilings of a floor by its rooms' target rectangles, as slicing trees
+(docs/method.md, "Whole layouts by guillotine cuts", step 1).
 
 A brief extracted from a real plan gives each rectangular room its exact width and
 depth (its bounding box), and an L or T room its bounding box only. Such a plan is
@@ -31,9 +32,10 @@ VERTICAL, HORIZONTAL = -1, -2
 #: Sides within this (m) match: briefs give sides to the centimetre.
 TOL = 0.011
 #: The part of an L room is at least this wide (m). The plans hold Ls with arms of 5-45
-#: cm (27 of 56 planted plans measured, bench/NOTES.md): a tiling must be able to have
-#: them; the annealing then decides (solver/heuristics/guillotine.py keeps what the
-#: outline cut thin and widens the rest).
+#: cm (27 of 56 planted plans measured; bench/NOTES.md, "Thin strips: the plans have
+#: them, the annealing refused them"): a tiling must be able to have them; the
+#: annealing then decides (solver/heuristics/guillotine.py keeps what the outline cut
+#: thin and widens the rest).
 MIN_PART = 0.05
 #: Nodes of the search per guess of which rooms are Ls in the first round (each round
 #: gives the guesses not yet searched through four times more), and in all.
@@ -177,7 +179,8 @@ class _Search:
         self.notches = (None if notches is None or not self.shaped else
                         (notches[0] * 1e4 - slack, notches[1] * 1e4 + slack))
         # Two fillers of open sides in one row would leave two unknowns on one side (a
-        # T-shaped outline's two corners, planted-07-6838): a filler spanning a part
+        # T-shaped outline's two corners; bench/NOTES.md, "Fillers with a known side,
+        # one probe"): a filler spanning a part
         # outside the outline may enter with that part's side known. Not beside Ls:
         # their open sides make the search far slower there.
         self.filler_sides = sorted({(axis, _cm(side)) for part in filler_parts

@@ -1,7 +1,7 @@
-"""Different plans from different seeds (issue 23, batches): with `options.diverse`, the
-seed draws the sizes the search aims at, which room starts as an L, a point for every
-room that the first layout is drawn toward, and a direction for every room that the
-level-1 improvement leans to.
+"""Different plans from different seeds (batches; docs/method.md, "Different plans per
+seed (batches)"): with `options.diverse`, the seed draws the sizes the search aims at,
+which room starts as an L, a point for every room that the first layout is drawn
+toward, and a direction for every room that the level-1 improvement leans to.
 
 A brief usually leaves room for several arrangements, but Eq. 12 prefers one of them,
 and the search finds that one from nearly every start: randomised room orders, first
@@ -23,11 +23,12 @@ arrangement, follows the seed; `drawn_shape` lets one room in `L_START_CHANCE` o
 seeds start as an L (as ``shape: free`` does), whose wing takes floor a rectangle
 cannot. `pull_at_random` then breaks the near-ties left in the improvement.
 
-Measured on apartment-5, 100 seeds, first good layout (issue 23): sizes drawn alone 45-50
+Measured on a 5-room flat, 100 seeds, first good layout: sizes drawn alone 45-50
 distinct plans; with the anchors 48; with the anchors and an L in half the seeds 62 (in
 every seed 69, at 1.6x the time); all of them valid and covering 99 %. Pulls on the
 improvement, toward points or along directions, gave no more distinct plans and fewer
-good ones.
+good ones (bench/README.md, "Batches"; bench/NOTES.md, "Batches: distinct plans by
+construction, and their cost").
 """
 
 from __future__ import annotations
@@ -54,7 +55,7 @@ AREA_SCALE_LIMIT = 1.5
 #: The drawn problem's lambda_cover is the brief's times this: sizes the seed drew may
 #: be far from what fills the floor, and at the brief's own weight the optimum of a
 #: draw may leave floor bare rather than move a room off its drawn size (measured: 2 of
-#: 25 draws of apartment-5 ended optimal at 97-99 % coverage).
+#: 25 draws of a 5-room flat ended optimal at 97-99 % coverage).
 COVER_BOOST = 1.0
 #: Share of seeds in which one room (drawn among those that may have two rectangles or
 #: more, and do not already start with them) starts as an L.
@@ -65,8 +66,8 @@ L_START_CHANCE = 0.5
 ANCHOR_WEIGHT = 0.1
 #: The relative gap at which a model with that pull may stop: the pull only leans the
 #: first layout toward the seed's arrangement. Solved closely (0.1 %), it cost a fifth of
-#: a batch layout's CPU (0.29 s against 0.23 s on apartment-5, 120 seeds, 68 and 69
-#: distinct plans).
+#: a batch layout's CPU (0.29 s against 0.23 s on a 5-room flat, 120 seeds, 68 and 69
+#: distinct plans; bench/README.md, "Batches").
 ANCHOR_GAP = 1.0
 #: A diverse solve that stops when good (options.stop_when_good) and whose level 1
 #: ended early without a good layout runs level 1 again under another draw, `REDRAWS`

@@ -1,5 +1,5 @@
-"""Sliding whole walls of a covering layout (issue 19): the moves the reshaping cannot
-chain.
+"""Sliding whole walls of a covering layout: the moves the reshaping cannot chain
+(docs/method.md, "The steps", step 6).
 
 The reshaping (reshape.py) moves one strip between two rooms at a time. A wall that
 several rooms share (a corridor's side with three bedrooms along it) or a room that

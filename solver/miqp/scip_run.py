@@ -148,10 +148,11 @@ def _read_rects(m: Model, sol: object, lm: LevelModel) -> dict[str, Box]:
 
 
 def tune(m: Model, *, aggressive: bool = False) -> None:
-    """Settings measured on our level models (bench/NOTES.md): the NLP heuristics find
-    nothing the LP-based ones miss on these convex MIQPs and cost most of the time,
-    and fast presolving and separation prove optimality 5-20x sooner on small levels.
-    With `aggressive`, SCIP's primal heuristics run more often and longer."""
+    """Settings measured on our level models (docs/method.md, "Incumbents, time and SCIP
+    settings"; bench/NOTES.md, "What profiles show"): the NLP heuristics find nothing
+    the LP-based ones miss on these convex MIQPs and cost most of the time, and fast
+    presolving and separation prove optimality 5-20x sooner on small levels. With
+    `aggressive`, SCIP's primal heuristics run more often and longer."""
     if aggressive:
         m.setHeuristics(SCIP_PARAMSETTING.AGGRESSIVE)
     for heuristic in ("subnlp", "nlpdiving", "mpec"):

@@ -45,7 +45,8 @@ from floorplan.solver.verify.checker import (
 from floorplan.solver.verify.conflicts import find_conflict
 
 #: Walls of the answer closer than this (metres) are put on one line: a jog thinner than
-#: a wall is where the search's walls happened to stop, not a design (issue 19).
+#: a wall is where the search's walls happened to stop, not a design (docs/method.md,
+#: "The steps", step 7).
 STRAIGHTEN_TOLERANCE = 0.1
 #: The straightened layout is the answer when it passes the checker, covers as much
 #: and its Eq. 12 is at most this share above the layout's.
@@ -101,16 +102,16 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
     rooms = snap_rooms(room_boxes(pieces), *domain_lines(problem), OUTPUT_SNAP)
     check = check_layout(problem, rooms)
     if not check.valid and (passing := run.passing_best()) is not None:
-        # Issue 19: a layout breaking a hard constraint is never the answer when a
-        # covering incumbent that passes was found.
+        # A layout breaking a hard constraint is never the answer when a covering
+        # incumbent that passes was found (docs/method.md, "The steps", step 7).
         rooms, check = passing
     rooms, check = straight_walls(problem, rooms, check)
     out, openings = drawn_rooms(problem, rooms)
     constraints, valid = with_circulation(problem, check, openings)
     (ended, bound), why = termination(run, rooms), None
     if not valid and ended is not Termination.INTERRUPTED:
-        # Issue 19: a layout breaking a hard constraint is no answer; it is kept as a
-        # diagnostic of how near the search came.
+        # A layout breaking a hard constraint is no answer; it is kept as a diagnostic
+        # of how near the search came.
         ended, why = Termination.NO_SOLUTION, Infeasibility(
             reason="no layout meeting every hard constraint was found within the time "
             "limit; the rooms given are the best one found, which breaks the constraints "

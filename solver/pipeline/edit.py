@@ -1,5 +1,5 @@
-"""Edits around fixed rooms (issue 21): when most rooms of a brief are fixed, only the
-free ones are laid out, as one small sub-domain.
+"""Edits around fixed rooms (docs/problem.md, "Fixed rooms"): when most rooms of a brief
+are fixed, only the free ones are laid out, as one small sub-domain.
 
 The pinned path (`solver.pipeline.fixed.pinned_problem`) keeps every fixed room a room
 of each MIQP and runs the whole pipeline (window schedule, neighbourhood search,

@@ -1,5 +1,5 @@
-"""Fixed rooms (issue 21): rooms whose polygon the user gives (`Room.fixed`), the other
-rooms laid out around them.
+"""Fixed rooms (docs/problem.md, "Fixed rooms"): rooms whose polygon the user gives
+(`Room.fixed`), the other rooms laid out around them.
 
 A fixed room is *pinned* as the storeys pin a vertical room on a later floor
 (`solver.pipeline.storeys`): its polygon's largest rectangle becomes the room, with

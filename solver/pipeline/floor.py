@@ -55,10 +55,12 @@ from floorplan.solver.verify.precheck import find_impossibilities
 
 #: Share of the time limit level 1 may use.
 LEVEL_ONE_SHARE = 0.9
-#: Share of the search time kept for reshaping the rooms at the end (issue 19), up to
-#: `RESHAPE_SECONDS` and `RESHAPE_SECONDS_PER_ROOM` more per room; the reshaping also
-#: takes what the refinement leaves. A quarter rather than 15 %: 56 planted briefs,
-#: three runs each way, 42-43 -> 43-45 within 2x the plan's area error (bench/NOTES.md).
+#: Share of the search time kept for reshaping the rooms at the end (docs/method.md,
+#: "The steps", step 6), up to `RESHAPE_SECONDS` and `RESHAPE_SECONDS_PER_ROOM` more per
+#: room; the reshaping also takes what the refinement leaves. A quarter rather than
+#: 15 %: 56 planted briefs, three runs each way, 42-43 -> 43-45 within 2x the plan's
+#: area error (bench/NOTES.md, "The reshaping's time: a quarter of the search, and what
+#: the refinement leaves").
 RESHAPE_SHARE = 0.25
 RESHAPE_SECONDS = 1.0
 RESHAPE_SECONDS_PER_ROOM = 0.1
@@ -88,8 +90,9 @@ def solve_floor(
     started = time.monotonic()
     asked = problem
     if problem.options.diverse:
-        # Issue 23: the seed's own sizes to aim at, within the brief's bounds, and
-        # perhaps a room starting as an L.
+        # A batch's layout: the seed's own sizes to aim at, within the brief's bounds,
+        # and perhaps a room starting as an L (docs/method.md, "Different plans per seed
+        # (batches)").
         problem = diverse_problem(problem, problem.options.seed)
     # The doors every room needs, as adjacencies the MIQP must honour.
     problem = connection_demands(problem)
@@ -168,7 +171,7 @@ def _drawn_until_good(
     problem: Problem, *, on_event: EventSink | None, should_stop: StopFlag | None,
     subdomains: SubdomainExecutor | None,
 ) -> Layout:
-    """`options.redraws` (issue 23: a batch's layout as a job of the service): the solve
+    """`options.redraws` (a batch's layout as a job of the service): the solve
     laid out again whole under another draw of the seed (`models.parts.REDRAW_SEED_STEP`)
     while it ends without a good layout, each draw an equal share of the time left, as
     `floorplan batch` does between solves. The first good layout, else the best of the
@@ -268,15 +271,16 @@ def _redrawn(
     run: Run, domain: Domain, pieces: list[Piece] | None, failure: Layout | None,
     good: GoodEnough, level_one_end: float,
 ) -> tuple[Run, list[Piece] | None, Layout | None]:
-    """A diverse solve that stops when good (a batch's layout, issue 23) whose level 1
+    """A diverse solve that stops when good (a batch's layout) whose level 1
     ended early without a good layout: level 1 again, under sizes and an arrangement
     drawn from another seed (`REDRAW_SEED_STEP`), `REDRAWS` times at most while
     `REDRAW_MIN_SHARE` of level 1's time is left, each draw but the last with an equal
     share of what is left. Level 1 usually ends so because the optimum of the seed's
     sizes leaves floor bare; the refinement levels and the reshaping rarely cover it,
     and another draw usually is good at once. (Cutting the first draw short to make room
-    for others cost house-13 half its good layouts in bench batch: 8 of 20 against
-    16-18.) Returns the run, pieces and failure to go on with: the last attempt's when it
+    for others cost a 13-room house half its good layouts in bench batch: 8 of 20
+    against 16-18; bench/NOTES.md, "Batches: distinct plans by construction, and their
+    cost".) Returns the run, pieces and failure to go on with: the last attempt's when it
     is good, else the attempt whose pieces cover the most floor."""
     asked = run.asked or run.problem
     share = level_one_end - run.started

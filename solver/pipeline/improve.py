@@ -190,7 +190,8 @@ def _coverage_passes(
                 or run.stopped()):
             break
         # Short of the goal: a room beside the largest gap it can border gets a second
-        # rectangle to reach in with (issue 2); when none can, one last pass.
+        # rectangle to reach in with (docs/method.md, "Gap wings"); when none can, one
+        # last pass.
         unwinged = _BeforeWing(lm, rects, cover, dict(run.wings), list(run.extra))
         widened = _gap_wing(run, domain, rects, middle)
         if widened is None:

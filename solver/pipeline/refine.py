@@ -40,7 +40,8 @@ from floorplan.solver.verify.checker import check_layout
 #: milliseconds on most floors of a dozen rooms), the annealing again from the slid
 #: layout, and a last slide. 94 planted briefs, two runs each: 83-84 within 2x the
 #: plan's area error, against 80-81 for one annealing and a slide and 79 for two
-#: rounds with equal time (bench/NOTES.md).
+#: rounds with equal time (bench/NOTES.md, "Whole walls slid, and the reshaping in two
+#: rounds").
 RESHAPE_SCHEDULE = (("anneal", 0.55), ("slide", 0.65), ("anneal", 0.9), ("slide", 1.0))
 #: Share of the reshaping's time a layout short of the coverage goal gives sliding walls
 #: first, to close its gaps (the annealing prices them at lambda_cover only).
@@ -176,11 +177,11 @@ def _refine_at_once(
 
 
 def reshaped(run: Run, domain: Domain, pieces: list[Piece], deadline: float) -> list[Piece]:
-    """The size-error trigger of Sec. 5.3 carried to its end (issue 19): strips of
-    floor move between neighbouring rooms, so a room the first layout had to stretch
-    gives back floor and a neighbour becomes an L or a T, and whole walls slide
-    (`reshaping_stages`). Kept only when the result is valid, covers, and lowers Eq. 12, or
-    covers where the layout did not."""
+    """The size-error trigger of Sec. 5.3 carried to its end (docs/method.md, "The
+    steps", step 6): strips of floor move between neighbouring rooms, so a room the
+    first layout had to stretch gives back floor and a neighbour becomes an L or a T,
+    and whole walls slide (`reshaping_stages`). Kept only when the result is valid,
+    covers, and lowers Eq. 12, or covers where the layout did not."""
     run.begin_stage()
     if deadline <= time.monotonic() or run.ending():
         return pieces

@@ -1,13 +1,14 @@
-"""Gaps the hierarchy cannot close, laid out afresh (issue 19).
+"""Gaps the hierarchy cannot close, laid out afresh (docs/method.md, "The steps", step 4).
 
 The refinement of Sec. 5.3 only grows rooms (C_refine): a gap beside rooms at their
-maximum size stays open level after level, re-solving the same sub-domain (a corner of
-a U-shaped floor left between a bedroom at its largest depth and an L at its largest
-width, planted-14-6501). Here the rooms around the gaps are freed and laid out again
-around the others, held where they are, by the edit's MIQP (solver/pipeline/edit.py):
-their own constraints, their adjacencies to the held rooms, extra rectangles where
-one is not enough, and coverage in the objective. Kept only when the whole layout
-passes the checker and covers more.
+maximum size stays open level after level, re-solving the same sub-domain (a corner of a
+U-shaped floor left between a bedroom at its largest depth and an L at its largest
+width: bench/NOTES.md, "A proof for the user's bounds, wings to the largest rooms, gaps
+laid out afresh"). Here the rooms around the gaps are freed and laid out again around
+the others, held where they are, by the edit's MIQP (solver/pipeline/edit.py): their own
+constraints, their adjacencies to the held rooms, extra rectangles where one is not
+enough, and coverage in the objective. Kept only when the whole layout passes the
+checker and covers more.
 """
 
 from __future__ import annotations

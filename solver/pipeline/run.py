@@ -72,7 +72,8 @@ class Run:
     stalled: bool = False
     #: The problem as the user sent it, before require_connected added to it.
     asked: Problem | None = None
-    #: Extra level-1 rectangles per room (issue 8), and the report's account of them.
+    #: Extra level-1 rectangles per room (docs/method.md, "Rooms of several rectangles"),
+    #: and the report's account of them.
     wings: dict[str, int] = field(default_factory=dict)
     #: The extra rectangles of the last level-1 attempt with wings that found nothing.
     tried_wings: dict[str, int] = field(default_factory=dict)

@@ -1,13 +1,15 @@
-"""A batch's layout moved apart from the plans the batch holds (issue 23).
+"""A batch's layout moved apart from the plans the batch holds (docs/method.md,
+"Different plans per seed (batches)").
 
 Seeds of one brief often end in nearly the same plan: the brief's bounds leave a few
-arrangements, and in each the walls settle where the size bounds and coverage push
-them, so the nearest other plan of a batch differs on a median 4.5 % of the floor where
-5 % makes another plan (solver/distinct.py; bench/NOTES.md, session 21). Solving again
-under another draw costs a whole solve and often lands in the same cluster. Moving
-walls is cheap and keeps the arrangement: `spread_apart` moves whole wall lines (every
-rectangle edge on one x or one y), one line at a time, each to where the plan differs
-most from its nearest held plan, while the layout stays valid and covers as much.
+arrangements, and in each the walls settle where the size bounds and coverage push them,
+so the nearest other plan of a batch differs on a median 4.5 % of the floor where 5 %
+makes another plan (solver/distinct.py; bench/NOTES.md, "Repeated plans moved apart").
+Solving again under another draw costs a whole solve and often lands in the same
+cluster. Moving walls is cheap and keeps the arrangement: `spread_apart` moves whole
+wall lines (every rectangle edge on one x or one y), one line at a time, each to where
+the plan differs most from its nearest held plan, while the layout stays valid and
+covers as much.
 
 A whole line moved between its neighbouring lines keeps the rectangles' order, so rooms
 that did not overlap still do not and the floor covered stays covered; what can break is
@@ -34,7 +36,7 @@ from floorplan.solver.soft import room_soft
 from floorplan.solver.verify.checker import CheckResult, check_layout
 
 #: Seconds a layout's spreading takes at most (it ends sooner when it succeeds, 30 ms
-#: on apartment-5, or finds no move).
+#: on a 5-room flat, or finds no move; bench/NOTES.md, "Repeated plans moved apart").
 SPREAD_SECONDS = 0.3
 #: A wall line moves in steps of this many metres (the grid plans are compared on).
 STEP = CELL

@@ -1,5 +1,6 @@
-"""Buildings of several storeys (issue 5, paper Fig. 11): one layout per floor, the
-vertical rooms (stairs, lifts, shafts) on the very same footprint on every floor.
+"""Buildings of several storeys (paper Fig. 11; docs/method.md, "Several storeys"): one
+layout per floor, the vertical rooms (stairs, lifts, shafts) on the very same footprint
+on every floor.
 
 Each floor is an ordinary single-floor problem (`models.storeys.floor_problem`) and is
 solved by `solver.solve` (handed in as `solve`). The floors are solved one after the other: first an

@@ -1,5 +1,5 @@
-"""Design variants (issue 21): up to `options.variants` valid layouts of one problem,
-pairwise different in topology, ranked by Eq. 12.
+"""Design variants (docs/problem.md, "Design variants"): up to `options.variants` valid
+layouts of one problem, pairwise different in topology, ranked by Eq. 12.
 
 The topology of a layout is its adjacency graph: the pairs of rooms sharing at least
 `TOPOLOGY_CONTACT` metres of wall. The first layout is solved as usual (the time

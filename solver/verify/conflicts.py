@@ -354,7 +354,7 @@ def diagnose(
 ) -> Diagnosis:
     """The prechecks, then (when they find nothing) one level-1 check of the whole
     problem, then a conflict search if it is infeasible; all within `time_limit`.
-    Soft constraints (issue 8) are left out: a layout may break them."""
+    Soft constraints are left out: a layout may break them."""
     deadline = time.monotonic() + time_limit
     problem = hard_part(problem)
     solved = hard_part(connection_demands(problem))

@@ -16,8 +16,8 @@ from floorplan.solver.soft import hard_part
 def find_impossibilities(
     problem: Problem, domain: Domain, *, ignore_soft: bool = True
 ) -> list[str]:
-    """Every cheap reason why no layout can exist; soft constraints (issue 8) are not
-    looked at unless `ignore_soft` is false (then: why no layout meets all of them)."""
+    """Every cheap reason why no layout can exist; soft constraints are not looked at
+    unless `ignore_soft` is false (then: why no layout meets all of them)."""
     if ignore_soft:
         problem = hard_part(problem)
     findings = list(_total_area(problem, domain))

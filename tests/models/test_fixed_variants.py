@@ -1,5 +1,5 @@
-"""`Room.fixed` and `options.variants` (issue 21): each bad fixed polygon is refused
-with an error naming its field."""
+"""`Room.fixed` and `options.variants`: each bad fixed polygon is refused with an error
+naming its field."""
 
 from __future__ import annotations
 

@@ -219,8 +219,8 @@ def test_an_unknown_compass_word_is_refused() -> None:
 def test_a_room_adjacent_to_itself_is_left_to_the_infeasibility_check(
     adjacency: dict[str, Any],
 ) -> None:
-    # Issue 2 classes this as a cheap impossibility (solver/verify/precheck.py, exit 3), not as
-    # malformed input: the request is well formed, it just cannot be met.
+    # A cheap impossibility (solver/verify/precheck.py, exit 3), not malformed input: the
+    # request is well formed, it just cannot be met.
     Problem.model_validate(_problem(adjacency=[adjacency]))
 
 

@@ -1,5 +1,5 @@
-"""Issue 20, 3: validation grows with the problem, not with its square (a 1,000-vertex
-outline grown once per region, obstacles tried pairwise and once per position)."""
+"""Validation grows with the problem, not with its square (a 1,000-vertex outline grown
+once per region, obstacles tried pairwise and once per position)."""
 
 from __future__ import annotations
 

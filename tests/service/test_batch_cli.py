@@ -1,5 +1,5 @@
-"""`floorplan batch` (issue 23), run for real in subprocesses: files and summary, skip
-and resume, Ctrl-C; and its warm pool, with real crashing and hanging workers."""
+"""`floorplan batch`, run for real in subprocesses: files and summary, skip and resume,
+Ctrl-C; and its warm pool, with real crashing and hanging workers."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
-"""A service batch's layout moved apart from the batch's finished plans (issue 23): the
-store gives the runner the batch's layouts, the solve's process moves a repeated plan's
-walls (service.batch.apart_from_held, solver/pipeline/spread.py)."""
+"""A service batch's layout moved apart from the batch's finished plans: the store gives
+the runner the batch's layouts, the solve's process moves a repeated plan's walls
+(service.batch.apart_from_held, solver/pipeline/spread.py)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
-"""Batches over HTTP (/v1/batches, issue 23), against real service processes on loopback
-in both modes (embedded, and an API node with Celery workers on PostgreSQL and Redis):
-progress, results paging, cancel, limits, and a restart midway."""
+"""Batches over HTTP (/v1/batches), against real service processes on loopback in both
+modes (embedded, and an API node with Celery workers on PostgreSQL and Redis): progress,
+results paging, cancel, limits, and a restart midway."""
 
 from __future__ import annotations
 
@@ -190,8 +190,9 @@ def test_the_client_and_floorplan_submit_make_and_read_batches(server: AnyServer
 
 
 def test_a_batch_keeps_to_the_key_s_quota_and_the_service_s_limits(tmp_path: Path) -> None:
-    # Issue 20's limits hold for batches as for single jobs: a batch is that many jobs of
-    # its key, and its brief gets the checks of any body (here the outline's extent).
+    # The limits (docs/security.md) hold for batches as for single jobs: a batch is that
+    # many jobs of its key, and its brief gets the checks of any body (here the
+    # outline's extent).
     s = service("embedded", tmp_path, FLOORPLAN_MAX_JOBS_PER_KEY="2").start()
     try:
         with httpx.Client(base_url=s.url, timeout=30) as c:

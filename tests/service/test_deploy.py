@@ -41,7 +41,7 @@ def test_compose_has_the_four_services_with_health_checks_and_volumes() -> None:
 
 
 def test_redis_asks_for_the_password_the_nodes_send() -> None:
-    # Issue 20: whoever can write to Redis queues work for the workers.
+    # Whoever can write to Redis queues work for the workers (docs/security.md).
     services = compose()["services"]
     redis = services["redis"]
     password = "${REDIS_PASSWORD:-floorplan}"

@@ -1,7 +1,7 @@
-"""Edits over HTTP (issue 21), against a real `floorplan serve` process: an edit of
-house-13 with 9 rooms fixed and the previous layout as `options.start` succeeds with
-the fixed rooms kept; a malformed start, and fixed rooms with `floors` or `regions`,
-are 422s naming the field."""
+"""Edits over HTTP, against a real `floorplan serve` process: an edit of house-13 with 9
+rooms fixed and the previous layout as `options.start` succeeds with the fixed rooms
+kept; a malformed start, and fixed rooms with `floors` or `regions`, are 422s naming the
+field."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
-"""Issue 20, 3: a large body is parsed and validated off the event loop, so that
-/healthz and other requests stay fast meanwhile; and problems larger than the service's
-limits are refused before the validation, naming the field. Against real server
-processes on loopback (tests/servers.py)."""
+"""A large body is parsed and validated off the event loop, so that /healthz and other
+requests stay fast meanwhile; and problems larger than the service's limits are refused
+before the validation, naming the field. Against real server processes on loopback
+(tests/servers.py)."""
 
 from __future__ import annotations
 
@@ -22,13 +22,13 @@ pytestmark = pytest.mark.slow
 
 #: One solve at a time and no sub-domain pool: these tests solve nothing.
 QUIET = {"WORKERS": "1", "FLOORPLAN_SUBDOMAIN_PROCESSES": "1"}
-#: Seconds /healthz may wait while large bodies are validated (15 s before issue 20).
+#: Seconds /healthz may wait while large bodies are validated (it once waited 15 s).
 #: The validation runs in worker threads, but one pydantic-core call holds the GIL while
-#: it runs, so /healthz waits for the longest one: about 0.5 s for the issue's body on a
+#: it runs, so /healthz waits for the longest one: about 0.5 s for `big_body` on a
 #: typical machine, up to 1.4 s on a slow one. Within 0.2 s would need the parsing in a
 #: process of its own (as explain has).
 HEALTHZ_WITHIN = 2.0
-#: The issue's body within the limits: it is validated, it is not refused.
+#: `big_body` within the limits: it is validated, it is not refused.
 ROOMY = {"FLOORPLAN_MAX_VERTICES": "1000", "FLOORPLAN_MAX_REGIONS": "100000"}
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 JSON = {"Content-Type": "application/json"}
@@ -43,8 +43,8 @@ def staircase(steps: int = 499) -> list[list[int]]:
 
 
 def big_body() -> bytes:
-    """The issue's body: 20,000 regions on a 1,000-vertex outline, about 700 KB; it took
-    15 s to validate, on the event loop."""
+    """The body the security review sent: 20,000 regions on a 1,000-vertex outline,
+    about 700 KB; it took 15 s to validate, on the event loop."""
     return json.dumps({
         "boundary": staircase(), "rooms": [{"id": "r0"}],
         "regions": [{"id": f"g{i}", "rooms": ["r0"]} for i in range(20000)],
@@ -66,7 +66,7 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
 
 @pytest.fixture(scope="module")
 def roomy(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    """Limits the issue's body fits in."""
+    """Limits `big_body` fits in."""
     running = Server(tmp_path_factory.mktemp("roomy"), **QUIET, **ROOMY).start()
     yield running
     running.stop()
@@ -172,7 +172,7 @@ def test_an_example_still_validates(server: Server, name: str) -> None:
     assert answer["valid"] is True
 
 
-#: Issue 20, 4: 276 bytes, a 200 km square, made 266,663 windows and an 82 MB SVG plan.
+#: 276 bytes, a 200 km square, once made 266,663 windows and an 82 MB SVG plan.
 COUNTRY = {"boundary": [[-1e5, -1e5], [1e5, -1e5], [1e5, 1e5], [-1e5, 1e5]],
            "rooms": [{"id": "a", "positions": [[-1e5, -1e5]]},
                      {"id": "b", "positions": [[1e5, 1e5]]}],

@@ -1,6 +1,6 @@
-"""Issue 20, 10: every malformed header, cursor, body and number is a 4xx problem
-document (RFC 9457), never a 500; replayed against a real `floorplan serve` on loopback,
-then fuzzed over the OpenAPI schema with invalid headers and query strings included."""
+"""Every malformed header, cursor, body and number is a 4xx problem document (RFC 9457),
+never a 500; replayed against a real `floorplan serve` on loopback, then fuzzed over the
+OpenAPI schema with invalid headers and query strings included."""
 
 from __future__ import annotations
 
@@ -79,7 +79,7 @@ def test_a_malformed_last_event_id_is_a_422(service: Service, last_event_id: byt
 
 def test_a_last_event_id_past_the_jobs_last_event_is_a_400_not_an_empty_stream(
         service: Service) -> None:
-    # An id no stream of this job sent: the issue's 30-digit id gave an empty 200 stream.
+    # An id no stream of this job sent: a 30-digit id once gave an empty 200 stream.
     problem = assert_problem(events(service, str(service.last_event + 1)), 400)
     assert f"({service.last_event})" in problem["detail"]
     # The last id sent resumes after it: nothing more for a finished job, a 200.

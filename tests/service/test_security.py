@@ -1,6 +1,6 @@
-"""The security review (issue 20), each finding replayed against a real server process
-on loopback (tests/servers.py), the machine's PostgreSQL or Redis: what an attacker did
-must now fail."""
+"""The security review (docs/security.md), each finding replayed against a real server
+process on loopback (tests/servers.py), the machine's PostgreSQL or Redis: what an
+attacker did must now fail."""
 
 from __future__ import annotations
 
@@ -409,7 +409,7 @@ def test_a_sub_domain_worker_refuses_a_pickle_and_runs_no_code(tmp_path: Path) -
 
 
 def test_a_page_of_jobs_leaves_the_stored_layouts_in_the_database(tmp_path: Path) -> None:
-    # Issue 20, 4: listing 200 jobs loaded every result column (0.37 -> 1.46 GB).
+    # Listing 200 jobs once loaded every result column (0.37 -> 1.46 GB).
     store = JobStore(f"sqlite:///{tmp_path / 'jobs.db'}")
     job, _ = store.create(problem='{"rooms": []}', time_limit=1, owner="o")
     store.finish(job.id, JobStatus.SUCCEEDED, termination="optimal", result="x" * 1_000_000)
@@ -420,7 +420,7 @@ def test_a_page_of_jobs_leaves_the_stored_layouts_in_the_database(tmp_path: Path
     assert full is not None and full.result is not None and len(full.result) == 1_000_000
 
 
-# Issue 20, 11: cross-site requests and DNS rebinding onto a service on loopback.
+# Cross-site requests and DNS rebinding onto a service on loopback.
 
 
 @pytest.fixture(scope="module")
@@ -512,12 +512,12 @@ def test_the_allowed_hosts_are_a_setting(tmp_path: Path) -> None:
         server.stop()
 
 
-# Issue 20, 9: a store that cannot write is not ready, and takes nothing it would lose.
+# A store that cannot write is not ready, and takes nothing it would lose.
 
 
 @pytest.fixture
 def small_disk(tmp_path: Path) -> Iterator[Path]:
-    """An 8 MB tmpfs: the issue used 3 MB (root is needed to mount it)."""
+    """An 8 MB tmpfs: the finding was made with 3 MB (root is needed to mount it)."""
     import subprocess
 
     mount = tmp_path / "data"
@@ -632,7 +632,7 @@ def test_the_dispatcher_backs_off_while_the_store_refuses_writes(
             runner.stop()
 
 
-# Issue 20, 5 and 6: per-key fairness, and explain calls that starve nothing.
+# Per-key fairness, and explain calls that starve nothing.
 
 FAIR_KEYS = ["alpha", "beta", "gamma", "delta"]
 

@@ -1,7 +1,7 @@
-"""Design variants and fixed rooms over HTTP (issue 21), against a real `floorplan
-serve` process (the embedded mode): ``?variant=i`` in every format, a 404 past the
-last variant, the Python client's ``job.result(variant=i)``, a bad fixed polygon
-refused with a 422 naming its field; and ``floorplan solve --variants -o DIR/``."""
+"""Design variants and fixed rooms over HTTP, against a real `floorplan serve` process
+(the embedded mode): ``?variant=i`` in every format, a 404 past the last variant, the
+Python client's ``job.result(variant=i)``, a bad fixed polygon refused with a 422 naming
+its field; and ``floorplan solve --variants -o DIR/``."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Distinct plans and adjacency graphs (solver.distinct, issue 23)."""
+"""Distinct plans and adjacency graphs (solver.distinct)."""
 
 from __future__ import annotations
 

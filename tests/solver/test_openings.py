@@ -164,7 +164,7 @@ def test_connection_demands_leave_a_linked_problem_alone() -> None:
 
 
 def test_a_wall_kilometres_long_gets_a_bounded_number_of_windows() -> None:
-    # Issue 20, 4: a 200 km square of two rooms made 266,663 windows and a 20 MB result.
+    # A 200 km square of two rooms once made 266,663 windows and a 20 MB result.
     side = 1e4
     p = Problem.model_validate({
         "boundary": [[0, 0], [side, 0], [side, side], [0, side]],

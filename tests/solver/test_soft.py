@@ -1,6 +1,6 @@
-"""Soft constraints (issue 8): with `options.strict: false`, or `soft` on a room or an
-adjacency, an over-constrained problem gets the layout of least total shortfall, every
-violated constraint listed with it, instead of no layout. Real SCIP throughout."""
+"""Soft constraints: with `options.strict: false`, or `soft` on a room or an adjacency,
+an over-constrained problem gets the layout of least total shortfall, every violated
+constraint listed with it, instead of no layout. Real SCIP throughout."""
 
 from __future__ import annotations
 

@@ -101,7 +101,7 @@ class AsyncClient(BaseClient):
         return AsyncPage(self, [AsyncJob(self, info) for info in page.data],
                          page.next_cursor, status, limit)
 
-    # Batches (issue 23): see `Client.submit_batch` and the methods after it.
+    # Batches: see `Client.submit_batch` and the methods after it.
 
     async def submit_batch(self, problem: ProblemInput, count: int, *, seed: int = 0,
                            time_limit: float | None = None, vary_program: bool = False,

@@ -127,7 +127,7 @@ class Client(BaseClient):
                                  timeout=timeout)
         return self._parse(self._send(options), Validation)
 
-    # Batches (issue 23).
+    # Batches.
 
     def submit_batch(self, problem: ProblemInput, count: int, *, seed: int = 0,
                      time_limit: float | None = None, vary_program: bool = False,

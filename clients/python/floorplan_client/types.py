@@ -51,7 +51,7 @@ __all__ = [
 JobInfo = JobPublic
 #: Why a job failed (the service's `JobError`).
 ErrorInfo = JobError
-#: A batch of layouts as the service reports it (issue 23; the service's `BatchPublic`).
+#: A batch of layouts as the service reports it (the service's `BatchPublic`).
 BatchInfo = BatchPublic
 #: One finished layout of a batch, a line of its results (the service's `BatchLayoutLine`).
 BatchLine = BatchLayoutLine

@@ -1,7 +1,7 @@
-"""Batches (/v1/batches, issue 23): one brief laid out many times, each layout an ordinary
-job of the store (so the embedded runner and the Celery workers solve them as any job,
-a restart requeues what was running and keeps what is done), made in one transaction
-with the batch's row."""
+"""Batches (/v1/batches; docs/service.md, "Endpoints"): one brief laid out many times,
+each layout an ordinary job of the store (so the embedded runner and the Celery workers
+solve them as any job, a restart requeues what was running and keeps what is done), made
+in one transaction with the batch's row."""
 
 from __future__ import annotations
 
@@ -59,8 +59,9 @@ def submit_batch(
     """Queue `count` layouts of the brief, seeds `seed`, `seed` + 1, ..., each solved with
     options.diverse and options.stop_when_good (and with `vary_program` its own
     programme). Follow it with GET /v1/batches/{id} and its results."""
-    # The brief gets the checks of any job's body (issue 20): its sizes, the model (a
-    # 422 naming the field), the outline's extent and the time-limit ceiling.
+    # The brief gets the checks of any job's body (docs/security.md, "The limits"): its
+    # sizes, the model (a 422 naming the field), the outline's extent and the time-limit
+    # ceiling.
     parse_problem(json.dumps(body.problem).encode(), settings)
     unwritable = store.unwritable()
     if unwritable is not None:  # accepted, the layouts would be lost: nothing is taken

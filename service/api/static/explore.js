@@ -1,4 +1,4 @@
-// Exploring a design (issue 21): the variants of a result as thumbnails side by side,
+// Exploring a design: the variants of a result as thumbnails side by side,
 // one picked onto the plan; rooms clicked there are fixed (drawn locked) and a room's
 // target size is changed in place; "Re-solve" sends the edit (the locked rooms'
 // polygons as `fixed`, the shown layout as `options.start`); the previous plan stays

@@ -105,7 +105,7 @@ class Reconciler:
         killed with a job's message received but the job not yet claimed (a batch's
         layouts queue by the hundred) holds that message unacknowledged until Redis's
         visibility timeout, twenty minutes and more; the job would wait that long after
-        a restart (issue 23). Duplicates are harmless: the claim is conditional."""
+        a restart. Duplicates are harmless: the claim is conditional."""
         queued = self.store.queued()
         if queued:
             log.info("sending %d queued jobs again after a start", len(queued))

@@ -1,5 +1,5 @@
 """One job per owner and Idempotency-Key, enforced by the database: concurrent POSTs
-with one key each saw no job yet and each inserted one (issue 20).
+with one key each saw no job yet and each inserted one.
 
 Jobs already duplicated keep their key on the oldest only (the one a replay found
 first); the others stay, without a key, so that the index can be built.

@@ -1,5 +1,5 @@
-"""Batches (issue 23): a batch of layouts is ordinary jobs, each naming its batch and its
-place in it, made in one transaction with the batch's row.
+"""Batches: a batch of layouts is ordinary jobs, each naming its batch and its place in
+it, made in one transaction with the batch's row.
 
 Revision ID: 0004
 Revises: 0003

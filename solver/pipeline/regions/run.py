@@ -51,13 +51,15 @@ from floorplan.solver.verify.precheck import find_impossibilities
 #: Share of the time limit the region layout may use ...
 REGION_SHARE = 0.2
 #: ... and at most this many seconds per region: slicing lays the regions out at once
-#: and the search after it rarely improves on that (measured: 0 of 8 steps on office-154).
+#: and the search after it rarely improves on that (measured: 0 of 8 steps on a 154-room
+#: office floor; bench/NOTES.md, "Regions and aisles").
 REGION_SECONDS_PER_REGION = 0.25
 #: The least time (s) a room sub-problem is given ...
 MIN_PART_SECONDS = 0.15
 #: ... and, when its rooms ask for sizes and guide points only, at most this many
 #: seconds per room on top: slicing lays a part's rows out in a fraction of a second,
-#: and the search after it found nothing better on office-154 or mall-140.
+#: and the search after it found nothing better on a 154-room office floor or a 140-room
+#: mall (bench/NOTES.md, "Regions and aisles").
 PART_SECONDS_PER_ROOM = 0.01
 #: Time kept per room for merging, doors and the check.
 FINISH_SECONDS_PER_ROOM = 0.01
@@ -199,7 +201,8 @@ def _solve_part(
     sub = room_problem(problem, part, rooms, share)
     if not slicing_has_demands(sub):
         # Sizes alone: slicing lays the rows out at once and the search after it
-        # does not pay for its time (measured: no step improved on office-154).
+        # does not pay for its time (measured: no step improved in most parts of a
+        # 154-room office floor; bench/NOTES.md, "Regions and aisles").
         sub = sub.with_options(time_limit=min(
             share, MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms)))
     inner = solve(sub, on_event=progress.sink(stage, incumbents=True),

@@ -1,5 +1,5 @@
-"""The DXF drawing on the AIA / NCS layers (issue 22), read back with ezdxf from real
-solves of house-13 and the two-storey example."""
+"""The DXF drawing on the AIA / NCS layers, read back with ezdxf from real solves of
+house-13 and the two-storey example."""
 
 from __future__ import annotations
 

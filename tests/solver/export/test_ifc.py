@@ -1,5 +1,5 @@
-"""The IFC4 export (issue 22), read back with ifcopenshell from real solves of house-13
-(the bench case) and the two-storey example."""
+"""The IFC4 export, read back with ifcopenshell from real solves of house-13 (the bench
+case) and the two-storey example."""
 
 from __future__ import annotations
 

@@ -1,5 +1,6 @@
-"""The guillotine search (issue 19): whole layouts as slicing trees, with L and T rooms
-where the floor needs them, valid by the checker and repeatable for a seed."""
+"""The guillotine search (docs/method.md, "Whole layouts by guillotine cuts"): whole
+layouts as slicing trees, with L and T rooms where the floor needs them, valid by the
+checker and repeatable for a seed."""
 
 from __future__ import annotations
 
@@ -214,7 +215,8 @@ def test_an_arm_the_search_made_thinner_than_half_a_metre_is_broken() -> None:
 def test_a_part_beside_a_void_may_be_as_thin_as_the_notch_leaves_it() -> None:
     # The same plan on the box with the notch as a void (no room cut, so the east room is
     # an L the tree made): its 5 cm strip touching the void is how the notch leaves it
-    # (planted-10-6726's bedroom1 has a 0.3 m one); as thin away from the void, broken.
+    # (a planted plan's bedroom steps 0.3 m over a notch's corner); as thin away from the
+    # void, broken.
     problem = notch_sliver_brief()
     domain = make_domain(problem)
     plan = guillotine._boxed_models(guillotine._brief(problem, domain), domain)[0]

@@ -1,5 +1,6 @@
-"""The reshaping (issue 19): strips of floor move between neighbours, rooms become L or
-T where that brings them nearer their targets, and no constraint is broken for it."""
+"""The reshaping (docs/method.md, "The steps", step 6): strips of floor move between
+neighbours, rooms become L or T where that brings them nearer their targets, and no
+constraint is broken for it."""
 
 from __future__ import annotations
 

@@ -1,5 +1,6 @@
-"""Exact tilings by the targets (issue 19): rooms whose sides match joined into the
-floor's rectangles, an L room's two parts fixed by what they join."""
+"""Exact tilings by the targets (docs/method.md, "Whole layouts by guillotine cuts"):
+rooms whose sides match joined into the floor's rectangles, an L room's two parts fixed
+by what they join."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
-"""Sliding whole walls (issue 19): a wall several rooms share, or a rectangle between
-two others, moves where the rooms' targets ask, and no room overlaps another, loses
-floor to a gap or breaks a constraint for it."""
+"""Sliding whole walls (docs/method.md, "The steps", step 6): a wall several rooms
+share, or a rectangle between two others, moves where the rooms' targets ask, and no
+room overlaps another, loses floor to a gap or breaks a constraint for it."""
 
 from __future__ import annotations
 

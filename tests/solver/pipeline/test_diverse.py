@@ -1,5 +1,5 @@
-"""Different plans from different seeds (options.diverse, issue 23), on real SCIP; and
-programmes drawn from a template (models.programme)."""
+"""Different plans from different seeds (options.diverse), on real SCIP; and programmes
+drawn from a template (models.programme)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
-"""Edits around fixed rooms (issue 21), on the real SCIP: with most rooms fixed, only
-the free ones are laid out (solver/pipeline/edit.py), the fixed ones come back exactly,
-and the whole layout passes the checker.
+"""Edits around fixed rooms, on the real SCIP: with most rooms fixed, only the free ones
+are laid out (solver/pipeline/edit.py), the fixed ones come back exactly, and the whole
+layout passes the checker.
 
 No wall-time bound is asserted (slow, shared machines): the edit path's own events say
 that it answered without the whole pipeline; bench/edits.py measures the time."""

@@ -1,6 +1,6 @@
-"""Fixed rooms and design variants (issue 21), on the real SCIP: fixed rooms come back
-exactly as given with the rest laid out around them, an impossible set of fixed rooms
-is explained, and variants are valid, of distinct topologies and ranked.
+"""Fixed rooms and design variants, on the real SCIP: fixed rooms come back exactly as
+given with the rest laid out around them, an impossible set of fixed rooms is explained,
+and variants are valid, of distinct topologies and ranked.
 
 The time limits are generous (slow machines); nothing asserts on wall time."""
 

@@ -1,5 +1,5 @@
-"""Rooms of several rectangles from level 1 (issue 8): plans a single rectangle per
-room cannot give still come back, and the report says which rooms changed shape."""
+"""Rooms of several rectangles from level 1: plans a single rectangle per room cannot
+give still come back, and the report says which rooms changed shape."""
 
 from __future__ import annotations
 
@@ -249,7 +249,7 @@ def test_a_wrapped_obstacle_is_no_covered_floor_in_the_objective() -> None:
     assert level_objective(spec, {"a": Box(0, 0, 6, 4)}) == pytest.approx(0.0)
 
 
-# Issue 19: briefs extracted from plans whose rooms are L- or U-shaped.
+# Briefs extracted from plans whose rooms are L- or U-shaped.
 
 #: A 9 x 6 flat: the bedroom (4 x 3) in the north-east corner, the living room's target
 #: the whole outline. The only answers with no size error make the living room an L

@@ -1,7 +1,7 @@
-"""Several storeys (issue 5, paper Fig. 11): floors with their own rooms, vertical rooms
-on the same footprint on every floor they span. Real SCIP, small time limits; the
-footprints are compared with shapely on the returned polygons, not with the solver's
-own alignment check."""
+"""Several storeys (paper Fig. 11): floors with their own rooms, vertical rooms on the
+same footprint on every floor they span. Real SCIP, small time limits; the footprints
+are compared with shapely on the returned polygons, not with the solver's own alignment
+check."""
 
 from __future__ import annotations
 
