@@ -2,7 +2,7 @@
 
     python -m bench batch [--count N] [--processes P] [--out FILE] [--table FILE] [BRIEF ...]
 
-Each brief (default: apartment-5 and house-13 of the committed cases (bench/data/cases), and the templated
+Each brief (default: apartment-5 and house-13 of bench/data/cases, and the templated
 7-room flat of examples/) is laid out `--count` times on a warm pool of `--processes`
 processes, by our solver as `floorplan batch` runs it (``options.diverse``, the batch's
 per-layout time limit, each solve stopped at its first good layout, options.stop_when_good,
