@@ -51,3 +51,17 @@ def stall_window(elapsed: float) -> float:
 def significant_gain(before: float, after: float) -> bool:
     """Whether lowering Eq. 12 from `before` to `after` counts as progress."""
     return before - after > max(STALL_GAIN * abs(before), STALL_GAIN_ABS)
+
+
+#: SCIP's check of the answer (solver/pipeline/judge.py) keeps this share of the limit
+#: at the end of a solve ...
+JUDGE_SHARE = 0.1
+#: ... up to this many seconds and this many more per room.
+JUDGE_SECONDS = 0.3
+JUDGE_SECONDS_PER_ROOM = 0.03
+
+
+def judge_seconds(limit: float, rooms: int) -> float:
+    """Seconds kept at the end of a solve of `rooms` rooms within `limit` for SCIP to
+    take the answer as a start of the whole floor's MIQP and polish it."""
+    return min(JUDGE_SHARE * limit, JUDGE_SECONDS + JUDGE_SECONDS_PER_ROOM * rooms)

@@ -33,6 +33,7 @@ from floorplan.solver.geometry import (
 )
 from floorplan.solver.openings import Openings, add_openings
 from floorplan.solver.pipeline.hierarchy import Piece, room_boxes
+from floorplan.solver.pipeline.judge import judged
 from floorplan.solver.pipeline.run import OUTPUT_SNAP, Run
 from floorplan.solver.soft import hard_part
 from floorplan.solver.verify.checker import (
@@ -106,6 +107,7 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
         # incumbent that passes was found (docs/method.md, "The steps", step 7).
         rooms, check = passing
     rooms, check = straight_walls(problem, rooms, check)
+    rooms, check = _judged(run, domain, rooms, check)
     out, openings = drawn_rooms(problem, rooms)
     constraints, valid = with_circulation(problem, check, openings)
     (ended, bound), why = termination(run, rooms), None
@@ -142,6 +144,26 @@ def final_layout(run: Run, domain: Domain, pieces: list[Piece], levels: int) -> 
     run.emit(Phase.DONE, objective=objective, detail=f"coverage {check.coverage:.1%}")
     return Layout(name=problem.name, rooms=out, doors=openings.doors, windows=openings.windows,
                   report=report)
+
+
+def _judged(run: Run, domain: Domain, rooms: dict[str, list[Box]], check: CheckResult
+            ) -> tuple[dict[str, list[Box]], CheckResult]:
+    """The valid layout `rooms` as SCIP answers it in the whole floor's MIQP
+    (solver/pipeline/judge.py), unless SCIP already answered with it, the solve was
+    stopped, or SCIP's answer does not pass the checker once snapped."""
+    answer = run.scip_answer
+    if not check.valid or run.stopped() or (answer is not None
+                                             and same_layout(answer.rooms, rooms)):
+        return rooms, check
+    problem = run.problem
+    polished = judged(run, domain, rooms, run.judge_end or run.end)
+    if polished is rooms:
+        return rooms, check
+    snapped = snap_rooms(polished, *domain_lines(problem), OUTPUT_SNAP)
+    again = check_layout(problem, snapped)
+    if again.valid and again.coverage >= check.coverage - 1e-9:
+        return snapped, again
+    return rooms, check
 
 
 def with_rooms(problem: Problem, layout: Layout, rooms: dict[str, list[Box]],

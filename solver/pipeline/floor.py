@@ -15,7 +15,7 @@ import time
 
 from floorplan.models import Infeasibility, Layout, Problem, Termination
 from floorplan.models.parts import REDRAW_SEED_STEP as WHOLE_REDRAW_SEED_STEP
-from floorplan.solver.budget import default_time_limit
+from floorplan.solver.budget import default_time_limit, judge_seconds
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import Domain, make_domain
 from floorplan.solver.heuristics.variety import (
@@ -105,11 +105,14 @@ def solve_floor(
     reserve = min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
     # Level 1 and the hierarchy search until `search_end` at the latest; the reshaping
     # has the rest.
-    end = started + limit - reserve
+    # SCIP's check of the answer (solver/pipeline/judge.py) has its share at the end.
+    judging = judge_seconds(limit, len(problem.rooms))
+    end = started + limit - reserve - judging
     reshaping = min(RESHAPE_SHARE * (end - started),
                     RESHAPE_SECONDS + RESHAPE_SECONDS_PER_ROOM * len(problem.rooms))
     search_end = end - reshaping
-    run = Run(problem, search_end, started, on_event, should_stop, asked=asked, end=end)
+    run = Run(problem, search_end, started, on_event, should_stop, asked=asked, end=end,
+              judge_end=end + judging)
     domain = make_domain(problem)
     findings = find_impossibilities(problem, domain)  # soft constraints never refuse
     if findings:

@@ -99,6 +99,8 @@ class Run:
     stalls: int = 0
     #: The last whole-floor MIQP's answer, if any (`ScipAnswer`).
     scip_answer: ScipAnswer | None = None
+    #: SCIP's check of the answer (solver/pipeline/judge.py) runs until then (0: `end`).
+    judge_end: float = 0.0
     #: The rooms of the last incumbent announced (gaps absorbed), if any.
     announced: dict[str, list[Box]] | None = None
 
