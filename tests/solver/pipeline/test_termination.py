@@ -1,0 +1,167 @@
+"""What the report claims is what happened (docs/method.md, "When a solve ends"):
+`optimal` only for a layout SCIP proved optimal for its model, with SCIP's bound and
+gap; the stall rule; the last incumbent announced is the layout returned; SCIP's check
+of the answer (solver/pipeline/judge.py). Real SCIP throughout."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import pytest
+import shapely
+
+from floorplan.models import Layout, Problem, Termination
+from floorplan.solver import solve
+from floorplan.solver.budget import significant_gain, stall_window
+from floorplan.solver.events import Phase, SolveEvent
+from floorplan.solver.geometry import Box, make_domain
+from floorplan.solver.pipeline.assemble import same_layout, termination
+from floorplan.solver.pipeline.judge import final_spec, judged
+from floorplan.solver.pipeline.run import Run, ScipAnswer, layout_objective
+from floorplan.solver.verify.checker import check_layout
+from tests.paths import EXAMPLES
+
+#: Far above what any solve here needs: the stop rule, not the limit, ends them.
+GENEROUS = 120.0
+
+
+def apartment(**options: Any) -> Problem:
+    problem = Problem.model_validate_json((EXAMPLES / "apartment-5.json").read_text())
+    return problem.with_options(time_limit=GENEROUS, **options)
+
+
+def last_incumbent(events: list[SolveEvent]) -> dict[str, list[Box]]:
+    rooms = [e.rooms for e in events if e.phase is Phase.INCUMBENT and e.rooms is not None]
+    assert rooms, "no incumbent announced"
+    return rooms[-1]
+
+
+def drawn_as(layout: Layout, rooms: dict[str, list[Box]]) -> bool:
+    """Whether the layout's room polygons are the union of `rooms`' rectangles."""
+    for room in layout.rooms:
+        union = shapely.union_all([b.to_polygon() for b in rooms[room.id]])
+        if shapely.Polygon(room.polygon).symmetric_difference(union).area > 1e-3:
+            return False
+    return len(layout.rooms) == len(rooms)
+
+
+def test_a_layout_scip_proved_optimal_says_so_with_its_bound_and_ends_there() -> None:
+    events: list[SolveEvent] = []
+    layout = solve(apartment(), on_event=events.append)
+    report = layout.report
+    assert report.valid and report.coverage == pytest.approx(1.0)
+    assert report.termination is Termination.OPTIMAL
+    assert report.bound is not None and report.gap is not None
+    assert report.bound <= report.objective + 1e-6
+    assert report.gap <= 2e-3  # SCIP's gap limit, 1e-3, and the output's snapping
+    # Proven optimal and covering: no stage ran after level 1 (the stop rule).
+    assert not [e for e in events if e.detail and "reshaping" in e.detail]
+    assert drawn_as(layout, last_incumbent(events))
+
+
+def test_the_whole_limit_when_asked_and_the_report_says_which_way_it_ended() -> None:
+    events: list[SolveEvent] = []
+    layout = solve(apartment(stop="limit").with_options(time_limit=3.0),
+                   on_event=events.append)
+    report = layout.report
+    assert report.valid
+    # SCIP's check of the answer may prove it optimal; otherwise the limit ended it.
+    assert report.termination in (Termination.OPTIMAL, Termination.TIME_LIMIT)
+    if report.termination is Termination.TIME_LIMIT:
+        assert report.solve_time >= 3.0 * 0.8
+    else:
+        assert report.bound is not None
+    # With the whole limit the later stages ran.
+    assert [e for e in events if e.detail and "reshaping" in e.detail]
+    assert drawn_as(layout, last_incumbent(events))
+
+
+def test_the_termination_follows_scip_s_word_on_the_very_layout_returned() -> None:
+    problem = apartment()
+    now = time.monotonic()
+    run = Run(problem, now + 10, now, None, None, end=now + 10)
+    mine = {"a": [Box(0, 0, 1, 1)], "b": [Box(1, 0, 2, 1)]}
+    moved = {"a": [Box(0, 0, 1.5, 1)], "b": [Box(1.5, 0, 2, 1)]}
+    # No SCIP answer: time left means the stages stalled, none left means the limit.
+    assert termination(run, mine) == (Termination.STALLED, None)
+    run.end = now - 1
+    assert termination(run, mine) == (Termination.TIME_LIMIT, None)
+    # SCIP proved this layout optimal: optimal with its bound.
+    run.scip_answer = ScipAnswer(mine, True, 3.5)
+    assert termination(run, mine) == (Termination.OPTIMAL, 3.5)
+    # ... but not another one, changed after SCIP's word.
+    assert termination(run, moved) == (Termination.TIME_LIMIT, None)
+    # SCIP's answer without a proof keeps its bound.
+    run.scip_answer = ScipAnswer(mine, False, 3.5)
+    assert termination(run, mine) == (Termination.TIME_LIMIT, 3.5)
+    # A stop asked for is an interruption, whatever else holds.
+    stopping = Run(problem, now + 10, now, None, lambda: True, end=now + 10)
+    assert termination(stopping, mine)[0] is Termination.INTERRUPTED
+
+
+def test_layouts_compare_by_their_rooms_rectangles_within_the_snapping() -> None:
+    a = {"r": [Box(0, 0, 1, 1), Box(1, 0, 2, 1)]}
+    assert same_layout(a, {"r": [Box(1, 0, 2, 1), Box(0, 0, 1 + 1e-5, 1)]})
+    assert not same_layout(a, {"r": [Box(0, 0, 2, 1)]})
+    assert not same_layout(a, {"s": a["r"]})
+
+
+def test_the_stall_rule_counts_progress_in_a_window_of_the_time_spent() -> None:
+    assert stall_window(0.1) == pytest.approx(0.25)
+    assert stall_window(10.0) == pytest.approx(3.0)
+    assert significant_gain(10.0, 9.9) and not significant_gain(10.0, 9.99)
+    assert significant_gain(0.01, 0.0) and not significant_gain(0.01, 0.0095)
+    now = time.monotonic()
+    run = Run(apartment(), now + 100, now - 20, None, None, end=now + 100)
+    assert not run.stalled_now()  # no covering layout yet: nothing to stall on
+    run.last_gain = now - 10  # 10 s without progress after 20 s: more than 30 % of 20 s
+    assert run.stalled_now() and run.ending() and not run.stopped()
+    run.begin_stage()  # the next stage has its own window
+    assert not run.stalled_now()
+    limit = Run(apartment(stop="limit"), now + 100, now - 20, None, None, end=now + 100)
+    limit.last_gain = now - 19
+    assert not limit.stalled_now()
+
+
+TWO_ROOMS_L = Problem.model_validate({
+    "name": "l-and-square",
+    "boundary": [[0, 0], [4, 0], [4, 4], [0, 4]],
+    "rooms": [
+        {"id": "l", "min_size": [2, 2], "max_size": [4, 4], "target_size": [4, 4],
+         "shape": "free", "boundary": ["south"]},
+        {"id": "sq", "min_size": [1.5, 1.5], "max_size": [3, 3], "target_size": [2, 2]},
+    ],
+    "adjacency": [{"a": "l", "b": "sq", "min_contact": 1.0}],
+    "options": {"time_limit": GENEROUS},
+})
+
+
+def test_scip_takes_an_l_shaped_room_as_it_is_and_keeps_the_layout_valid() -> None:
+    problem, domain = TWO_ROOMS_L, make_domain(TWO_ROOMS_L)
+    rooms = {"l": [Box(0, 0, 4, 2), Box(0, 2, 2, 4)], "sq": [Box(2, 2, 4, 4)]}
+    assert check_layout(problem, rooms).valid
+    built = final_spec(problem, domain, rooms)
+    assert built is not None
+    spec, start = built
+    assert len(spec.rects) == 3 and set(start) == {r.name for r in spec.rects}
+    now = time.monotonic()
+    run = Run(problem, now + 30, now, None, None, end=now + 30)
+    answer = judged(run, domain, rooms, now + 30)
+    assert run.scip_answer is not None and run.scip_answer.rooms == answer
+    check = check_layout(problem, answer)
+    assert check.valid and check.coverage == pytest.approx(1.0)
+    assert layout_objective(problem, domain, answer) <= layout_objective(
+        problem, domain, rooms) + 1e-6
+    # An L room aims its rectangles at their own sizes: no bound on Eq. 12 is claimed.
+    assert run.scip_answer.bound is None
+
+
+def test_a_layout_breaking_the_model_is_left_as_it_is() -> None:
+    problem, domain = TWO_ROOMS_L, make_domain(TWO_ROOMS_L)
+    # The L does not reach its exterior wall: no solution of any level's model.
+    rooms = {"l": [Box(0, 2, 2, 4), Box(0, 1, 1, 2)], "sq": [Box(2, 2, 4, 4)]}
+    assert final_spec(problem, domain, rooms) is None
+    now = time.monotonic()
+    run = Run(problem, now + 30, now, None, None, end=now + 30)
+    assert judged(run, domain, rooms, now + 30) is rooms and run.scip_answer is None
