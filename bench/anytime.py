@@ -138,7 +138,9 @@ def plot_profile(results: dict[str, Any], case: str, path: Path) -> None:
             ax.plot(s.times[-1], values[-1], "o", ms=8, color=colour,
                     mfc=colour if s.valid else "white", mew=1.8, zorder=5)
             if s.first_valid is not None:
-                k = max(i for i, t in enumerate(s.times) if t <= s.first_valid + 1e-9)
+                # The profile's times are rounded to 0.1 ms: the layout at or before it.
+                k = max((i for i, t in enumerate(s.times) if t <= s.first_valid + 1e-4),
+                        default=0)
                 ax.plot(s.first_valid, values[k], "D", ms=5, color=colour, mfc="white",
                         zorder=5)
     ours = [s for s in series if s.solver == "ours"]

@@ -149,14 +149,14 @@ def profile_points(problem: Problem, domain: Domain, trace: Trace, objective: fl
             continue
         previous = rooms
         cov, eq12 = _quick_quality(problem, domain, rooms, trace.aisles)
-        points.append([elapsed, eq12, cov])
+        points.append([round(elapsed, 4), round(eq12, 4), round(cov, 6)])
     if trace.final is not None and objective is not None and coverage is not None:
         # ours and flat record the final layout at `seconds` already: replaced by the
-        # record's own figures (the checker's coverage, the aisles' objective).
+        # record's own figures (the checker's coverage, the aisles' objective), unrounded.
         while points and points[-1][0] >= trace.seconds:
             points.pop()
         points.append([trace.seconds, objective, coverage])
-    return [[round(t, 4), round(e, 4), round(c, 6)] for t, e, c in points]
+    return points
 
 
 def _quick_quality(problem: Problem, domain: Domain, rooms: Rooms,
