@@ -113,7 +113,8 @@ def plot_profiles(results: dict[str, Any], out: Path) -> list[Path]:
 def plot_profile(results: dict[str, Any], case: str, path: Path) -> None:
     """Eq. 12 (top) and coverage (bottom) against time for every run of `case`: a step
     line per run, its final layout marked (filled when valid), its first valid layout
-    marked, ours' time limit and where each run of ours returned as vertical lines."""
+    marked, ours' time limit and where each run of ours returned as vertical lines; a
+    run that produced no layout is a cross on the time axis where it ended."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -121,7 +122,7 @@ def plot_profile(results: dict[str, Any], case: str, path: Path) -> None:
     from matplotlib.lines import Line2D
 
     series = profile_series(results, case)
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 7), sharex=True,
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(12.5, 7), sharex=True,
                                       gridspec_kw={"height_ratios": [3, 2]})
     labelled: set[str] = set()
     for s in series:
@@ -143,6 +144,13 @@ def plot_profile(results: dict[str, Any], case: str, path: Path) -> None:
                         default=0)
                 ax.plot(s.first_valid, values[k], "D", ms=5, color=colour, mfc="white",
                         zorder=5)
+    # Runs without any layout have no line: a cross on the time axis where they ended.
+    empty = [r for r in results["runs"] if r["case"] == case and not r.get("profile")]
+    for r in empty:
+        colour = COLOURS.get(r["solver"], "black")
+        for ax in (top, bottom):
+            ax.plot(r["final_time"], 0.03, "X", ms=9, color=colour, clip_on=False,
+                    transform=ax.get_xaxis_transform(), zorder=6)
     ours = [s for s in series if s.solver == "ours"]
     for limit in sorted({s.time_limit for s in ours}):
         for ax in (top, bottom):
@@ -159,23 +167,31 @@ def plot_profile(results: dict[str, Any], case: str, path: Path) -> None:
     bottom.set_ylim(max(0.0, math.floor(low) - 1), 100.5)
     bottom.set_ylabel("coverage of the free floor (%)")
     bottom.set_xlabel("time since the solver was called (s, wall clock)")
-    right = max([s.final_time for s in series] + [1.04 * s.time_limit for s in ours])
+    right = max([s.final_time for s in series] + [1.04 * s.time_limit for s in ours]
+                + [r["final_time"] for r in empty])
     bottom.set_xlim(0, 1.02 * right)
     for ax in (top, bottom):
         ax.grid(True, which="both", alpha=0.3)
-    key = [Line2D([], [], color="black", marker="o", ls="none", label="final layout (valid)"),
-           Line2D([], [], color="black", marker="o", mfc="white", ls="none",
-                  label="final layout (not valid)"),
-           Line2D([], [], color="black", marker="D", mfc="white", ms=5, ls="none",
-                  label="first valid layout")]
+    key = [Line2D([], [], color=COLOURS.get(r["solver"], "black"), marker="X", ls="none",
+                  label=f"{r['solver']} (limit {r['time_limit']:g} s): no layout, "
+                        f"ended at {r['final_time']:.1f} s") for r in empty]
+    key += [Line2D([], [], color="black", marker="o", ls="none",
+                   label="final layout (valid: passes the checker, covers >= 99 %)"),
+            Line2D([], [], color="black", marker="o", mfc="white", ls="none",
+                   label="final layout (not valid)"),
+            Line2D([], [], color="black", marker="D", mfc="white", ms=5, ls="none",
+                   label="first valid layout")]
     if ours:
+        limits = ", ".join(f"{t:g}" for t in sorted({s.time_limit for s in ours}))
         returned = ", ".join(f"{s.final_time:.2f}" for s in ours)
-        key += [Line2D([], [], color=COLOURS["ours"], ls="--", label="ours' time limit"),
+        key += [Line2D([], [], color=COLOURS["ours"], ls="--",
+                       label=f"ours' time limit ({limits} s)"),
                 Line2D([], [], color=COLOURS["ours"], ls=":",
                        label=f"ours returned ({returned} s)")]
     key.append(Line2D([], [], color="grey", ls="-.", label="coverage goal, 99 %"))
     handles, _ = top.get_legend_handles_labels()
-    top.legend(handles=handles + key, fontsize=8, loc="upper right")
+    # Beside the panels, where it hides no line.
+    top.legend(handles=handles + key, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
     rooms = results["summary"].get(case, {}).get("rooms")
     machine = results.get("machine", {})
     top.set_title(f"{case}" + (f", {rooms} rooms" if rooms else "")
