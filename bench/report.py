@@ -198,7 +198,8 @@ def markdown(results: dict[str, Any], *, pictures: bool = True) -> str:
         f"highest run in brackets where they differ. Times in seconds on the "
         f"harness's clock; *valid* = passes the independent checker and covers >= 99 %; "
         f"*passes* = passes the checker whatever the coverage. A time of \"none\" means no "
-        f"such layout in the majority of runs; (k/n) counts the runs that found one.",
+        f"such layout in the majority of runs; (k/n) counts the runs that found one."
+        + _load_note(mach),
         "",
         "| case | rooms | complexity | solver | limit (s) | runs | first valid | first passing "
         "| final | coverage | hard violations | size error | Eq. 12 objective |",
@@ -242,6 +243,17 @@ def markdown(results: dict[str, Any], *, pictures: bool = True) -> str:
     lines += _profile_section(results, pictures)
     lines.append("")
     return "\n".join(lines)
+
+
+def _load_note(machine: dict[str, Any]) -> str:
+    """A warning when the machine was busier than its cores as the run started: other
+    work then shares the CPU, and every time in the tables is noisy."""
+    load, cores = (machine.get("load_average") or [None])[0], machine.get("cores")
+    if load is None or not cores or load <= cores:
+        return ""
+    return (f" **The machine was busy**: load {load:g} on {cores} cores as the run started "
+            f"(other work shared it), so the times are noisy, and slower than on an idle "
+            f"machine.")
 
 
 def _profile_section(results: dict[str, Any], pictures: bool) -> list[str]:
