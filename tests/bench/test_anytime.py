@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -97,3 +98,28 @@ def test_final_quality_is_reached_when_the_values_stay_near_the_last() -> None:
     assert reached(times, [40.0, 10.0, 6.0, 5.0, 5.0]) == 2.0
     assert reached(times, [4.0, 10.0, 5.0, 5.0, 5.0]) == 1.0  # worse in between
     assert reached([0.2], [7.0]) == 0.2
+
+
+@pytest.mark.skipif(not HAS_MATPLOTLIB, reason="matplotlib (the bench extra) not installed")
+def test_a_run_without_any_layout_is_drawn_where_it_ended(tmp_path: Path) -> None:
+    from bench.anytime import plot_profiles
+
+    def run(solver: str, profile: list[list[float]], final_time: float) -> dict[str, Any]:
+        return {"case": "c", "solver": solver, "repeat": 0, "time_limit": final_time,
+                "final_time": final_time, "first_valid": profile[0][0] if profile else None,
+                "valid": bool(profile), "profile": profile}
+
+    results = {"summary": {"c": {"rooms": 140}},
+               "runs": [run("ours", [[0.5, 900.0, 0.4], [3.0, 80.0, 1.0]], 3.0),
+                        run("flat", [], 61.8)],
+               "machine": {"date": "2026-11-29", "cores": 2, "load_average": [5.9]}}
+    assert [p.name for p in plot_profiles(results, tmp_path)] == ["profile-c.png"]
+    assert [s.solver for s in profile_series(results, "c")] == ["ours"]
+
+
+def test_results_md_warns_when_the_machine_was_busy() -> None:
+    from bench.report import _load_note
+
+    assert "busy" in _load_note({"load_average": [5.86, 5.6, 3.9], "cores": 2})
+    assert _load_note({"load_average": [1.2, 1.0, 1.0], "cores": 2}) == ""
+    assert _load_note({}) == ""
