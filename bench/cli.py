@@ -3,6 +3,7 @@
     python -m bench [--cases DIR] [--repeat N] [--repeat-large N] [--out DIR]
                     [--only NAME ...] [--solvers ours,flat,anneal] [--flat-limit S]
     python -m bench --report-only [--out DIR] [--cases DIR]
+    python -m bench --profile-only [--out DIR]   # profile-<case>.png from results.json
     python -m bench planted [options]   # planted briefs: bench/planted_report.py
     python -m bench batch [options]     # layouts per second of a batch: bench/batch.py
     python -m bench edits [options]     # edits around fixed rooms: bench/edits.py
@@ -20,11 +21,12 @@ import sys
 import time
 from pathlib import Path
 
+from bench.anytime import plot_profiles
 from bench.batch import main as batch_main
 from bench.edits import main as edits_main
 from bench.evaluate import RunRecord, evaluate
 from bench.planted_report import main as planted_main
-from bench.report import build_results, machine_info, write_outputs
+from bench.report import build_results, has_matplotlib, machine_info, write_outputs
 from bench.solvers import BASELINE_CAP, SOLVERS, baseline_limit, our_limit, run_guarded
 from floorplan.models import Problem
 from floorplan.solver.geometry import make_domain
@@ -58,6 +60,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--report-only", action="store_true",
                    help="solve nothing: rewrite the summary, results.md and complexity.png "
                         "in --out from the runs its results.json holds")
+    p.add_argument("--profile-only", action="store_true",
+                   help="solve nothing: draw profile-<case>.png (quality against time) in "
+                        "--out from its results.json, leaving results.json and results.md")
     args = p.parse_args(argv)
     solvers = [s.strip() for s in args.solvers.split(",") if s.strip()]
     unknown = [s for s in solvers if s not in SOLVERS]
@@ -92,6 +97,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     if args.report_only:
         return rewrite_report(args.out, args.cases)
+    if args.profile_only:
+        return redraw_profiles(args.out)
     cases = load_cases(args.cases, args.only)
     if not cases:
         print(f"no cases in {args.cases}", file=sys.stderr)
@@ -131,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
         write_outputs(build_results(
             {k: v for k, v in cases.items() if any(r.case == k for r in records)},
             records, settings, machine), args.out)
-    log(f"wrote {args.out}/results.json, results.md, complexity.png")
+    log(f"wrote {args.out}/results.json, results.md, complexity.png, profile-<case>.png")
     return 0
 
 
@@ -147,6 +154,31 @@ def rewrite_report(out: Path, cases_dir: Path) -> int:
         return 2
     cases = load_cases(cases_dir, list(dict.fromkeys(r.case for r in records)))
     write_outputs(build_results(cases, records, earlier["settings"], earlier["machine"]), out)
+    return 0
+
+
+def redraw_profiles(out: Path) -> int:
+    """The pictures of quality against time of an earlier run, from its results.json:
+    a change to the drawing needs no new run."""
+    path = out / "results.json"
+    try:
+        results = json.loads(path.read_text(encoding="utf-8"))
+        missing = {"runs", "summary"} - set(results)
+        if missing:
+            raise KeyError(", ".join(sorted(missing)))
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        print(f"cannot read the runs of {path}: {err}", file=sys.stderr)
+        return 2
+    if not has_matplotlib():
+        print("matplotlib is not installed (pip install -e '.[bench]'): nothing drawn",
+              file=sys.stderr)
+        return 1
+    paths = plot_profiles(results, out)
+    if not paths:
+        print(f"no run in {path} recorded a profile (written before they were)",
+              file=sys.stderr)
+        return 1
+    print(f"wrote {', '.join(str(p) for p in paths)}", file=sys.stderr)
     return 0
 
 

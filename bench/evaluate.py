@@ -9,7 +9,7 @@ run, until the first of each kind is found.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -18,7 +18,7 @@ from shapely.geometry.base import BaseGeometry
 
 from bench.solvers import Rooms, Trace
 from floorplan.models import Problem
-from floorplan.solver.geometry import Domain
+from floorplan.solver.geometry import Domain, bounding_box
 from floorplan.solver.pipeline.run import layout_objective
 from floorplan.solver.verify.checker import (
     COVERAGE_GOAL,
@@ -61,6 +61,11 @@ class RunRecord:
     layouts_recorded: int
     layouts_checked: int
     extra: dict[str, Any]
+    #: The anytime profile: [seconds, Eq. 12, coverage] of every recorded layout that
+    #: differs from the one before, in time order, ending with the final layout at
+    #: `final_time` (its `objective` and `coverage`); bench/anytime.py draws it. Empty
+    #: in results.json files written before it was recorded.
+    profile: list[list[float]] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         return asdict(self)
@@ -126,7 +131,49 @@ def evaluate(
         objective=objective, valid=valid, layouts_recorded=len(trace.layouts),
         layouts_checked=checked,
         extra={k: v for k, v in trace.extra.items() if k != "last_improvement"},
+        profile=profile_points(problem, domain, trace, objective, coverage),
     )
+
+
+def profile_points(problem: Problem, domain: Domain, trace: Trace, objective: float | None,
+                   coverage: float | None) -> list[list[float]]:
+    """Eq. 12 and coverage of each recorded layout over time, so quality against time
+    can be drawn from results.json alone. The recorded layouts are measured with the
+    rectangles as recorded (no checker, no snapping: cheap, and an invalid layout of the
+    annealer still has a value); the final point is the final layout's `objective` and
+    `coverage` as the record gives them, so the profile ends where the tables do."""
+    points: list[list[float]] = []
+    previous: Rooms | None = None
+    for elapsed, rooms in trace.layouts:
+        if rooms == previous:
+            continue
+        previous = rooms
+        cov, eq12 = _quick_quality(problem, domain, rooms, trace.aisles)
+        points.append([round(elapsed, 4), round(eq12, 4), round(cov, 6)])
+    if trace.final is not None and objective is not None and coverage is not None:
+        # ours and flat record the final layout at `seconds` already: replaced by the
+        # record's own figures (the checker's coverage, the aisles' objective), unrounded.
+        while points and points[-1][0] >= trace.seconds:
+            points.pop()
+        points.append([trace.seconds, objective, coverage])
+    return points
+
+
+def _quick_quality(problem: Problem, domain: Domain, rooms: Rooms,
+                   aisles: Sequence[BaseGeometry]) -> tuple[float, float]:
+    """Coverage and Eq. 12 of a recorded layout (the formula of `layout_objective`,
+    with the aisles counted as covered floor), from one union."""
+    union = shapely.union_all([b.to_polygon() for boxes in rooms.values() for b in boxes]
+                              + list(aisles))
+    covered = float(domain.free.intersection(union).area)
+    size = 0.0
+    for room in problem.rooms:
+        if room.target_size is not None and rooms.get(room.id):
+            b = bounding_box(rooms[room.id])
+            size += (b.width - room.target_size[0]) ** 2 + (b.depth - room.target_size[1]) ** 2
+    w = problem.weights
+    coverage = covered / domain.area if domain.area else 1.0
+    return coverage, w.cover * (domain.area - covered) + w.size * size
 
 
 def _aisle_failures(problem: Problem, trace: Trace) -> int:

@@ -1,9 +1,10 @@
-"""Medians over repeats, machine facts, and the three outputs: results.json,
-results.md and complexity.png."""
+"""Medians over repeats, machine facts, and the outputs: results.json, results.md,
+complexity.png and a profile-<case>.png per case (bench/anytime.py)."""
 
 from __future__ import annotations
 
 import datetime
+import importlib.util
 import json
 import math
 import os
@@ -15,6 +16,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from bench.anytime import FINAL_WITHIN, cases_with_profiles, plot_profiles, profile_rows
 from bench.evaluate import RunRecord
 from floorplan.models import Problem
 
@@ -141,17 +143,24 @@ def build_results(
     }
 
 
+def has_matplotlib() -> bool:
+    """Whether the optional `bench` extra's matplotlib is there to draw the pictures."""
+    return importlib.util.find_spec("matplotlib") is not None
+
+
 def write_outputs(results: dict[str, Any], out: Path) -> None:
+    """results.json and results.md, and the pictures when matplotlib is installed
+    (without it the harness still measures, and says what it did not draw)."""
     out.mkdir(parents=True, exist_ok=True)
+    drawing = has_matplotlib()
     (out / "results.json").write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
-    (out / "results.md").write_text(markdown(results), encoding="utf-8")
-    try:
-        import matplotlib  # noqa: F401
-    except ImportError:
-        print("matplotlib is not installed (pip install -e '.[bench]'): no complexity.png",
-              file=sys.stderr)
+    (out / "results.md").write_text(markdown(results, pictures=drawing), encoding="utf-8")
+    if not drawing:
+        print("matplotlib is not installed (pip install -e '.[bench]'): no complexity.png "
+              "and no profile-<case>.png", file=sys.stderr)
         return
     plot_complexity(results, out / "complexity.png")
+    plot_profiles(results, out)
 
 
 def _s(v: float | None, found: int, runs: int) -> str:
@@ -176,8 +185,9 @@ def _spread(s: dict[str, Any], name: str, fmt: str, scale: float = 1.0) -> str:
     return text if low == high else f"{text} ({low}-{high})"
 
 
-def markdown(results: dict[str, Any]) -> str:
-    """The tables of results.md."""
+def markdown(results: dict[str, Any], *, pictures: bool = True) -> str:
+    """The tables of results.md; with `pictures`, links to the profile pictures drawn
+    beside it (without, a line saying they were not drawn)."""
     mach = results["machine"]
     lines = [
         "# Benchmark results",
@@ -188,7 +198,8 @@ def markdown(results: dict[str, Any]) -> str:
         f"highest run in brackets where they differ. Times in seconds on the "
         f"harness's clock; *valid* = passes the independent checker and covers >= 99 %; "
         f"*passes* = passes the checker whatever the coverage. A time of \"none\" means no "
-        f"such layout in the majority of runs; (k/n) counts the runs that found one.",
+        f"such layout in the majority of runs; (k/n) counts the runs that found one."
+        + _load_note(mach),
         "",
         "| case | rooms | complexity | solver | limit (s) | runs | first valid | first passing "
         "| final | coverage | hard violations | size error | Eq. 12 objective |",
@@ -229,8 +240,45 @@ def markdown(results: dict[str, Any]) -> str:
                   "|---|---|---|---|---|---|"]
         lines += [_quality_row(name, case["rooms"], case["solvers"]["ours"],
                                case["solvers"]["flat"]) for name, case in compared]
+    lines += _profile_section(results, pictures)
     lines.append("")
     return "\n".join(lines)
+
+
+def _load_note(machine: dict[str, Any]) -> str:
+    """A warning when the machine was busier than its cores as the run started: other
+    work then shares the CPU, and every time in the tables is noisy."""
+    load, cores = (machine.get("load_average") or [None])[0], machine.get("cores")
+    if load is None or not cores or load <= cores:
+        return ""
+    return (f" **The machine was busy**: load {load:g} on {cores} cores as the run started "
+            f"(other work shared it), so the times are noisy, and slower than on an idle "
+            f"machine.")
+
+
+def _profile_section(results: dict[str, Any], pictures: bool) -> list[str]:
+    """Quality against time: a picture per case (bench/anytime.py) and, per solver, when
+    it reached its final quality and when it returned, against its limit."""
+    if not cases_with_profiles(results):
+        return []
+    lines = ["", "## Quality against time", ""]
+    if pictures:
+        lines += ["One picture per case, `profile-<case>.png` (linked below): Eq. 12 and "
+                  "coverage of every recorded layout against time, one step line per run. "
+                  "The recorded layouts are measured as recorded (not snapped, not "
+                  "checked: the annealer's may overlap); the last point of a line is the "
+                  "final layout as the table above measures it."]
+    else:
+        lines += ["The pictures were not drawn: matplotlib is not installed "
+                  "(`pip install -e '.[bench]'`, then `python -m bench --profile-only`)."]
+    lines += ["", f"*At final quality*: the first time from which Eq. 12 stays within "
+              f"{100 * FINAL_WITHIN:g} % of the final layout's; *returned*: when the solver "
+              f"returned its final layout. Medians over the runs, in brackets the share of "
+              f"the solver's own limit.", "",
+              "| case | solver | limit (s) | runs | at final quality (s) | returned (s) "
+              "| final Eq. 12 |", "|---|---|---|---|---|---|---|"]
+    lines += profile_rows(results, links=pictures)
+    return lines
 
 
 def _quality_row(name: str, rooms: int, ours: dict[str, Any], flat: dict[str, Any]) -> str:
