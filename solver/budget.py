@@ -1,7 +1,24 @@
-"""Time limits (paper Sec. 5.4, which gives 5 s up to 20 rooms): 5 s for small floors,
-more for a flat's dozen rooms, growing in proportion on large floors."""
+"""The time policy of a solve, in one place (docs/method.md, "When a solve ends").
+
+The limit (paper Sec. 5.4, which gives 5 s up to 20 rooms: 5 s for small floors, more
+for a flat's dozen rooms, growing in proportion on large floors) is a ceiling: a solve
+ends sooner when more time is unlikely to buy anything (the stall rule below). Within
+it, a floor's stages get named shares (`FloorBudget`, one table):
+
+| stage                       | until                                                       |
+|-----------------------------|-------------------------------------------------------------|
+| level 1 (first layout and its neighbourhood search) | `level_one_end`: 90 % of the search time |
+| refinement levels (Sec. 5.3) | `search_end`: what level 1 leaves of the search time       |
+| reshaping                   | `end`: a quarter of the time before it, at most 1 s + 0.1 s a room |
+| SCIP's check of the answer  | `judge_end`: 10 % of the limit, at most 0.3 s + 0.03 s a room |
+| last gaps and the report    | the limit: 10 ms a room, at most 10 % of it                  |
+
+A stage that stalls ends early and leaves its time to the next.
+"""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 #: Seconds per job up to `BASE_ROOMS` rooms (Sec. 5.4) ...
 BASE_TIME = 5.0
@@ -65,3 +82,55 @@ def judge_seconds(limit: float, rooms: int) -> float:
     """Seconds kept at the end of a solve of `rooms` rooms within `limit` for SCIP to
     take the answer as a start of the whole floor's MIQP and polish it."""
     return min(JUDGE_SHARE * limit, JUDGE_SECONDS + JUDGE_SECONDS_PER_ROOM * rooms)
+
+
+#: Share of the search time level 1 may use (the refinement levels have the rest).
+LEVEL_ONE_SHARE = 0.9
+#: Share of the time before it kept for reshaping the rooms at the end, up to
+#: `RESHAPE_SECONDS` and `RESHAPE_SECONDS_PER_ROOM` more per room; the reshaping also
+#: takes what the refinement leaves. A quarter rather than 15 %: 56 planted briefs,
+#: three runs each way, 42-43 -> 43-45 within 2x the plan's area error (bench/NOTES.md).
+RESHAPE_SHARE = 0.25
+RESHAPE_SECONDS = 1.0
+RESHAPE_SECONDS_PER_ROOM = 0.1
+#: Share of the reshaping's time it keeps when the refinement ends short of the coverage
+#: goal: the rest goes to another round of refinement levels first.
+SHORT_RESHAPE_SHARE = 0.25
+#: Time kept per room for closing the last gaps and checking the layout, at most
+#: `FINISH_SHARE` of the limit.
+FINISH_SECONDS_PER_ROOM = 0.01
+FINISH_SHARE = 0.1
+
+
+@dataclass(frozen=True)
+class FloorBudget:
+    """When each stage of one floor's solve must end (`time.monotonic()` seconds)."""
+
+    started: float
+    limit: float
+    level_one_end: float
+    search_end: float
+    #: The refinement's second round, when the first ends short of the coverage goal,
+    #: may run until here, taken from the reshaping.
+    short_end: float
+    end: float
+    judge_end: float
+
+    @classmethod
+    def of(cls, started: float, limit: float, rooms: int) -> FloorBudget:
+        """The shares of a floor of `rooms` rooms solved from `started` within `limit`."""
+        finish = min(FINISH_SHARE * limit, FINISH_SECONDS_PER_ROOM * rooms)
+        judge_end = started + limit - finish
+        end = judge_end - judge_seconds(limit, rooms)
+        reshaping = min(RESHAPE_SHARE * (end - started),
+                        RESHAPE_SECONDS + RESHAPE_SECONDS_PER_ROOM * rooms)
+        search_end = end - reshaping
+        return cls(started, limit, started + (search_end - started) * LEVEL_ONE_SHARE,
+                   search_end, end - SHORT_RESHAPE_SHARE * reshaping, end, judge_end)
+
+    def table(self) -> str:
+        """The shares as seconds from the start, one line each (for logs and docs)."""
+        rows = [("level 1", self.level_one_end), ("refinement", self.search_end),
+                ("reshaping", self.end), ("SCIP's check", self.judge_end),
+                ("last gaps and report", self.started + self.limit)]
+        return "\n".join(f"{name:22s} until {at - self.started:6.2f} s" for name, at in rows)

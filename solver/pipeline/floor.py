@@ -1,11 +1,9 @@
 """One floor's solve: demands, prechecks, level 1, the hierarchy, the last gaps, the
-reshaping and the independent check.
+reshaping, SCIP's check of the answer and the independent check.
 
-Time policy (paper Sec. 5.4): 5 s up to 20 rooms, growing in proportion beyond
-(`solver.budget`). The reshaping keeps `RESHAPE_SHARE` of it (capped) for the end, and
-has what the refinement leaves; of
-the search time before, level 1 gets `LEVEL_ONE_SHARE` and the refinement levels share
-the rest. A search that finds no first layout may go on to the end.
+The stages' shares of the time limit are `solver.budget.FloorBudget`'s table; each
+stage ends early when it stalls (`Run.ending`), and a level 1 that SCIP proves optimal
+and covering ends the solve. A search that finds no first layout may go on to the end.
 """
 
 from __future__ import annotations
@@ -15,7 +13,7 @@ import time
 
 from floorplan.models import Infeasibility, Layout, Problem, Termination
 from floorplan.models.parts import REDRAW_SEED_STEP as WHOLE_REDRAW_SEED_STEP
-from floorplan.solver.budget import default_time_limit, judge_seconds
+from floorplan.solver.budget import FloorBudget, default_time_limit
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import Domain, make_domain
 from floorplan.solver.heuristics.variety import (
@@ -53,25 +51,9 @@ from floorplan.solver.stopping import GoodEnough, good_rank
 from floorplan.solver.verify.checker import check_layout
 from floorplan.solver.verify.precheck import find_impossibilities
 
-#: Share of the time limit level 1 may use.
-LEVEL_ONE_SHARE = 0.9
-#: Share of the search time kept for reshaping the rooms at the end (docs/method.md,
-#: "The steps", step 6), up to `RESHAPE_SECONDS` and `RESHAPE_SECONDS_PER_ROOM` more per
-#: room; the reshaping also takes what the refinement leaves. A quarter rather than
-#: 15 %: 56 planted briefs, three runs each way, 42-43 -> 43-45 within 2x the plan's
-#: area error (bench/NOTES.md, "The reshaping's time: a quarter of the search, and what
-#: the refinement leaves").
-RESHAPE_SHARE = 0.25
-RESHAPE_SECONDS = 1.0
-RESHAPE_SECONDS_PER_ROOM = 0.1
-#: Time kept per room for closing the last gaps and checking the layout.
-FINISH_SECONDS_PER_ROOM = 0.01
 #: Rooms moved across gaps at most, when the levels end short of the coverage goal
 #: (`_slid`).
 SLIDES = 3
-#: Share of the reshaping's time it keeps when the refinement ends short of the coverage
-#: goal: the rest goes to another round of refinement levels first.
-SHORT_RESHAPE_SHARE = 0.25
 
 
 def solve_floor(
@@ -101,25 +83,16 @@ def solve_floor(
         good = GoodEnough(problem, math.inf)
         on_event, should_stop = _stop_when_good(good, on_event, should_stop)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
-    # The last gaps and the check run after the search: keep time for them.
-    reserve = min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
-    # Level 1 and the hierarchy search until `search_end` at the latest; the reshaping
-    # has the rest.
-    # SCIP's check of the answer (solver/pipeline/judge.py) has its share at the end.
-    judging = judge_seconds(limit, len(problem.rooms))
-    end = started + limit - reserve - judging
-    reshaping = min(RESHAPE_SHARE * (end - started),
-                    RESHAPE_SECONDS + RESHAPE_SECONDS_PER_ROOM * len(problem.rooms))
-    search_end = end - reshaping
-    run = Run(problem, search_end, started, on_event, should_stop, asked=asked, end=end,
-              judge_end=end + judging)
+    budget = FloorBudget.of(started, limit, len(problem.rooms))
+    run = Run(problem, budget.search_end, started, on_event, should_stop, asked=asked,
+              end=budget.end, judge_end=budget.judge_end)
     domain = make_domain(problem)
     findings = find_impossibilities(problem, domain)  # soft constraints never refuse
     if findings:
         return no_layout(run, Termination.INFEASIBLE, explained(run, domain, Infeasibility(
             reason="the problem is infeasible before any solving", findings=findings)))
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
-    level_one_end = started + (run.deadline - started) * LEVEL_ONE_SHARE
+    level_one_end = budget.level_one_end
     second = second_start(problem, domain, subdomains, level_one_end)
     # The guillotine search's layout (solver/heuristics/guillotine.py), which competes
     # with the finished one.
@@ -159,11 +132,10 @@ def solve_floor(
         # SCIP proved the whole floor's MIQP optimal and its layout covers the floor: the
         # gap is closed, so the solve ends here, as the paper's does.
         return final_layout(run, domain, better_final(run, domain, pieces, candidate), 1)
-    pieces, levels = _refined(run, domain, pieces, subdomains,
-                              end - SHORT_RESHAPE_SHARE * reshaping)
+    pieces, levels = _refined(run, domain, pieces, subdomains, budget.short_end)
     pieces = run.better_of(domain, pieces)
-    run.deadline = end
-    pieces = reshaped(run, domain, pieces, end)
+    run.deadline = budget.end
+    pieces = reshaped(run, domain, pieces, budget.end)
     pieces = better_final(run, domain, pieces, candidate)
     if good is not None and good.rooms is not None:
         pieces = as_pieces(good.rooms)  # good during the refinement or the reshaping
