@@ -2,18 +2,18 @@
 
     python -m bench batch [--count N] [--processes P] [--out FILE] [--table FILE] [BRIEF ...]
 
-Each brief (default: apartment-5 and house-13 of the committed cases (bench/data/cases), and the templated
-7-room flat of examples/) is laid out `--count` times on a warm pool of `--processes`
-processes, by our solver as `floorplan batch` runs it (``options.diverse``, the batch's
-per-layout time limit, each solve stopped at its first good layout, options.stop_when_good,
-and laid out again under another draw when it is not good, `REDRAWS` times at most; a
-good layout whose plan the batch holds has its walls moved apart from the plans near it,
-solver/pipeline/spread.py)
-and by the annealing baseline (bench/anneal.py) given the same time per layout, in the
-same run. Reported per brief and solver: layouts per second (wall clock), the share
-valid with coverage >= 0.99, the share of distinct plans (solver.distinct), the
-adjacency graphs, and the median Eq. 12 against the brief's own targets. The pool is
-the standard library's: bench may not import service.
+Each brief (default: apartment-5 and house-13 of the committed cases (bench/data/cases),
+and the templated 7-room flat of examples/) is laid out `--count` times on a warm pool
+of `--processes` processes, by our solver as `floorplan batch` runs it
+(``options.diverse``, the batch's per-layout time limit, each solve stopped at its first
+good layout, options.stop_when_good, and laid out again under another draw when it is
+not good, `REDRAWS` times at most; a good layout whose plan the batch holds has its
+walls moved apart from the plans near it, solver/pipeline/spread.py) and by the
+annealing baseline (bench/anneal.py) given the same time per layout, in the same run.
+Reported per brief and solver: layouts per second (wall clock), the share valid with
+coverage >= 0.99, the share of distinct plans (solver.distinct), the adjacency graphs,
+and the median Eq. 12 against the brief's own targets. The pool is the standard
+library's: bench may not import service.
 """
 
 from __future__ import annotations
