@@ -22,7 +22,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable, Sequence
 from functools import partial
-from typing import Any
+from typing import Any, NamedTuple
 
 from pyscipopt import Model, Variable, quicksum
 
@@ -133,7 +133,7 @@ def _clear_or_wrap(lm: LevelModel, r: RectSpec, v: RectVars, k: int, n: Notch) -
     mx, my = lm.big_m_x, lm.big_m_y
     # Wrapped exactly when no side is clear (C_inside then needs the hull enclosed).
     wrap = lm.derive(m.addVar(f"wrap[{r.name},n{k}]", vtype="B"),
-                     lambda boxes: float(not _holds(*_apart(boxes[r.name], b))))
+                     lambda boxes: float(not _apart(boxes[r.name], b).clear))
     m.addCons(v.x <= h.x0 + mx * (1 - wrap), name=f"wrap_w[{r.name},n{k}]")
     m.addCons(v.x + v.w >= h.x1 - mx * (1 - wrap), name=f"wrap_e[{r.name},n{k}]")
     m.addCons(v.y <= h.y0 + my * (1 - wrap), name=f"wrap_s[{r.name},n{k}]")
@@ -142,25 +142,28 @@ def _clear_or_wrap(lm: LevelModel, r: RectSpec, v: RectVars, k: int, n: Notch) -
     lm.enclosures.append((wrap, b.area))
 
 
-def _apart(a: Box, b: Box) -> tuple[int, float, float]:
-    """The side of `b` (0 west, 1 east, 2 south, 3 north) that `a` is farthest beyond,
-    that distance (negative: they overlap along every side) and the coordinates'
-    magnitude, for the tolerance. The first such side on a tie."""
+class _Apart(NamedTuple):
+    """Where one rectangle stands against another (`_apart`)."""
+
+    side: int  # of the other: 0 west, 1 east, 2 south, 3 north
+    gap: float  # how far beyond it; negative: they overlap along every side
+    clear: bool  # the gap counts as no overlap, within SCIP's tolerance (`START_TOL`)
+
+
+def _apart(a: Box, b: Box) -> _Apart:
+    """The side of `b` that `a` is farthest beyond (the first such on a tie): the side
+    whose big-M disjunct (Eq. 2) holds best."""
     gaps = (b.x0 - a.x1, a.x0 - b.x1, b.y0 - a.y1, a.y0 - b.y1)
     side = max(range(4), key=gaps.__getitem__)
-    return side, gaps[side], max(abs(a.x0), abs(a.x1), abs(a.y0), abs(a.y1))
-
-
-def _holds(_side: int, gap: float, scale: float) -> bool:
-    """Whether a gap counts as no overlap, within SCIP's tolerance (`START_TOL`)."""
-    return gap >= -START_TOL * max(1.0, scale)
+    scale = max(1.0, abs(a.x0), abs(a.x1), abs(a.y0), abs(a.y1))
+    return _Apart(side, gaps[side], gaps[side] >= -START_TOL * scale)
 
 
 def _clear_side(name: str, b: Box, side: int, wraps: bool, boxes: Boxes) -> float:
     """1 for the side of `b` the rectangle is farthest beyond; with `wraps`, 0 for
     every side when none is clear (the rectangle wraps the notch instead)."""
     apart = _apart(boxes[name], b)
-    return float(apart[0] == side and (not wraps or _holds(*apart)))
+    return float(apart.side == side and (not wraps or apart.clear))
 
 
 def c_overlap(lm: LevelModel) -> None:
@@ -183,7 +186,7 @@ def c_overlap(lm: LevelModel) -> None:
 
 def _side_apart(a: str, b: str, side: int, boxes: Boxes) -> float:
     """1 when `side` is the one along which rectangle `a` is farthest apart from `b`."""
-    return float(_apart(boxes[a], boxes[b])[0] == side)
+    return float(_apart(boxes[a], boxes[b]).side == side)
 
 
 def c_ratio(lm: LevelModel) -> None:

@@ -1,4 +1,4 @@
-"""Running one level's SCIP model: limits, seed, progress events, stopping, results."""
+"""Running one level's SCIP model: starts, limits, seed, progress events, stopping, results."""
 
 from __future__ import annotations
 
@@ -111,9 +111,10 @@ def start_values(lm: LevelModel, boxes: Boxes) -> dict[str, float]:
 
 
 def _every_box(lm: LevelModel, boxes: Boxes) -> dict[str, Box]:
-    """Each rectangle of `lm` at its box in `boxes`, a fixed one where the spec holds it."""
-    every = {r.name: r.fixed for r in lm.spec.rects if r.fixed is not None}
-    every.update({name: b for name, b in boxes.items() if name in lm.rects})
+    """Each rectangle of `lm` at its box in `boxes`, a fixed one where the spec holds it
+    (whatever `boxes` says: its variables' bounds are that box)."""
+    every = {name: b for name, b in boxes.items() if name in lm.rects}
+    every.update({r.name: r.fixed for r in lm.spec.rects if r.fixed is not None})
     if missing := sorted(set(lm.rects) - set(every)):
         raise ValueError(f"no box for {', '.join(missing)}")
     return every
