@@ -16,7 +16,7 @@ import shapely
 from floorplan.solver.geometry import Box, Domain, bounding_box, unusable_space
 from floorplan.solver.miqp.formulation import build_level
 from floorplan.solver.miqp.model import LevelModel
-from floorplan.solver.miqp.scip_run import LevelResult, LevelStatus, complete_start
+from floorplan.solver.miqp.scip_run import LevelResult, LevelStatus, add_start
 from floorplan.solver.miqp.spec import LevelSpec, level_objective
 
 #: Rooms freed per neighbourhood at first ...
@@ -137,8 +137,9 @@ def _solve_neighbourhood(
     sub = neighbourhood_spec(spec, rects, free, extra=gap)
     lm = build_level(sub)
     limit = min(STEP_LIMIT, deadline - time.monotonic())
-    start = complete_start(lm, {r.name: rects[r.name] for r in sub.rects
-                                if r.fixed is None}, time_limit=limit / 4)
+    # The layout as it stands is the step's start, in closed form: refused only when a
+    # constraint of the step's model breaks at it (then the step is that answer).
+    start = add_start(lm, {r.name: rects[r.name] for r in sub.rects if r.fixed is None})
     result = step(lm, limit - start.seconds) if start.values is not None else start
     candidate = dict(rects)
     if result.rects is not None:

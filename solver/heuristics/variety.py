@@ -36,12 +36,13 @@ from __future__ import annotations
 import math
 import random
 import zlib
+from functools import partial
 
 from pyscipopt import quicksum
 
 from floorplan.models import Problem, Room
 from floorplan.solver.heuristics.level_one import may_start_as_l, started_as_l
-from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.model import Boxes, LevelModel
 from floorplan.solver.miqp.spec import free_rects
 
 #: Weight of the random pull per metre a room's centre moves, against Eq. 12 (m²):
@@ -192,6 +193,12 @@ def diverse_problem(problem: Problem, seed: int) -> Problem:
     return drawn_shape(drawn_targets(problem, seed), seed)
 
 
+def _centre_off(name: str, axis: str, point: float, boxes: Boxes) -> float:
+    """How far a rectangle's centre is from `point` along `axis`."""
+    b = boxes[name]
+    return abs((b.x0 + b.x1) / 2 - point if axis == "x" else (b.y0 + b.y1) / 2 - point)
+
+
 def pull_to_anchors(lm: LevelModel, seed: int, *, weight: float = ANCHOR_WEIGHT) -> None:
     """Add to `lm`'s objective the L1 distance of each room's centre to a point of the
     level's region drawn from `seed` (the same points for every model of one seed),
@@ -207,7 +214,9 @@ def pull_to_anchors(lm: LevelModel, seed: int, *, weight: float = ANCHOR_WEIGHT)
         v = lm.rects[r.name]
         px, py = rng.uniform(region.x0, region.x1), rng.uniform(region.y0, region.y1)
         for axis, centre, point in (("x", v.x + 0.5 * v.w, px), ("y", v.y + 0.5 * v.d, py)):
-            far = m.addVar(lb=0.0, name=f"anchor_{axis}[{r.name}]")
+            # At given boxes: the centre's distance to the point along the axis.
+            far = lm.derive(m.addVar(lb=0.0, name=f"anchor_{axis}[{r.name}]"),
+                            partial(_centre_off, r.name, axis, point))
             m.addCons(far >= centre - point, name=f"anchor_{axis}_above[{r.name}]")
             m.addCons(far >= point - centre, name=f"anchor_{axis}_below[{r.name}]")
             terms.append(far)

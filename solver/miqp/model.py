@@ -3,12 +3,19 @@ objective term (`solver.miqp.formulation`, `solver.miqp.objective`) adds to."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from pyscipopt import Model, Variable
 
+from floorplan.solver.geometry import Box
 from floorplan.solver.miqp.spec import LevelSpec
+
+#: Every rectangle of a level by name, fixed ones included: what a start is made of.
+Boxes = Mapping[str, Box]
+#: How a variable's value follows from the rectangles (`LevelModel.derive`).
+Valuation = Callable[[Boxes], float]
 
 
 @dataclass
@@ -38,9 +45,20 @@ class LevelModel:
     #: SCIP's primal heuristics run aggressively: for a first layout that the default
     #: settings did not find (`solver.pipeline.first_layout`).
     aggressive: bool = False
+    #: How every variable other than the rectangles' x, y, w, d follows from their
+    #: boxes, registered where the variable is created: a start is then computed in
+    #: closed form (`scip_run.start_values`), with no SCIP solve to complete it.
+    derived: list[tuple[Variable, Valuation]] = field(default_factory=list)
     #: The relative gap at which SCIP may stop (None: `scip_run.GAP_LIMIT`): a model
     #: whose objective only leans the layout one way need not be solved closely.
     gap: float | None = None
+
+    def derive(self, var: Variable, value: Valuation) -> Variable:
+        """Record how `var`'s value follows from the rectangles' boxes; returns `var`.
+        A binary's value must satisfy its big-M constraints whenever the boxes satisfy
+        the family, and a slack's is the least that satisfies its constraints."""
+        self.derived.append((var, value))
+        return var
 
     @property
     def big_m_x(self) -> float:

@@ -1,4 +1,4 @@
-"""Running one level's SCIP model: limits, seed, progress events, stopping, results."""
+"""Running one level's SCIP model: starts, limits, seed, progress events, stopping, results."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from enum import StrEnum
 from pyscipopt import SCIP_EVENTTYPE, SCIP_PARAMSETTING, Model
 
 from floorplan.solver.geometry import Box
-from floorplan.solver.miqp.model import LevelModel
+from floorplan.solver.miqp.model import Boxes, LevelModel
 
 #: SCIP's memory limit per solve in MiB: below a worker's budget so SCIP stops cleanly.
 MEMORY_LIMIT_MB = 4096
@@ -92,11 +92,66 @@ def fixed_rects(lm: LevelModel, boxes: Mapping[str, Box]) -> Iterator[None]:
             m.chgVarUb(var, ub)
 
 
+def start_values(lm: LevelModel, boxes: Boxes) -> dict[str, float]:
+    """Every variable's value, by name, at `boxes` (each free rectangle's; a fixed one
+    is where the spec holds it): x, y, w, d, and the rest as the families registered
+    (`LevelModel.derive`). Raises ValueError when a rectangle has no box, or a variable
+    no valuation (a family that forgot to register one)."""
+    every = _every_box(lm, boxes)
+    values: dict[str, float] = {}
+    for name, v in lm.rects.items():
+        b = every[name]
+        values.update({v.x.name: b.x0, v.y.name: b.y0, v.w.name: b.width, v.d.name: b.depth})
+    for var, value in lm.derived:
+        values[var.name] = value(every)
+    if len(values) != lm.model.getNVars():
+        unknown = sorted(v.name for v in lm.model.getVars() if v.name not in values)
+        raise ValueError(f"no valuation for {', '.join(unknown[:5])}")
+    return values
+
+
+def _every_box(lm: LevelModel, boxes: Boxes) -> dict[str, Box]:
+    """Each rectangle of `lm` at its box in `boxes`, a fixed one where the spec holds it
+    (whatever `boxes` says: its variables' bounds are that box)."""
+    every = {name: b for name, b in boxes.items() if name in lm.rects}
+    every.update({r.name: r.fixed for r in lm.spec.rects if r.fixed is not None})
+    if missing := sorted(set(lm.rects) - set(every)):
+        raise ValueError(f"no box for {', '.join(missing)}")
+    return every
+
+
+def add_start(lm: LevelModel, boxes: Boxes) -> LevelResult:
+    """Hand SCIP the full solution at `boxes` (`start_values`) as a start when it is
+    feasible for `lm`, which SCIP checks (bounds, integrality, every constraint, to its
+    tolerance); no solve. The result says which: FEASIBLE with the start's objective
+    and values, or INFEASIBLE without (the boxes break a constraint: a start refused)."""
+    started = time.monotonic()
+    m = lm.model
+    values = start_values(lm, boxes)
+    sol = m.createSol()  # in the problem stage: a solution of the original problem
+    for var in m.getVars():
+        m.setSolVal(sol, var, values[var.name])
+    feasible = m.checkSol(sol, printreason=False, original=True)
+    objective = m.getSolObjVal(sol)
+    if not feasible:
+        m.freeSol(sol)
+        return LevelResult(LevelStatus.INFEASIBLE, None, None, None,
+                           time.monotonic() - started)
+    # Starts pile up over the steps of a neighbourhood search; SCIP keeps 10 by default.
+    m.setParam("limits/maxorigsol", MAX_STARTS)
+    m.addSol(sol)
+    return LevelResult(LevelStatus.FEASIBLE, _every_box(lm, boxes), objective, None,
+                       time.monotonic() - started, values)
+
+
 def complete_start(lm: LevelModel, boxes: Mapping[str, Box], *, time_limit: float) -> LevelResult:
-    """Solve `lm` with every rectangle fixed to `boxes`, which leaves SCIP only the
-    binaries and auxiliaries to set; the result is a full starting solution (or a proof
-    that `boxes` is not feasible), handed to the model as a start. SCIP's own completion
-    of a partial solution gives up when a model has hundreds of unknown binaries."""
+    """Solve `lm` with the rectangles of `boxes` fixed, which leaves SCIP only the other
+    rectangles, the binaries and the auxiliaries to set; the result is a full starting
+    solution (or a proof that `boxes` is not feasible), handed to the model as a start.
+    Only for a start that places some rectangles and not others (an edit's start with
+    fewer rectangles than the wings tried, `pipeline.edit`): a full one is computed in
+    closed form (`add_start`). SCIP's own completion of a partial solution gives up
+    when a model has hundreds of unknown binaries."""
     with fixed_rects(lm, boxes):
         result = run_level(lm, time_limit=time_limit)
     if result.values is not None:

@@ -47,10 +47,11 @@ from floorplan.solver.miqp.scip_run import (
     Incumbent,
     LevelResult,
     LevelStatus,
+    add_start,
     complete_start,
     run_level,
 )
-from floorplan.solver.miqp.spec import ContactSpec, LevelSpec, RectSpec
+from floorplan.solver.miqp.spec import ContactSpec, LevelSpec, RectSpec, free_rects
 from floorplan.solver.openings import connection_demands
 from floorplan.solver.pipeline.hierarchy import GAP_AREA, absorb_gaps, room_boxes
 from floorplan.solver.pipeline.refine import refine
@@ -64,7 +65,8 @@ EDIT_SHARE = 0.5
 EDIT_SECONDS = 0.7
 #: ... and the edit with the hierarchy after them.
 EDIT_END_SECONDS = 1.0
-#: Share of the MIQP's time completing a start into a full solution may take.
+#: Share of the MIQP's time that completing a partial start (some rectangles unplaced)
+#: into a full solution may take.
 START_SHARE = 0.25
 #: Once the free rooms cover their floor, SCIP is stopped after this many seconds
 #: without a better incumbent ...
@@ -260,8 +262,12 @@ def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
     rects = _start_rects(start, wings)
     lm = build_level(_fit_start(edit_spec(demanded, sub, domain, fixed, wings), rects))
     if start:
-        began = complete_start(lm, rects,
-                               time_limit=(end - time.monotonic()) * START_SHARE)
+        # A start that places every free rectangle is a full solution in closed form.
+        # One with fewer rectangles than the wings tried, or without some room, leaves
+        # rectangles to place: only a SCIP solve around the placed ones completes it.
+        began = (add_start(lm, rects) if all(r.name in rects for r in free_rects(lm.spec))
+                 else complete_start(lm, rects,
+                                     time_limit=(end - time.monotonic()) * START_SHARE))
         run.emit(Phase.LEVEL, detail="edit: the start " + (
             "holds, SCIP starts from it" if began.values is not None
             else f"does not hold ({began.status}), SCIP starts afresh"))

@@ -22,7 +22,7 @@ from floorplan.solver.heuristics.neighbourhood import (
 from floorplan.solver.heuristics.variety import pull_at_random
 from floorplan.solver.miqp.formulation import build_level
 from floorplan.solver.miqp.model import LevelModel
-from floorplan.solver.miqp.scip_run import Incumbent, LevelStatus, complete_start
+from floorplan.solver.miqp.scip_run import Incumbent, LevelStatus, add_start
 from floorplan.solver.pipeline.hierarchy import absorbed
 from floorplan.solver.pipeline.run import Run, ScipAnswer, covered, goal_area
 
@@ -71,8 +71,7 @@ def _gap_wing(
                 return None
             wings = run.wings | {name: 1}
             lm = build_level(level_one_spec(problem, domain, window=None, wings=wings))
-            start = complete_start(lm, rects | {name: main, wing_names(name, 1)[0]: wing},
-                                   time_limit=deadline - time.monotonic())
+            start = add_start(lm, rects | {name: main, wing_names(name, 1)[0]: wing})
             if start.rects is None:
                 continue
             run.wings = wings
@@ -107,7 +106,7 @@ def improve_level_one(
                                     soft=run.soft))
     if run.problem.options.diverse:
         pull_at_random(lm, run.problem.options.seed)
-    start = complete_start(lm, first, time_limit=deadline - time.monotonic())
+    start = add_start(lm, first)
     if start.values is None:
         return first
     assert start.rects is not None

@@ -13,7 +13,7 @@ from floorplan.solver.geometry import Box, Domain, domain_lines, snap_rooms
 from floorplan.solver.heuristics.reshape import reshape
 from floorplan.solver.heuristics.wall_slide import slide_walls
 from floorplan.solver.miqp.formulation import build_level
-from floorplan.solver.miqp.scip_run import complete_start
+from floorplan.solver.miqp.scip_run import add_start
 from floorplan.solver.pipeline.hierarchy import (
     Piece,
     RefinementPlan,
@@ -101,7 +101,7 @@ def refine(
             budget = run.remaining() / levels_left / (len(subs) - i)
             plan = plan_refinement(problem, domain, pieces, sub, level=level, index=i, rng=rng)
             lm = build_level(plan.spec)
-            start = complete_start(lm, plan.start, time_limit=budget / 4)
+            start = add_start(lm, plan.start)
             if start.values is None:
                 run.emit(Phase.SUBDOMAIN, subdomain=i + 1, subdomains=len(subs),
                          detail=f"start not feasible: {start.status}")

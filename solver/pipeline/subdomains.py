@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from floorplan.models import ExtraRectangles, Problem
 from floorplan.solver.geometry import Box
 from floorplan.solver.miqp.formulation import build_level
-from floorplan.solver.miqp.scip_run import complete_start, run_level
+from floorplan.solver.miqp.scip_run import add_start, run_level
 from floorplan.solver.miqp.spec import LevelSpec
 from floorplan.solver.pipeline.hierarchy import Piece
 
@@ -112,7 +112,7 @@ def solve_subdomain(task: SubdomainTask) -> SubdomainOutcome:
     if left() < MIN_SECONDS:
         return SubdomainOutcome("not started: the level's time ran out", None, None, 0.0)
     lm = build_level(task.spec)
-    start = complete_start(lm, task.start, time_limit=max(left(), MIN_SECONDS) / 4)
+    start = add_start(lm, task.start)
     if start.values is None:
         return SubdomainOutcome(f"start not feasible: {start.status}", None, None,
                                 time.monotonic() - started)
