@@ -14,7 +14,7 @@ import math
 import time
 
 from floorplan.models import Infeasibility, Layout, Problem, Termination
-from floorplan.models.parts import REDRAW_SEED_STEP as WHOLE_REDRAW_SEED_STEP
+from floorplan.models.options import REDRAW_SEED_STEP as WHOLE_REDRAW_SEED_STEP
 from floorplan.solver.budget import default_time_limit
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import Domain, make_domain
@@ -164,7 +164,7 @@ def _drawn_until_good(
     subdomains: SubdomainExecutor | None,
 ) -> Layout:
     """`options.redraws` (issue 23: a batch's layout as a job of the service): the solve
-    laid out again whole under another draw of the seed (`models.parts.REDRAW_SEED_STEP`)
+    laid out again whole under another draw of the seed (`models.options.REDRAW_SEED_STEP`)
     while it ends without a good layout, each draw an equal share of the time left, as
     `floorplan batch` does between solves. The first good layout, else the best of the
     draws (valid first, then the most floor covered); its solve_time counts every draw."""
