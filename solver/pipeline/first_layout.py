@@ -199,7 +199,7 @@ def guillotine_alone(
     task: LevelOneTask, should_stop: Callable[[], bool] | None = None, *,
     tiled: bool = True, untiled: bool = True, then_level_one: bool = True,
 ) -> LevelOneOutcome:
-    """The guillotine search (solver/heuristics/guillotine.py) on `task.problem` in
+    """The guillotine search (solver/heuristics/guillotine/) on `task.problem` in
     whatever process the executor uses: a whole layout, its L and T rooms chosen by the
     search, ending by `task.deadline` (epoch). With `then_level_one` (a search alongside
     level 1), a floor too large for it that has no tiling gets a second level-1 search

@@ -115,7 +115,7 @@ def solve_floor(
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
     level_one_end = started + (run.deadline - started) * LEVEL_ONE_SHARE
     second = second_start(problem, domain, subdomains, level_one_end)
-    # The guillotine search's layout (solver/heuristics/guillotine.py), which competes
+    # The guillotine search's layout (solver/heuristics/guillotine/), which competes
     # with the finished one.
     candidate: LevelOneOutcome | None = None
     if second is None:
