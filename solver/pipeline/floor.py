@@ -26,16 +26,7 @@ from floorplan.solver.heuristics.variety import (
 )
 from floorplan.solver.openings import connection_demands
 from floorplan.solver.pipeline.assemble import explained, final_layout, no_layout
-from floorplan.solver.pipeline.first_layout import (
-    GUILLOTINE,
-    awaited,
-    better_final,
-    better_start,
-    first_level,
-    guillotine_here,
-    second_start,
-    tilings_first,
-)
+from floorplan.solver.pipeline.first_layout import first_level
 from floorplan.solver.pipeline.hierarchy import (
     GAP_AREA,
     Piece,
@@ -48,6 +39,15 @@ from floorplan.solver.pipeline.hierarchy import (
 from floorplan.solver.pipeline.refine import refine, reshaped
 from floorplan.solver.pipeline.repair import repaired
 from floorplan.solver.pipeline.run import Run, covered, covers
+from floorplan.solver.pipeline.second_search import (
+    GUILLOTINE,
+    awaited,
+    better_final,
+    better_start,
+    guillotine_here,
+    second_start,
+    tilings_first,
+)
 from floorplan.solver.pipeline.subdomains import LevelOneOutcome, SubdomainExecutor
 from floorplan.solver.stopping import GoodEnough, good_rank
 from floorplan.solver.verify.checker import check_layout

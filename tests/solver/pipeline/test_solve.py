@@ -329,9 +329,9 @@ def test_the_best_covering_incumbent_replaces_a_final_layout_that_lost_coverage(
 
 def test_a_second_level_one_search_that_ends_better_is_returned_with_its_gaps_absorbed(
 ) -> None:
-    from floorplan.solver.pipeline.first_layout import better_final
     from floorplan.solver.pipeline.hierarchy import Piece, room_boxes
     from floorplan.solver.pipeline.run import Run
+    from floorplan.solver.pipeline.second_search import better_final
     from floorplan.solver.pipeline.subdomains import LevelOneOutcome
 
     # A second level-1 search's pieces leave the gaps level 1 leaves; the incumbent it
