@@ -29,9 +29,8 @@ from floorplan_client.cli import (
     EXIT_INVALID,
     EXIT_NO_LAYOUT,
     EXIT_OK,
-    PlainDisplay,
-    RichDisplay,
 )
+from floorplan_client.cli.display import PlainDisplay, RichDisplay
 from floorplan_client.types import Progress
 from tests.client.test_client import CROWDED
 from tests.servers import Server
