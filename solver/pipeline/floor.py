@@ -25,17 +25,10 @@ from floorplan.solver.heuristics.variety import (
     diverse_problem,
 )
 from floorplan.solver.openings import connection_demands
+from floorplan.solver.pipeline.absorb import absorb_gaps, absorbed, slides
 from floorplan.solver.pipeline.assemble import explained, final_layout, no_layout
 from floorplan.solver.pipeline.first_layout import first_level
-from floorplan.solver.pipeline.hierarchy import (
-    GAP_AREA,
-    Piece,
-    absorb_gaps,
-    absorbed,
-    as_pieces,
-    room_boxes,
-    slides,
-)
+from floorplan.solver.pipeline.hierarchy import GAP_AREA, Piece, as_pieces, room_boxes
 from floorplan.solver.pipeline.refine import refine, reshaped
 from floorplan.solver.pipeline.repair import repaired
 from floorplan.solver.pipeline.run import Run, covered, covers

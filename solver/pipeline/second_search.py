@@ -18,8 +18,9 @@ from floorplan.solver.heuristics.guillotine import MAX_ROOMS as GUILLOTINE_MAX_R
 from floorplan.solver.heuristics.guillotine import applies as guillotine_applies
 from floorplan.solver.heuristics.guillotine import guillotine_layout
 from floorplan.solver.heuristics.level_one import may_start_as_l, started_as_l, wing_order
+from floorplan.solver.pipeline.absorb import absorb_gaps, absorbed
 from floorplan.solver.pipeline.first_layout import first_level
-from floorplan.solver.pipeline.hierarchy import Piece, absorb_gaps, absorbed, as_pieces, room_boxes
+from floorplan.solver.pipeline.hierarchy import Piece, as_pieces, room_boxes
 from floorplan.solver.pipeline.run import Run, covers, layout_objective
 from floorplan.solver.pipeline.subdomains import (
     LATE_SECONDS,
