@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from floorplan.models import Layout, Problem, Report, RoomLayout
-from floorplan.models.parts import REDRAW_SEED_STEP
+from floorplan.models.options import REDRAW_SEED_STEP
 from floorplan.solver.distinct import NEAR_SHARE, DistinctPlans
 from floorplan.solver.stopping import good_rank
 

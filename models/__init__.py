@@ -5,11 +5,13 @@ it that needs nothing outside the standard library (`models.formats`) loads with
 pydantic, shapely or numpy: the `floorplan` command builds ``submit``'s options from it,
 and ``floorplan solve`` must not load numpy before it has set up its Ctrl-C handling.
 
-The modules: `models.parts` (the building blocks of a problem), `models.templates` and
-`models.storeys` (templated problems, buildings of several floors), `models.problem`
-(`Problem`, built on the three), `models.layout` (the answer), `models.jobs` (the
-service's jobs as its API shows them), `models.formats` (what a layout can be written
-as).
+The modules: `models.parts` (the building blocks of a problem), on `models.base` (the
+strict base model, the limits and field types), `models.checks` (the checks the forms
+of a problem share) and `models.options` (weights, options, openings);
+`models.templates` and `models.storeys` (templated problems, buildings of several
+floors), `models.problem` (`Problem`, built on them all), `models.layout` (the
+answer), `models.jobs` (the service's jobs as its API shows them), `models.formats`
+(what a layout can be written as).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from .base import DEFAULT_MAX_ROOMS
     from .layout import (
         OUTSIDE,
         Aisle,
@@ -37,18 +40,8 @@ if TYPE_CHECKING:
         VariantInfo,
         Window,
     )
-    from .parts import (
-        DEFAULT_MAX_ROOMS,
-        Adjacency,
-        Floor,
-        Obstacle,
-        Openings,
-        Options,
-        Region,
-        Room,
-        VerticalRoom,
-        Weights,
-    )
+    from .options import Openings, Options, Weights
+    from .parts import Adjacency, Floor, Obstacle, Region, Room, VerticalRoom
     from .problem import Problem
 
 _WHERE = {
@@ -57,15 +50,15 @@ _WHERE = {
         "Door", "ExtraRectangles", "FloorLayout", "Infeasibility", "Layout", "Rect", "Report",
         "RoomLayout", "Termination", "VariantInfo", "Window",
     ),
-    ".parts": (
-        "DEFAULT_MAX_ROOMS", "Adjacency", "Floor", "Obstacle", "Openings", "Options", "Region",
-        "Room", "VerticalRoom", "Weights",
-    ),
+    ".base": ("DEFAULT_MAX_ROOMS",),
+    ".options": ("Openings", "Options", "Weights"),
+    ".parts": ("Adjacency", "Floor", "Obstacle", "Region", "Room", "VerticalRoom"),
     ".problem": ("Problem",),
 }
 _MODULE_OF = {name: module for module, names in _WHERE.items() for name in names}
 _SUBMODULES = frozenset({
-    "formats", "jobs", "layout", "parts", "problem", "storeys", "template_rules", "templates",
+    "base", "checks", "formats", "jobs", "layout", "options", "parts", "problem", "storeys",
+    "template_rules", "templates",
 })
 
 __all__ = [

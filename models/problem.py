@@ -9,64 +9,67 @@ A problem with a ``template`` (see `models.templates`) is validated as a
 `TemplatedProblem` first and expanded into a plain one, so every `Problem` the
 solver, the service or the client holds is the expanded form.
 
-The building blocks of a problem (rooms, obstacles, options, floors, ...) are defined in
-`models.parts`, which the templates and the storeys build on too; they are importable
-from here as well.
+The building blocks of a problem (rooms, obstacles, floors, ...) are defined in
+`models.parts`, on `models.base`, `models.checks` and `models.options` (weights,
+options, openings); the templates and the storeys build on them too, and they are
+importable from here as well.
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Self
+from typing import Any, Self
 
-from pydantic import Field, ValidationError, ValidationInfo, model_validator
+from pydantic import ValidationError, ValidationInfo, model_validator
 from pydantic_core import InitErrorDetails
 from shapely import STRtree
 from shapely.geometry import Point as ShapelyPoint
 from shapely.geometry import Polygon
 
-from .parts import (
-    DEFAULT_AISLE_WIDTH,
-    DEFAULT_DOOR_POLICY,
+from .base import (
     DEFAULT_MAX_ROOMS,
+    MAX_COORDINATE,
+    SOFT_FAMILIES,
+    TOLERANCE,
+    Compass,
+    Coordinate,
+    Length,
+    Point,
+    PositiveLength,
+    Size,
+    SoftFamily,
+)
+from .checks import boundary_errors, field_error, inside_entrance, open_ring
+from .options import (
+    DEFAULT_DOOR_POLICY,
     DEFAULT_NO_PASSAGE,
     DEFAULT_REGIONS_ABOVE,
     DEFAULT_VIOLATION_WEIGHT,
     DEFAULT_WINDOWLESS,
-    MAX_AISLE_WIDTH,
-    MAX_COORDINATE,
-    MAX_ROOM_RECTS,
     MAX_VARIANTS,
-    MIN_AISLE_WIDTH,
-    SOFT_FAMILIES,
-    TOLERANCE,
-    Adjacency,
-    Compass,
-    Coordinate,
-    Floor,
-    Length,
-    Obstacle,
     Openings,
     Options,
-    Point,
-    PositiveLength,
+    Weights,
+)
+from .parts import (
+    DEFAULT_AISLE_WIDTH,
+    MAX_AISLE_WIDTH,
+    MAX_ROOM_RECTS,
+    MIN_AISLE_WIDTH,
+    Adjacency,
+    Floor,
+    Obstacle,
+    PlainFields,
     ProblemFields,
     Region,
     Room,
-    Size,
-    SoftFamily,
     VerticalRoom,
-    Weights,
-    boundary_errors,
-    field_error,
-    inside_entrance,
-    open_ring,
     region_of_rooms,
 )
 from .storeys import storey_errors
 from .templates import TemplatedProblem, expand
 
-#: `Problem`, and the building blocks it was defined with before `models.parts` held
-#: them: ``from models.problem import Room`` keeps working.
+#: `Problem`, and the building blocks it was defined with before `models.parts` and its
+#: siblings held them: ``from models.problem import Room`` keeps working.
 __all__ = [
     "DEFAULT_AISLE_WIDTH",
     "DEFAULT_DOOR_POLICY",
@@ -108,7 +111,7 @@ __all__ = [
 ]
 
 
-class Problem(ProblemFields):
+class Problem(PlainFields):
     """A layout request: the domain, the rooms and their constraints (DESIGN.md §1).
 
     Input with a ``template`` is a `models.templates.TemplatedProblem`; validating it
@@ -116,16 +119,6 @@ class Problem(ProblemFields):
 
     A building of several storeys gives `floors` (and `vertical` rooms) instead of
     `rooms`; see `models.storeys`."""
-
-    rooms: list[Room] = Field(
-        default_factory=list, description="the rooms to place, at least one; with `floors`, "
-        "omitted or empty (each floor has its own)")
-    floors: Annotated[list[Floor], Field(min_length=1, max_length=100)] | None = Field(
-        None, description="several storeys (paper Fig. 11): each floor its own rooms and "
-        "adjacencies; the answer is one layout per floor (`Layout.floors`)")
-    vertical: Annotated[list[VerticalRoom], Field(max_length=DEFAULT_MAX_ROOMS)] = Field(
-        default_factory=list, description="with `floors`: rooms through several floors "
-        "(stairs, lifts, shafts), the same footprint on every floor they span")
 
     @model_validator(mode="before")
     @classmethod

@@ -13,7 +13,7 @@ layout, for drawing, export and progress displays.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from typing import TYPE_CHECKING, Any
+from typing import Any, TypeVar
 
 from pydantic import ValidationError
 from pydantic_core import InitErrorDetails
@@ -21,38 +21,32 @@ from shapely import affinity
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
+from .base import DEFAULT_MAX_ROOMS
+from .checks import boundary_errors, field_error
 from .layout import FloorLayout, Layout
-from .parts import (
-    DEFAULT_MAX_ROOMS,
-    Floor,
-    Room,
-    VerticalRoom,
-    boundary_errors,
-    field_error,
-)
-
-if TYPE_CHECKING:
-    # `Problem` is built on this module (its validator calls `storey_errors`); the
-    # functions below that make a problem make one of their argument's class.
-    from .problem import Problem
+from .parts import Floor, PlainFields, Room, VerticalRoom
 
 Loc = tuple[str | int, ...]
+#: `models.problem.Problem` is built on this module (its validator calls
+#: `storey_errors`), so this module knows a problem by its fields (`PlainFields`) only;
+#: the functions below that make a problem make one of their argument's class.
+P = TypeVar("P", bound=PlainFields)
 
 
-def spanned_floors(problem: Problem, vertical: VerticalRoom) -> list[str]:
+def spanned_floors(problem: PlainFields, vertical: VerticalRoom) -> list[str]:
     """The ids of the floors `vertical` spans, in the problem's floor order."""
     floors = problem.floors or []
     wanted = set(vertical.floors) if vertical.floors is not None else None
     return [f.id for f in floors if wanted is None or f.id in wanted]
 
 
-def verticals_on(problem: Problem, floor_id: str) -> list[int]:
+def verticals_on(problem: PlainFields, floor_id: str) -> list[int]:
     """Indices into `problem.vertical` of the vertical rooms spanning floor `floor_id`."""
     return [j for j, v in enumerate(problem.vertical)
             if floor_id in spanned_floors(problem, v)]
 
 
-def floor_data(problem: Problem, index: int) -> dict[str, Any]:
+def floor_data(problem: PlainFields, index: int) -> dict[str, Any]:
     """Floor `index` as the fields of a single-floor problem: its rooms, then the
     vertical rooms spanning it (as plain rooms), its adjacencies, its outline."""
     assert problem.floors is not None
@@ -73,12 +67,12 @@ def floor_data(problem: Problem, index: int) -> dict[str, Any]:
     }
 
 
-def floor_problem(problem: Problem, index: int) -> Problem:
+def floor_problem(problem: P, index: int) -> P:
     """Floor `index` of `problem` as an ordinary single-floor problem."""
     return type(problem).model_validate(floor_data(problem, index))
 
 
-def floor_title(problem: Problem, floor: Floor) -> str:
+def floor_title(problem: PlainFields, floor: Floor) -> str:
     return f"{problem.name} - {floor.name or floor.id}"
 
 
@@ -87,7 +81,9 @@ def plain_room(vertical: VerticalRoom) -> Room:
     return Room.model_validate(vertical.model_dump(exclude={"floors"}))
 
 
-def storey_errors(problem: Problem, max_rooms: int = DEFAULT_MAX_ROOMS) -> list[InitErrorDetails]:
+def storey_errors(
+    problem: PlainFields, max_rooms: int = DEFAULT_MAX_ROOMS
+) -> list[InitErrorDetails]:
     """Every reason why `problem`'s floors and vertical rooms cannot be laid out, each
     naming the field as the user wrote it; `max_rooms` caps the building's rooms."""
     if problem.floors is None:
@@ -119,7 +115,7 @@ def storey_errors(problem: Problem, max_rooms: int = DEFAULT_MAX_ROOMS) -> list[
     return errors
 
 
-def _identity_errors(problem: Problem) -> Iterator[InitErrorDetails]:
+def _identity_errors(problem: PlainFields) -> Iterator[InitErrorDetails]:
     """Floor ids unique, vertical ids unique, each vertical room on known floors, two
     at least."""
     assert problem.floors is not None
@@ -147,7 +143,7 @@ def _identity_errors(problem: Problem) -> Iterator[InitErrorDetails]:
 
 
 def _floor_problem_errors(
-    problem: Problem, index: int
+    problem: PlainFields, index: int
 ) -> Iterator[tuple[Loc, str, str, Any]]:
     """The errors of floor `index`'s own problem, at the fields the user wrote."""
     data = floor_data(problem, index)
@@ -158,7 +154,7 @@ def _floor_problem_errors(
             yield _user_loc(problem, index, tuple(e["loc"])), e["type"], e["msg"], e["input"]
 
 
-def _user_loc(problem: Problem, index: int, loc: Loc) -> Loc:
+def _user_loc(problem: PlainFields, index: int, loc: Loc) -> Loc:
     """A field of floor `index`'s assembled problem as the field the user wrote."""
     assert problem.floors is not None
     floor = problem.floors[index]
@@ -180,7 +176,7 @@ def _user_loc(problem: Problem, index: int, loc: Loc) -> Loc:
     return loc  # the top-level field this floor inherits
 
 
-def user_path(problem: Problem, floor_id: str, path: str) -> str:
+def user_path(problem: PlainFields, floor_id: str, path: str) -> str:
     """A dotted path into floor `floor_id`'s assembled problem (as in an explained
     conflict) as the path of the field the user wrote."""
     assert problem.floors is not None
@@ -189,7 +185,7 @@ def user_path(problem: Problem, floor_id: str, path: str) -> str:
     return ".".join(str(p) for p in _user_loc(problem, index, loc))
 
 
-def common_free_area(problem: Problem, floor_ids: list[str]) -> BaseGeometry:
+def common_free_area(problem: PlainFields, floor_ids: list[str]) -> BaseGeometry:
     """Where a room spanning `floor_ids` may stand: inside every one of their outlines
     and on none of their obstacles."""
     assert problem.floors is not None
@@ -205,7 +201,7 @@ def common_free_area(problem: Problem, floor_ids: list[str]) -> BaseGeometry:
     return area if area is not None else Polygon()
 
 
-def _fit_errors(problem: Problem) -> list[InitErrorDetails]:
+def _fit_errors(problem: PlainFields) -> list[InitErrorDetails]:
     """A vertical room whose minimum size fits nowhere in the area common to its floors
     (the erosion test of the solver's prechecks: with x scaled by 1/w and y by 1/d, the
     area eroded by half a unit is empty)."""
@@ -224,14 +220,14 @@ def _fit_errors(problem: Problem) -> list[InitErrorDetails]:
     return errors
 
 
-def floor_view(problem: Problem, floor_id: str) -> Problem:
+def floor_view(problem: P, floor_id: str) -> P:
     """Floor `floor_id` as a single-floor problem, for drawing and export."""
     assert problem.floors is not None
     index = [f.id for f in problem.floors].index(floor_id)
     return floor_problem(problem, index)
 
 
-def draft_floor(problem: Problem, floor_id: str, draft: Layout) -> Layout:
+def draft_floor(problem: PlainFields, floor_id: str, draft: Layout) -> Layout:
     """An incumbent of floor `floor_id` (a single-floor draft) as a layout of the
     building, that floor alone, for progress displays."""
     assert problem.floors is not None

@@ -38,14 +38,9 @@ from shapely import affinity
 from shapely.errors import GEOSException
 from shapely.geometry import Polygon
 
-from .parts import (
-    MAX_COORDINATE,
-    Compass,
-    ProblemFields,
-    Room,
-    field_error,
-    inside_entrance,
-)
+from .base import MAX_COORDINATE, Compass
+from .checks import field_error, inside_entrance
+from .parts import ProblemFields, Room
 from .template_rules import (
     GENERIC_TYPE,
     KNOWN_TYPES,

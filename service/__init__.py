@@ -5,6 +5,6 @@
                 the web page
     jobs/       where jobs are solved: the backend interface, the embedded backend,
                 the Celery backend and workers (celery/), the solve processes
-    settings.py, records.py, store.py, migrations/
+    settings.py, records.py, store/, migrations/
                 the settings, the job records and their store
 """

@@ -24,7 +24,7 @@ from pydantic import BaseModel, Field
 
 from floorplan.models import Layout, Problem, Termination
 from floorplan.models.formats import FormatName
-from floorplan.models.parts import REDRAW_SEED_STEP
+from floorplan.models.options import REDRAW_SEED_STEP
 
 if TYPE_CHECKING:
     from floorplan.solver.distinct import DistinctPlans

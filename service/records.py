@@ -1,5 +1,5 @@
 """A job as the store hands it out: its status, its record and its events, plain values
-that the API, the runners and the workers pass around (service/store.py reads and
+that the API, the runners and the workers pass around (service/store/ reads and
 writes them)."""
 
 from __future__ import annotations

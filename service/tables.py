@@ -1,5 +1,5 @@
 """The job store's tables (SQLAlchemy Core), one schema for SQLite and PostgreSQL: what
-service/store.py reads and writes and what the Alembic migrations (service/migrations)
+service/store/ reads and writes and what the Alembic migrations (service/migrations)
 are checked against."""
 
 from sqlalchemy import (

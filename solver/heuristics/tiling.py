@@ -13,7 +13,7 @@ by the first block it joins and the one after. Which rooms are Ls is guessed fro
 floor the targets over-ask (an L's bounding box holds some of its neighbours' floor).
 
 A tiling is only a start: it fits the sizes, not yet the doors, walls and guide points;
-the guillotine search (solver/heuristics/guillotine.py) anneals from it, mostly by moves
+the guillotine search (solver/heuristics/guillotine/) anneals from it, mostly by moves
 that keep the fit (a block mirrored, two halves swapped).
 """
 
@@ -34,7 +34,7 @@ TOL = 0.011
 #: The part of an L room is at least this wide (m). The plans hold Ls with arms of 5-45
 #: cm (27 of 56 planted plans measured; bench/NOTES.md, "Thin strips: the plans have
 #: them, the annealing refused them"): a tiling must be able to have them; the
-#: annealing then decides (solver/heuristics/guillotine.py keeps what the outline cut
+#: annealing then decides (solver/heuristics/guillotine/ keeps what the outline cut
 #: thin and widens the rest).
 MIN_PART = 0.05
 #: Nodes of the search per guess of which rooms are Ls in the first round (each round

@@ -1,7 +1,7 @@
 """Sliding whole walls of a covering layout: the moves the reshaping cannot chain
 (docs/method.md, "The steps", step 6).
 
-The reshaping (reshape.py) moves one strip between two rooms at a time. A wall that
+The reshaping (reshape/) moves one strip between two rooms at a time. A wall that
 several rooms share (a corridor's side with three bedrooms along it) or a room that
 should slide between its neighbours (both its walls moved the same way) needs two or
 more such strips in a row, each worse than the layout on its own, so the annealing
@@ -36,10 +36,9 @@ from shapely.geometry import Polygon
 
 from floorplan.models import Problem
 from floorplan.solver.geometry import Box, Domain, bounding_box, rectangles_of
-from floorplan.solver.heuristics.reshape import (
+from floorplan.solver.heuristics.reshape.anneal import COVER_GOAL
+from floorplan.solver.heuristics.reshape.needs import (
     CORNER_WEIGHT,
-    COVER_GOAL,
-    GAP,
     MIN_ARM,
     RoomNeeds,
     corner_count,
@@ -49,6 +48,7 @@ from floorplan.solver.heuristics.reshape import (
     shape_ok,
     size_terms,
 )
+from floorplan.solver.heuristics.reshape.strips import GAP
 
 #: Coordinates this close (metres) are one line; overlaps shorter are touches.
 SAME = 1e-6

@@ -53,7 +53,8 @@ from floorplan.solver.miqp.scip_run import (
 )
 from floorplan.solver.miqp.spec import ContactSpec, LevelSpec, RectSpec, free_rects
 from floorplan.solver.openings import connection_demands
-from floorplan.solver.pipeline.hierarchy import GAP_AREA, absorb_gaps, room_boxes
+from floorplan.solver.pipeline.absorb import absorb_gaps
+from floorplan.solver.pipeline.hierarchy import GAP_AREA, room_boxes
 from floorplan.solver.pipeline.refine import refine
 from floorplan.solver.pipeline.run import COVER_MARGIN, Run, covered
 from floorplan.solver.verify.checker import COVERAGE_GOAL

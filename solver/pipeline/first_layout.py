@@ -1,27 +1,22 @@
 """Level 1 (Sec. 5.4): the first layout, by slicing, batches or the size-window
 schedule, with extra rectangles when one per room cannot do; soft constraints priced
-when nothing meets them all; a second search under another seed when a pool is there."""
+when nothing meets them all. The second search alongside it, when a pool is there, is
+solver/pipeline/second_search.py's."""
 
 from __future__ import annotations
 
 import random
 import time
-from collections.abc import Callable, Mapping
-from concurrent.futures import Future, wait
+from collections.abc import Mapping
 
 from floorplan.models import ExtraRectangles, Infeasibility, Layout, Problem, Termination
 from floorplan.solver.events import Phase
-from floorplan.solver.geometry import Box, Domain, make_domain
+from floorplan.solver.geometry import Box, Domain
 from floorplan.solver.heuristics.construct import construct
-from floorplan.solver.heuristics.guillotine import MAX_ROOMS as GUILLOTINE_MAX_ROOMS
-from floorplan.solver.heuristics.guillotine import applies as guillotine_applies
-from floorplan.solver.heuristics.guillotine import guillotine_layout
 from floorplan.solver.heuristics.level_one import (
     FIRST_BAND,
     level_one_spec,
-    may_start_as_l,
     shape_allowance,
-    started_as_l,
     target_bands,
     unfitting_targets,
     windows_to_try,
@@ -40,32 +35,12 @@ from floorplan.solver.miqp.formulation import active_families, build_level
 from floorplan.solver.miqp.objective import e_band_shortfall
 from floorplan.solver.miqp.scip_run import LevelResult, LevelStatus
 from floorplan.solver.pipeline.assemble import explained, no_layout
-from floorplan.solver.pipeline.hierarchy import Piece, absorb_gaps, absorbed, as_pieces, room_boxes
+from floorplan.solver.pipeline.hierarchy import Piece
 from floorplan.solver.pipeline.improve import improve_level_one
-from floorplan.solver.pipeline.run import Run, covers, layout_objective
-from floorplan.solver.pipeline.subdomains import (
-    LATE_SECONDS,
-    LevelOneOutcome,
-    LevelOneTask,
-    SubdomainExecutor,
-)
+from floorplan.solver.pipeline.run import Run, layout_objective
 from floorplan.solver.soft import has_soft
-from floorplan.solver.verify.checker import check_layout
 from floorplan.solver.verify.precheck import find_impossibilities
 
-#: The second level-1 search of a portfolio runs under the seed plus this.
-SECOND_SEED_STEP = 1_000_003
-#: Why a room of a second level-1 search's layout is an L when the brief did not ask.
-L_START_REASON = "the second level-1 search started the largest room as an L"
-#: How the report names the guillotine search's layout.
-GUILLOTINE = ("a guillotine search (rooms as the parts of a slicing tree, L and T rooms "
-              "among them)")
-#: Share of the search time left after level 1 the guillotine search takes when it
-#: cannot run alongside.
-INLINE_GUILLOTINE_SHARE = 0.4
-#: Share of the solve the exact tilings may take before level 1 when the guillotine
-#: search cannot run alongside.
-EARLY_TILING_SHARE = 0.3
 #: Share of level 1's time one feasibility attempt of the relaxation schedule may use.
 ATTEMPT_SHARE = 0.5
 #: After this many size windows proved infeasible, `WINGS_SHARE` of the first layout's
@@ -96,9 +71,10 @@ def first_level(
         # Nothing else needs the time when there is no first layout: the search for
         # one may go on until the solve's end.
         return _level_one(run, domain, deadline, first_by=max(deadline, run.end))
-    # Issue 8: a layout meeting every constraint, soft ones too, is looked for first
-    # (no price per metre makes a violating layout reliably lose to it); the soft
-    # model takes over when there is none, or none found in its share of the time.
+    # A layout meeting every constraint, soft ones too, is looked for first (no price
+    # per metre makes a violating layout reliably lose to it); the soft model takes
+    # over when there is none, or none found in its share of the time (docs/method.md,
+    # 'Soft constraints').
     pieces, failure = None, None
     if not find_impossibilities(problem, domain, ignore_soft=False):
         pieces, failure = _level_one(
@@ -107,185 +83,6 @@ def first_level(
     if pieces is None and not run.stopped():
         pieces, failure = _soft_level_one(run, domain, deadline)
     return pieces, failure
-
-
-def second_start(
-    problem: Problem, domain: Domain, subdomains: SubdomainExecutor | None, deadline: float
-) -> Future[LevelOneOutcome] | None:
-    """With an executor of two slots or more, a second search alongside level 1: the
-    guillotine search (`guillotine_alone`) where it applies, whose layout competes with
-    the finished one (`better_final`), else a level-1 search under another seed
-    (`level_one_alone`, `better_start`). Level 1 is a local search whose first layout
-    fixes which room lies next to which; a second one that starts elsewhere ends better
-    often enough to pay (bench/NOTES.md). None when there is no such executor, or it
-    runs only sub-domains (a remote one)."""
-    if subdomains is None or subdomains.slots < 2:
-        return None
-    task = _second_task(problem, deadline - time.monotonic())
-    search = guillotine_alone if guillotine_applies(problem, domain) else level_one_alone
-    try:
-        return subdomains.executor.submit(search, task)
-    except (ValueError, RuntimeError):  # an executor for sub-domains only, or shut down
-        return None
-
-
-def tilings_first(run: Run, domain: Domain) -> LevelOneOutcome | None:
-    """The guillotine search from exact tilings only, in this process before level 1,
-    when it applies and cannot run alongside: a tiling, when there is one, is mostly
-    found within a fraction of a second, and its layout is the plan's quality; the
-    search gets at most `EARLY_TILING_SHARE` of the solve."""
-    if not guillotine_applies(run.problem, domain) or run.stopped():
-        return None
-    seconds = EARLY_TILING_SHARE * max(0.0, run.deadline - time.monotonic())
-    return guillotine_alone(_second_task(run.problem, seconds), should_stop=run.should_stop,
-                            untiled=False, then_level_one=False)
-
-
-def guillotine_here(run: Run, domain: Domain) -> LevelOneOutcome | None:
-    """The guillotine search from random trees in this process, after level 1, when it
-    applies, did not run alongside and found no tiling first: in
-    `INLINE_GUILLOTINE_SHARE` of the search time left, taken from the refinement."""
-    if not guillotine_applies(run.problem, domain) or run.stopped():
-        return None
-    seconds = INLINE_GUILLOTINE_SHARE * max(0.0, run.deadline - time.monotonic())
-    return guillotine_alone(_second_task(run.problem, seconds), should_stop=run.should_stop,
-                            tiled=False, then_level_one=False)
-
-
-def _second_task(problem: Problem, seconds: float) -> LevelOneTask:
-    """A second search's task: `problem` under another seed, ending in `seconds` (the
-    deadline as epoch time, for another process)."""
-    seed = (problem.options.seed + SECOND_SEED_STEP) % 2**31
-    return LevelOneTask(problem.with_options(seed=seed), deadline=time.time() + seconds)
-
-
-def awaited(second: Future[LevelOneOutcome], run: Run, deadline: float) -> LevelOneOutcome | None:
-    """The second search's outcome, waited for until `deadline` and a little after; None
-    when it is late, lost or failed."""
-    while not second.done() and not run.stopped() and (
-            time.monotonic() < deadline + LATE_SECONDS):
-        wait([second], timeout=0.05)
-    try:
-        return second.result(timeout=0)
-    except Exception:  # late, stopped, lost or failed: it costs its chance, not the layout
-        second.cancel()
-        return None
-
-
-def better_final(run: Run, domain: Domain, pieces: list[Piece],
-                 candidate: LevelOneOutcome | None) -> list[Piece]:
-    """The finished layout, or the second search's (gaps absorbed, as the answer will
-    be) when the finished one misses the coverage goal or fails the checker, or when
-    the second has the lower Eq. 12 and passes the checker. A second level-1 search's
-    pieces are level 1's, with its gaps: compared and returned as they will be."""
-    if candidate is None or candidate.pieces is None:
-        return pieces
-    mine = absorbed(run.problem, domain, room_boxes(pieces))
-    theirs_pieces = absorb_gaps(run.problem, domain, candidate.pieces)
-    theirs = room_boxes(theirs_pieces)
-    if pieces and (not check_layout(run.problem, theirs).valid or (
-            covers(domain, mine) and check_layout(run.problem, mine).valid and (
-                layout_objective(run.problem, domain, mine, soft=run.soft)
-                <= layout_objective(run.problem, domain, theirs)))):
-        return pieces
-    run.wings, run.extra, run.window, run.soft = {}, candidate.extra, None, False
-    run.relaxations.append(f"{candidate.found_by} ended better")
-    run.emit(Phase.LEVEL, detail=f"{candidate.found_by} ended better")
-    run.incumbent(domain, theirs)
-    return theirs_pieces
-
-
-def guillotine_alone(
-    task: LevelOneTask, should_stop: Callable[[], bool] | None = None, *,
-    tiled: bool = True, untiled: bool = True, then_level_one: bool = True,
-) -> LevelOneOutcome:
-    """The guillotine search (solver/heuristics/guillotine.py) on `task.problem` in
-    whatever process the executor uses: a whole layout, its L and T rooms chosen by the
-    search, ending by `task.deadline` (epoch). With `then_level_one` (a search alongside
-    level 1), a floor too large for it that has no tiling gets a second level-1 search
-    instead; in the solve's own process level 1 itself has that time."""
-    deadline = time.monotonic() + (task.deadline - time.time())
-    problem = task.problem
-    domain = make_domain(problem)
-    found = guillotine_layout(problem, domain, seed=problem.options.seed,
-                              deadline=deadline, should_stop=should_stop,
-                              accept=lambda rooms: check_layout(problem, rooms).valid,
-                              tiled=tiled, untiled=untiled)
-    if found is None and len(problem.rooms) > GUILLOTINE_MAX_ROOMS and then_level_one:
-        # Beyond that size only an exact tiling seeds it, and there was none: the rest
-        # of the time goes to a second level-1 search, the largest room starting as an
-        # L when the targets over-ask the floor (as a brief extracted from a plan with
-        # L rooms does, a target being a room's bounding box). Such a plan is seldom a
-        # tiling of rectangles and one or two Ls, and its largest room is nearly always
-        # an L; level 1 in the solve's own process tries rectangles first, so the two
-        # searches start from different shapes. (Where the targets leave floor over, as
-        # the paper's house-13 does, an L start ended worse: bench/NOTES.md.)
-        return level_one_alone(task, l_start=targets_over_ask(problem, domain))
-    if found is None:
-        return LevelOneOutcome(None, {}, [], None, False, [])
-    extra = [ExtraRectangles(room=room_id, rectangles=len(boxes),
-                             reason="the guillotine search made it an L or a T")
-             for room_id, boxes in found.rooms.items() if len(boxes) > 1]
-    return LevelOneOutcome(as_pieces(found.rooms), {}, extra, None, False, [],
-                           found_by=GUILLOTINE)
-
-
-def level_one_alone(task: LevelOneTask, *, l_start: bool = False) -> LevelOneOutcome:
-    """Level 1 of `task.problem` (its demands already added) in whatever process the
-    executor uses, without events or stop flag: it ends by `task.deadline` (epoch).
-    With `l_start`, the largest room that may be an L starts as one (`l_started`)."""
-    started = time.monotonic()
-    deadline = started + (task.deadline - time.time())
-    problem, l_room = l_started(task.problem) if l_start else (task.problem, None)
-    run = Run(problem, deadline, started, None, None)
-    domain = make_domain(problem)
-    pieces, _ = first_level(run, domain, deadline)
-    # The room was not asked to be an L: the report says who made it one.
-    extra = [e.model_copy(update={"reason": L_START_REASON}) if e.room == l_room else e
-             for e in run.extra]
-    return LevelOneOutcome(pieces, run.wings, extra, run.window, run.soft,
-                           run.relaxations)
-
-
-def targets_over_ask(problem: Problem, domain: Domain) -> bool:
-    """Whether the rooms' target rectangles add up to more than the floor."""
-    asked = sum(r.target_size[0] * r.target_size[1] for r in problem.rooms if r.target_size)
-    return asked > domain.area
-
-
-def l_started(problem: Problem) -> tuple[Problem, str | None]:
-    """`problem` with its largest room (by target, `wing_order`) that starts as one
-    rectangle and may have more starting as an L (as ``shape: free`` does), and that
-    room's id; `problem` and None when no room may."""
-    eligible = {r.id for r in problem.rooms if may_start_as_l(r)}
-    chosen = next((r for r in wing_order(problem) if r in eligible), None)
-    if chosen is None:
-        return problem, None
-    return started_as_l(problem, chosen), chosen
-
-
-def better_start(
-    run: Run, domain: Domain, pieces: list[Piece] | None, other: LevelOneOutcome | None,
-) -> list[Piece] | None:
-    """This level 1's pieces, or the second level-1 search's when they are better: a
-    layout meeting every constraint before one pricing soft ones, then one meeting the
-    coverage goal (gaps absorbed), then the lower Eq. 12."""
-    if other is None or other.pieces is None or run.stopped():
-        return pieces
-
-    def rank(candidate: list[Piece], soft: bool) -> tuple[bool, bool, float]:
-        rooms = absorbed(run.problem, domain, room_boxes(candidate))
-        return (soft, not covers(domain, rooms),
-                layout_objective(run.problem, domain, rooms, soft=soft))
-
-    if pieces is not None and rank(pieces, run.soft) <= rank(other.pieces, other.soft):
-        return pieces
-    run.wings, run.extra, run.window, run.soft = (other.wings, other.extra, other.window,
-                                                  other.soft)
-    run.relaxations.append(f"{other.found_by} ended better")
-    run.emit(Phase.LEVEL, detail="level 1: the second search ended better")
-    run.incumbent(domain, room_boxes(other.pieces))
-    return other.pieces
 
 
 def _level_one(
@@ -333,13 +130,13 @@ def _level_one(
             break
         spec = level_one_spec(problem, domain, window=window, wings=run.wings)
         lm = build_level(spec, feasibility=True)
-        # After a window that gave nothing, SCIP looks harder for a first layout (issue
-        # 19: hard planted briefs); the first attempt keeps the settings that serve
-        # the paper's cases best.
+        # After a window that gave nothing, SCIP looks harder for a first layout
+        # (docs/method.md, 'Rooms of several rectangles'); the first attempt keeps the
+        # settings that serve the paper's cases best.
         lm.aggressive = attempt > 0
         if window is None:  # no window held: the user's bounds, sizes pulled to the targets
             e_band_shortfall(lm, target_bands(problem, domain, FIRST_BAND))
-        if problem.options.diverse:  # the seed's arrangement (issue 23)
+        if problem.options.diverse:  # the seed's arrangement
             pull_to_anchors(lm, problem.options.seed)
         share = left * (ATTEMPT_SHARE if window is not None or may_widen else 1.0)
         result = run.run(lm, share)
@@ -352,8 +149,9 @@ def _level_one(
         proven_infeasible = window is None and result.status is LevelStatus.INFEASIBLE
         refuted += result.status is LevelStatus.INFEASIBLE
         # On the window whose proof is the third, so once: `refuted` stays at its count
-        # while the wider windows end without a proof (planted-13-6634: the probe after
-        # each of eight windows, the wings' time halved each time, 0.2 s left for them).
+        # while the wider windows end without a proof (else the probe would come after
+        # each of them, the wings' time halved each time: bench/NOTES.md, 'Fillers with
+        # a known side, one probe').
         if (refuted == REFUTED_BEFORE_WINGS and window is not None
                 and result.status is LevelStatus.INFEASIBLE):
             # Windows proved empty one after another: one rectangle per room may well
@@ -394,8 +192,8 @@ def _one_rectangle_probe(run: Run, domain: Domain, deadline: float) -> LevelResu
     feasibility model, given `PROBE_SHARE` of the time until `deadline`. After windows
     proved empty one after another, a proof here stops the schedule at once (every
     window lies within the user's bounds) where proving the wider windows one by one
-    used half the time (planted-14-9037: eleven windows in 4.7 s); a layout found is
-    kept in case the narrower windows find none."""
+    used half the time (docs/method.md, 'Rooms of several rectangles'); a layout found
+    is kept in case the narrower windows find none."""
     lm = build_level(level_one_spec(run.problem, domain, window=None, wings=run.wings),
                      feasibility=True)
     lm.aggressive = True
@@ -414,7 +212,7 @@ def every_shape_tried(problem: Problem, wings: Mapping[str, int]) -> bool:
 
 def no_first_layout(run: Run, domain: Domain, proven_infeasible: bool,
                      proven_for_all: bool, explain: bool) -> Layout:
-    """The answer when level 1 found nothing (issue 19, honest verdicts): infeasible
+    """The answer when level 1 found nothing (docs/method.md, 'Verdicts'): infeasible
     only when SCIP proved it for every shape the rooms may take (with the constraints
     that cannot hold together, if `explain`); else interrupted or out of time, saying
     what was proved for the shapes tried."""
@@ -448,10 +246,10 @@ def no_first_layout(run: Run, domain: Domain, proven_infeasible: bool,
 def _soft_level_one(
     run: Run, domain: Domain, deadline: float
 ) -> tuple[list[Piece] | None, Layout | None]:
-    """Soft constraints (issue 8): no layout meeting every constraint was found, so the
-    soft ones get slacks priced per metre. The first layout minimises the total
-    violation alone (a MILP; above `CONSTRUCT_ABOVE` rooms built in batches); then
-    Eq. 12 plus that price is minimised as for any problem."""
+    """Soft constraints (docs/method.md, 'Soft constraints'): no layout meeting every
+    constraint was found, so the soft ones get slacks priced per metre. The first
+    layout minimises the total violation alone (a MILP; above `CONSTRUCT_ABOVE` rooms
+    built in batches); then Eq. 12 plus that price is minimised as for any problem."""
     problem = run.problem
     run.soft = True
     spec = level_one_spec(problem, domain, window=None, wings=run.wings, soft=True)
@@ -491,8 +289,9 @@ def _soft_level_one(
 
 def _with_wings(run: Run, domain: Domain, deadline: float, why: str
                 ) -> tuple[LevelResult | None, bool]:
-    """Issue 8: when one rectangle per room fails, let the largest rooms (`wing_order`)
-    start as two rectangles (an L or T), one more room at each attempt, doubling.
+    """When one rectangle per room fails, let the largest rooms (`wing_order`) start as
+    two rectangles (an L or T), one more room at each attempt, doubling
+    (docs/method.md, 'Rooms of several rectangles').
     Returns the first layout found, or None and whether SCIP proved the last attempt
     (every room of two rectangles or more, `run.tried_wings`) infeasible."""
     problem = run.problem
@@ -510,7 +309,7 @@ def _with_wings(run: Run, domain: Domain, deadline: float, why: str
         wings = run.wings | ({r: may[r] for r in chosen} if last else dict.fromkeys(chosen, 1))
         spec = level_one_spec(problem, domain, window=None, wings=wings)
         lm = build_level(spec, feasibility=True)
-        lm.aggressive = True  # one rectangle per room gave nothing (issue 19)
+        lm.aggressive = True  # one rectangle per room gave nothing
         result = run.run(lm, left if last else left * ATTEMPT_SHARE)
         label = (f"user bounds, every room of up to {max(may.values()) + 1} rectangles"
                  if last and len(chosen) == len(problem.rooms)

@@ -12,7 +12,7 @@ import math
 import time
 
 from floorplan.models import Infeasibility, Layout, Problem, Termination
-from floorplan.models.parts import REDRAW_SEED_STEP as WHOLE_REDRAW_SEED_STEP
+from floorplan.models.options import REDRAW_SEED_STEP as WHOLE_REDRAW_SEED_STEP
 from floorplan.solver.budget import FloorBudget, default_time_limit
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import Domain, make_domain
@@ -23,29 +23,22 @@ from floorplan.solver.heuristics.variety import (
     diverse_problem,
 )
 from floorplan.solver.openings import connection_demands
+from floorplan.solver.pipeline.absorb import absorb_gaps, absorbed, slides
 from floorplan.solver.pipeline.assemble import explained, final_layout, no_layout, same_layout
-from floorplan.solver.pipeline.first_layout import (
+from floorplan.solver.pipeline.first_layout import first_level
+from floorplan.solver.pipeline.hierarchy import GAP_AREA, Piece, as_pieces, room_boxes
+from floorplan.solver.pipeline.refine import refine, reshaped
+from floorplan.solver.pipeline.repair import repaired
+from floorplan.solver.pipeline.run import Run, covered, covers
+from floorplan.solver.pipeline.second_search import (
     GUILLOTINE,
     awaited,
     better_final,
     better_start,
-    first_level,
     guillotine_here,
     second_start,
     tilings_first,
 )
-from floorplan.solver.pipeline.hierarchy import (
-    GAP_AREA,
-    Piece,
-    absorb_gaps,
-    absorbed,
-    as_pieces,
-    room_boxes,
-    slides,
-)
-from floorplan.solver.pipeline.refine import refine, reshaped
-from floorplan.solver.pipeline.repair import repaired
-from floorplan.solver.pipeline.run import Run, covered, covers
 from floorplan.solver.pipeline.subdomains import LevelOneOutcome, SubdomainExecutor
 from floorplan.solver.stopping import GoodEnough, good_rank
 from floorplan.solver.verify.checker import check_layout
@@ -94,7 +87,7 @@ def solve_floor(
     run.emit(Phase.LEVEL, detail="level 1: one rectangle per room")
     level_one_end = budget.level_one_end
     second = second_start(problem, domain, subdomains, level_one_end)
-    # The guillotine search's layout (solver/heuristics/guillotine.py), which competes
+    # The guillotine search's layout (solver/heuristics/guillotine/), which competes
     # with the finished one.
     candidate: LevelOneOutcome | None = None
     if second is None:
@@ -147,7 +140,7 @@ def _drawn_until_good(
     subdomains: SubdomainExecutor | None,
 ) -> Layout:
     """`options.redraws` (a batch's layout as a job of the service): the solve
-    laid out again whole under another draw of the seed (`models.parts.REDRAW_SEED_STEP`)
+    laid out again whole under another draw of the seed (`models.options.REDRAW_SEED_STEP`)
     while it ends without a good layout, each draw an equal share of the time left, as
     `floorplan batch` does between solves. The first good layout, else the best of the
     draws (valid first, then the most floor covered); its solve_time counts every draw."""

@@ -23,7 +23,7 @@ from floorplan.solver.heuristics.variety import pull_at_random
 from floorplan.solver.miqp.formulation import build_level
 from floorplan.solver.miqp.model import LevelModel
 from floorplan.solver.miqp.scip_run import Incumbent, LevelStatus, add_start
-from floorplan.solver.pipeline.hierarchy import absorbed
+from floorplan.solver.pipeline.absorb import absorbed
 from floorplan.solver.pipeline.run import Run, ScipAnswer, covered, goal_area
 
 #: Share of the neighbourhood search spent with coverage weighted first.

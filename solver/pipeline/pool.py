@@ -77,5 +77,5 @@ def warm_up() -> None:
     """Submitted once per pool process, so that it imports the sub-domain solver (and SCIP,
     shapely) while level 1 runs, not when the first sub-domain waits; and the solve
     module, which a second level-1 search runs from."""
-    import floorplan.solver.pipeline.first_layout
+    import floorplan.solver.pipeline.second_search
     import floorplan.solver.pipeline.subdomains  # noqa: F401

@@ -36,7 +36,7 @@ from floorplan.solver.pipeline.subdomains import (
 from floorplan.solver.verify.checker import check_layout
 
 #: The reshaping's steps and the share of its time each ends at: the annealing
-#: (solver/heuristics/reshape.py), sliding whole walls (wall_slide.py: tens of
+#: (solver/heuristics/reshape/), sliding whole walls (wall_slide.py: tens of
 #: milliseconds on most floors of a dozen rooms), the annealing again from the slid
 #: layout, and a last slide. 94 planted briefs, two runs each: 83-84 within 2x the
 #: plan's area error, against 80-81 for one annealing and a slide and 79 for two

@@ -20,7 +20,7 @@ from shapely.geometry import Polygon
 from floorplan.models import Problem
 from floorplan.solver.events import Phase
 from floorplan.solver.geometry import Domain
-from floorplan.solver.heuristics.reshape import shape_of
+from floorplan.solver.heuristics.reshape.needs import shape_of
 from floorplan.solver.pipeline.edit import solve_edit
 from floorplan.solver.pipeline.fixed import has_fixed
 from floorplan.solver.pipeline.hierarchy import (

@@ -26,7 +26,8 @@ from floorplan.solver.heuristics.level_one import wing_names
 from floorplan.solver.heuristics.neighbourhood import covered_area
 from floorplan.solver.miqp.model import LevelModel
 from floorplan.solver.miqp.scip_run import Incumbent, LevelResult, LevelStatus, run_level
-from floorplan.solver.pipeline.hierarchy import Piece, absorbed, as_pieces, room_boxes
+from floorplan.solver.pipeline.absorb import absorbed
+from floorplan.solver.pipeline.hierarchy import Piece, as_pieces, room_boxes
 from floorplan.solver.soft import room_soft
 from floorplan.solver.verify.checker import COVERAGE_GOAL, CheckResult, check_layout
 

@@ -10,9 +10,9 @@ touch one gap may both grow into it: a result overlapping rooms placed meanwhile
 dropped (its rooms keep their rectangles), so the layout stays valid.
 
 The same executor runs a second level-1 search alongside the solve's own, under
-another seed (`LevelOneTask`, `solver.pipeline.first_layout.level_one_alone`); the better of the two
-layouts goes on to the hierarchy. A remote executor that runs only sub-domains refuses
-it, and the solve goes on alone.
+another seed (`LevelOneTask`, `solver.pipeline.second_search.level_one_alone`); the
+better of the two layouts goes on to the hierarchy. A remote executor that runs only
+sub-domains refuses it, and the solve goes on alone.
 
 What crosses to the executor is plain data (a `LevelSpec`, boxes, numbers), so tasks
 pickle; the solver knows nothing of who runs them. `solver.pipeline.pool`
@@ -70,8 +70,8 @@ class SubdomainTask:
 
 @dataclass(frozen=True)
 class LevelOneTask:
-    """A second level-1 search (`solver.pipeline.first_layout.level_one_alone`): the problem, under
-    another seed, and the wall clock time (epoch) by which it must end."""
+    """A second level-1 search (`solver.pipeline.second_search.level_one_alone`): the
+    problem, under another seed, and the wall clock time (epoch) by which it must end."""
 
     problem: Problem
     deadline: float

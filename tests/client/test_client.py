@@ -17,7 +17,6 @@ from typing import Any
 import httpx2 as httpx
 import pytest
 
-from floorplan.models import Layout, Problem, Termination
 from floorplan_client import (
     APIConnectionError,
     APITimeoutError,
@@ -39,6 +38,7 @@ from floorplan_client import (
     Unauthorized,
     WaitTimeout,
 )
+from floorplan_client.models import Layout, Problem, Termination
 from tests.paths import ROOT
 from tests.servers import BACKENDS, AnyServer, service
 from tests.service.test_service import LONG, SMALL

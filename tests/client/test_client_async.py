@@ -11,7 +11,6 @@ from typing import Any, TypeVar
 import httpx2 as httpx
 import pytest
 
-from floorplan.models import Layout, Problem, Termination
 from floorplan_client import (
     AsyncClient,
     AsyncJob,
@@ -27,6 +26,7 @@ from floorplan_client import (
     StatusEvent,
     WaitTimeout,
 )
+from floorplan_client.models import Layout, Problem, Termination
 from tests.client.test_client import CROWDED
 from tests.servers import BACKENDS, AnyServer, service
 from tests.service.test_service import LONG, SMALL

@@ -15,7 +15,6 @@ from typing import Any
 
 import pytest
 
-from floorplan.models import Layout, Termination
 from floorplan_client import (
     Client,
     Event,
@@ -29,9 +28,9 @@ from floorplan_client.cli import (
     EXIT_INVALID,
     EXIT_NO_LAYOUT,
     EXIT_OK,
-    PlainDisplay,
-    RichDisplay,
 )
+from floorplan_client.cli.display import PlainDisplay, RichDisplay
+from floorplan_client.models import Layout, Termination
 from floorplan_client.types import Progress
 from tests.client.test_client import CROWDED
 from tests.servers import Server

@@ -264,15 +264,19 @@ def test_every_public_name_can_be_imported() -> None:
 
 
 def test_every_public_call_has_a_docstring() -> None:
+    import importlib
     import inspect
+    import pkgutil
 
     import floorplan_client.cli
 
     missing = []
     names = [(name, getattr(floorplan_client, name)) for name in floorplan_client.__all__]
-    names += [(f"cli.{name}", value) for name, value in vars(floorplan_client.cli).items()
-              if not name.startswith("_") and getattr(value, "__module__", "")
-              == "floorplan_client.cli"]
+    for info in pkgutil.iter_modules(floorplan_client.cli.__path__, "floorplan_client.cli."):
+        module = importlib.import_module(info.name)
+        names += [(f"{info.name.removeprefix('floorplan_client.')}.{name}", value)
+                  for name, value in vars(module).items()
+                  if not name.startswith("_") and getattr(value, "__module__", "") == info.name]
     for name, value in names:
         if not (inspect.isclass(value) or inspect.isfunction(value)):
             continue

@@ -23,12 +23,12 @@ from floorplan_client._core import (
     RequestOptions,
     ResultFormat,
     Timeout,
-    Tracker,
     problem_body,
     result_params,
 )
 from floorplan_client._deadlines import deadline_after, expired, remaining
 from floorplan_client._exceptions import APIConnectionError, NoResultYet, WaitTimeout
+from floorplan_client._following import Tracker
 from floorplan_client.types import (
     BatchInfo,
     BatchLine,

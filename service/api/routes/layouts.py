@@ -28,7 +28,7 @@ from floorplan.models.formats import (
     FormatName,
 )
 from floorplan.models.jobs import JobStatus
-from floorplan.models.parts import MAX_VARIANTS
+from floorplan.models.options import MAX_VARIANTS
 from floorplan.service.api.body import PROBLEM_BODY_DOC, ProblemBody
 from floorplan.service.api.deps import (
     BackendDep,

@@ -11,14 +11,24 @@ import pytest
 from bench.planted import draw
 from floorplan.models import Problem
 from floorplan.solver.geometry import make_domain
-from floorplan.solver.heuristics import guillotine
 from floorplan.solver.heuristics.guillotine import (
+    MAX_TILED_ROOMS,
+    anneal,
+    applies,
+    guillotine_layout,
+    moves,
+    score,
+    tree,
+)
+from floorplan.solver.heuristics.guillotine.brief import (
     HORIZONTAL,
     VERTICAL,
-    applies,
-    cut_region,
-    guillotine_layout,
+    Brief,
+    State,
+    boxed_models,
+    make_brief,
 )
+from floorplan.solver.heuristics.guillotine.tree import cut_region
 from floorplan.solver.openings import connection_demands
 from floorplan.solver.pipeline.run import covers, layout_objective
 from floorplan.solver.verify.checker import check_layout
@@ -87,13 +97,13 @@ def test_a_leaf_dropped_with_its_cut_leaves_a_tree() -> None:
     rng = random.Random(0)
     for _ in range(200):
         n = rng.randint(2, 8)
-        state = guillotine._initial(
-            guillotine._Brief(tuple(map(str, range(n))), (), (), (), 0.0), rng)
+        state = tree.initial(
+            Brief(tuple(map(str, range(n))), (), (), (), 0.0), rng)
         tokens = state.tokens
         leaf = rng.choice([p for p, t in enumerate(tokens) if t >= 0])
         dropped = tokens[leaf]
-        guillotine._drop_leaf(tokens, leaf)
-        assert guillotine._valid_postfix(tokens)
+        moves._drop_leaf(tokens, leaf)
+        assert moves._valid_postfix(tokens)
         assert dropped not in tokens
         assert sum(t >= 0 for t in tokens) == n - 1
         assert set(tokens) - {VERTICAL, HORIZONTAL} == set(range(n)) - {dropped}
@@ -108,7 +118,7 @@ def test_left_to_the_other_searches_where_it_does_not_apply() -> None:
     many = Problem.model_validate({
         "boundary": [[0, 0], [40, 0], [40, 10], [0, 10]],
         "rooms": [{"id": f"r{k}", "target_size": [3, 3]}
-                  for k in range(guillotine.MAX_TILED_ROOMS + 1)]})
+                  for k in range(MAX_TILED_ROOMS + 1)]})
     assert not applies(many, make_domain(many))
     assert guillotine_layout(many, make_domain(many), seed=0) is None
 
@@ -132,16 +142,16 @@ def test_the_halves_of_a_tilings_cuts_are_swapped_to_meet_the_walls(column: str,
 def test_the_polish_sets_the_areas_the_annealing_left_a_few_per_cent_off() -> None:
     problem = column_strip_room("west", "north")
     domain = make_domain(problem)
-    brief = guillotine._brief(problem, domain)
+    brief = make_brief(problem, domain)
     # The one tiling (column | room / strip), each room asking a few per cent off.
-    state = guillotine._State([0, 2, 1, HORIZONTAL, VERTICAL], [1.06, 0.95, 1.04],
+    state = State([0, 2, 1, HORIZONTAL, VERTICAL], [1.06, 0.95, 1.04],
                               [0.5] * 3)
-    energy, broken = guillotine._scored(brief, state)
+    energy, broken = score.score_state(brief, state)
     assert broken == 0
-    assert layout_objective(problem, domain, guillotine._output(brief, state)) > 0.01
-    polished, lower = guillotine._polished(brief, state, energy, None)
+    assert layout_objective(problem, domain, tree.layout_of(brief, state)) > 0.01
+    polished, lower = anneal.polished(brief, state, energy, None)
     assert lower < energy
-    rooms = guillotine._output(brief, polished)
+    rooms = tree.layout_of(brief, polished)
     assert check_layout(problem, rooms).valid
     assert layout_objective(problem, domain, rooms) < 1e-6
 
@@ -198,16 +208,16 @@ def test_a_strip_the_outline_cuts_off_a_room_may_be_thinner_than_an_arm() -> Non
 def test_an_arm_the_search_made_thinner_than_half_a_metre_is_broken() -> None:
     problem = notch_sliver_brief()
     domain = make_domain(problem)
-    plan = guillotine._boxed_models(guillotine._brief(problem, domain), domain)[1]
+    plan = boxed_models(make_brief(problem, domain), domain)[1]
     south, west, store = (0, 0, 4, 3), (0, 3, 4, 6), (4, 4.05, 5, 6)
     # The east room as the plan has it: a 4 x 4.05 cell cut by the outline.
     cell = (4, 0, 8, 4.05)
-    rooms = [[south], [west], guillotine._clipped([cell], plan.outside), [store]]
-    _, broken = guillotine._score(plan, rooms, [[south], [west], [cell], [store]])
+    rooms = [[south], [west], tree.clipped([cell], plan.outside), [store]]
+    _, broken = score.score_layout(plan, rooms, [[south], [west], [cell], [store]])
     assert broken == 0
     # The same floor as two parts the tree made, one of them 5 cm thin.
     made = [(4, 0, 8, 4), (4, 4, 5, 4.05)]
-    _, broken = guillotine._score(plan, [[south], [west], made, [store]],
+    _, broken = score.score_layout(plan, [[south], [west], made, [store]],
                                   [[south], [west], made, [store]])
     assert broken == 1
 
@@ -219,13 +229,13 @@ def test_a_part_beside_a_void_may_be_as_thin_as_the_notch_leaves_it() -> None:
     # void, broken.
     problem = notch_sliver_brief()
     domain = make_domain(problem)
-    plan = guillotine._boxed_models(guillotine._brief(problem, domain), domain)[0]
+    plan = boxed_models(make_brief(problem, domain), domain)[0]
     assert plan.voids == ((5, 4, 8, 6),) and not plan.outside
     south, west, store = (0, 0, 4, 3), (0, 3, 4, 6), (4, 4.05, 5, 6)
     for strip, broken in (((4, 4, 5, 4.05), 0), ((4, 4, 4.9, 4.05), 1)):
         east = [(4, 0, 8, 4), strip]
         rooms = [[south], [west], east, [store], [plan.voids[0]]]
-        assert guillotine._score(plan, rooms, rooms)[1] == broken
+        assert score.score_layout(plan, rooms, rooms)[1] == broken
 
 
 def test_a_strip_the_outline_cut_meets_the_rest_of_its_room_over_its_own_width() -> None:
@@ -238,9 +248,9 @@ def test_a_strip_the_outline_cut_meets_the_rest_of_its_room_over_its_own_width()
                    "max_size": [4, 4]}],
     })
     domain = make_domain(problem)
-    plan = guillotine._boxed_models(guillotine._brief(problem, domain), domain)[1]
+    plan = boxed_models(make_brief(problem, domain), domain)[1]
     cell = (0, 0, 4, 4)
-    hall = guillotine._clipped([cell], plan.outside)
+    hall = tree.clipped([cell], plan.outside)
     assert min(min(r[2] - r[0], r[3] - r[1]) for r in hall) == pytest.approx(0.2)
-    _, broken = guillotine._score(plan, [hall], [[cell]])
+    _, broken = score.score_layout(plan, [hall], [[cell]])
     assert broken == 0

@@ -15,7 +15,8 @@ from shapely.geometry import box
 from floorplan.models import Problem
 from floorplan.solver.geometry import Box, make_domain, rectangles_of
 from floorplan.solver.heuristics.level_one import unfitting_targets
-from floorplan.solver.heuristics.reshape import _strip_extent, reshape
+from floorplan.solver.heuristics.reshape import reshape
+from floorplan.solver.heuristics.reshape.strips import strip_extent
 from floorplan.solver.pipeline.run import layout_objective
 from floorplan.solver.verify.checker import check_layout
 
@@ -145,7 +146,7 @@ def test_a_target_that_fits_nowhere_as_a_rectangle_starts_with_a_wing() -> None:
 
 def test_a_strip_is_measured_without_shapely_as_shapely_measures_it() -> None:
     # The annealing refuses most strips from their area and bounding boxes alone
-    # (`_strip_extent`); a wrong measure would refuse steps it should take.
+    # (`strip_extent`); a wrong measure would refuse steps it should take.
     rng = random.Random(7)
     for _ in range(400):
         # A random L or T: a base rectangle and one or two arms on top of it.
@@ -159,7 +160,7 @@ def test_a_strip_is_measured_without_shapely_as_shapely_measures_it() -> None:
                                   sorted(rng.uniform(-1, 8) for _ in range(2)))
         cut = (cx0, cy0, cx1, cy1)
         pieces = [(p.x0, p.y0, p.x1, p.y1) for p in rectangles_of(room)]
-        measured = _strip_extent(pieces, cut)
+        measured = strip_extent(pieces, cut)
         strip = room.intersection(box(*cut))
         if strip.area <= 1e-8:
             assert measured is None

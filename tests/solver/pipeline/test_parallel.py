@@ -25,11 +25,11 @@ from floorplan.solver import solve
 from floorplan.solver.events import Phase, SolveEvent
 from floorplan.solver.geometry import Box, make_domain
 from floorplan.solver.openings import connection_demands
-from floorplan.solver.pipeline.first_layout import awaited, better_start, level_one_alone
 from floorplan.solver.pipeline.hierarchy import SubDomain, room_boxes
 from floorplan.solver.pipeline.pool import PARENT_POLL, subdomain_pool
 from floorplan.solver.pipeline.refine import _disjoint_batches
 from floorplan.solver.pipeline.run import Run
+from floorplan.solver.pipeline.second_search import awaited, better_start, level_one_alone
 from floorplan.solver.pipeline.subdomains import (
     LevelOneOutcome,
     LevelOneTask,

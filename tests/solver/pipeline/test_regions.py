@@ -257,6 +257,7 @@ def test_a_part_out_of_time_is_retried_with_its_share_before_anything_is_relaxed
     # millisecond, so slicing given less than 10 ms finds nothing here, as under load.
     import floorplan.solver.pipeline.first_layout as solve_module
     import floorplan.solver.pipeline.regions.run as regions
+    import floorplan.solver.pipeline.second_search as second_search
 
     monkeypatch.setattr(regions, "MIN_PART_SECONDS", 1e-3)
     monkeypatch.setattr(regions, "PART_SECONDS_PER_ROOM", 1e-6)
@@ -265,7 +266,7 @@ def test_a_part_out_of_time_is_retried_with_its_share_before_anything_is_relaxed
         None if deadline - time.monotonic() < 0.01 else slice_in_time(run, domain, deadline)))
     # The guillotine search would lay such a part out where level 1 found nothing; this
     # test is of the retry, so it is left out.
-    monkeypatch.setattr(solve_module, "guillotine_applies", lambda problem, domain: False)
+    monkeypatch.setattr(second_search, "guillotine_applies", lambda problem, domain: False)
     problem = Problem.model_validate({
         "boundary": [[0, 0], [34, 0], [34, 19], [0, 19]], "rooms": _offices(45, seed=2),
         "options": {"time_limit": 5, "seed": 0}})

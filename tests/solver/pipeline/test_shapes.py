@@ -26,15 +26,15 @@ from floorplan.solver.miqp.scip_run import LevelStatus, run_level
 from floorplan.solver.miqp.spec import level_objective
 from floorplan.solver.openings import connection_demands
 from floorplan.solver.pipeline.assemble import final_layout
-from floorplan.solver.pipeline.first_layout import (
+from floorplan.solver.pipeline.first_layout import no_first_layout
+from floorplan.solver.pipeline.hierarchy import Piece
+from floorplan.solver.pipeline.run import Run
+from floorplan.solver.pipeline.second_search import (
     L_START_REASON,
     l_started,
     level_one_alone,
-    no_first_layout,
     targets_over_ask,
 )
-from floorplan.solver.pipeline.hierarchy import Piece
-from floorplan.solver.pipeline.run import Run
 from floorplan.solver.pipeline.subdomains import LevelOneTask
 from tests.paths import EXAMPLES
 

@@ -8,8 +8,9 @@ from typing import Any
 
 from floorplan.models import Problem
 from floorplan.solver.geometry import Box, make_domain
+from floorplan.solver.pipeline.absorb import absorb_gaps
 from floorplan.solver.pipeline.floor import _slid
-from floorplan.solver.pipeline.hierarchy import absorb_gaps, as_pieces, room_boxes
+from floorplan.solver.pipeline.hierarchy import as_pieces, room_boxes
 from floorplan.solver.pipeline.run import Run, covers
 
 #   +----+-------------+-----------+  y 4

@@ -329,9 +329,9 @@ def test_the_best_covering_incumbent_replaces_a_final_layout_that_lost_coverage(
 
 def test_a_second_level_one_search_that_ends_better_is_returned_with_its_gaps_absorbed(
 ) -> None:
-    from floorplan.solver.pipeline.first_layout import better_final
     from floorplan.solver.pipeline.hierarchy import Piece, room_boxes
     from floorplan.solver.pipeline.run import Run
+    from floorplan.solver.pipeline.second_search import better_final
     from floorplan.solver.pipeline.subdomains import LevelOneOutcome
 
     # A second level-1 search's pieces leave the gaps level 1 leaves; the incumbent it
@@ -354,8 +354,9 @@ def test_a_second_level_one_search_that_ends_better_is_returned_with_its_gaps_ab
 
 
 def test_levels_that_end_short_of_coverage_get_a_second_round_from_the_reshaping() -> None:
+    from floorplan.solver.pipeline.absorb import absorbed
     from floorplan.solver.pipeline.floor import _refined
-    from floorplan.solver.pipeline.hierarchy import Piece, absorbed, room_boxes
+    from floorplan.solver.pipeline.hierarchy import Piece, room_boxes
     from floorplan.solver.pipeline.run import Run, covers
 
     # The search time is spent (level 1 took it), so the first round of levels does
@@ -415,7 +416,8 @@ def test_the_reshaping_slides_a_room_at_its_largest_across_a_gap_the_strips_cann
 
 def test_a_gap_side_bordered_by_a_room_over_part_of_its_length_is_absorbed_there() -> None:
     from floorplan.solver.geometry import make_domain
-    from floorplan.solver.pipeline.hierarchy import Piece, absorb_gaps, room_boxes
+    from floorplan.solver.pipeline.absorb import absorb_gaps
+    from floorplan.solver.pipeline.hierarchy import Piece, room_boxes
 
     # The strip above both rooms is one gap cell; only `a` borders part of its south
     # side, and only `a` may grow (to its maximum depth of 2.5).

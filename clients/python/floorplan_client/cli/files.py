@@ -1,0 +1,97 @@
+"""``floorplan submit``'s input and output: the problem file (or stdin), the layout
+and plan written whole (write, then rename), targets refused before a job is sent."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from floorplan_client.cli.exits import PROG, UsageError
+from floorplan_client.models.formats import format_of, storey_height_of
+
+if TYPE_CHECKING:
+    from floorplan_client import Job
+    from floorplan_client.models import Layout
+
+#: Stands for stdin / stdout in file arguments.
+STDIO = "-"
+
+
+def storey_height(text: str) -> float:
+    """``--storey-height``'s metres, or argparse's error saying why they are none."""
+    try:
+        return storey_height_of(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def load_problem(source: str) -> Any:
+    """The problem file's JSON (stdin for ``-``); `UsageError` says what is wrong."""
+    from floorplan_client import ProblemFileError
+    from floorplan_client._core import read_problem_file
+
+    if source != STDIO:
+        try:
+            return read_problem_file(Path(source))
+        except ProblemFileError as err:
+            raise UsageError(str(err)) from None
+    try:
+        return json.loads(sys.stdin.read())
+    except json.JSONDecodeError as err:
+        raise UsageError(f"<stdin>: invalid JSON at line {err.lineno}, column {err.colno}: "
+                         f"{err.msg}") from None
+
+
+def check_writable(target: str | None) -> None:
+    """Refuse before submitting rather than lose the layout afterwards."""
+    if target is None or target == STDIO:
+        return
+    parent = Path(target).resolve().parent
+    if not parent.is_dir():
+        raise UsageError(f"{target}: directory {parent} does not exist")
+    if Path(target).is_dir():
+        raise UsageError(f"{target}: is a directory")
+    if not os.access(parent, os.W_OK):
+        raise UsageError(f"{target}: directory {parent} is not writable")
+
+
+def write_outputs(job: Job, layout: Layout, args: argparse.Namespace, *, svg: bool) -> bool:
+    """Write the layout (in -o's format) and, when asked and `svg`, the plan; False
+    after a failure."""
+    ok = True
+    target = args.output or STDIO
+    fmt = args.format or format_of(target)
+    try:
+        text = layout.model_dump_json(indent=2) + "\n" if fmt == "json" \
+            else job.result(format=fmt, storey_height=args.storey_height,
+                            dxf_layers=args.dxf_layers)
+        _write_text(target, text)
+    except OSError as err:
+        print(f"{PROG}: error: cannot write {target}: {err}", file=sys.stderr)
+        ok = False
+    if svg and args.svg:
+        try:
+            _write_text(args.svg, job.result(format="svg"))
+        except OSError as err:
+            print(f"{PROG}: error: cannot write {args.svg}: {err}", file=sys.stderr)
+            ok = False
+    return ok
+
+
+def _write_text(target: str, text: str) -> None:
+    if target == STDIO:
+        sys.stdout.write(text)
+        sys.stdout.flush()
+        return
+    # Write then rename, so that a reader never sees half a file.
+    path = Path(target)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)

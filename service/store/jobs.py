@@ -1,0 +1,286 @@
+"""Job records: creating and reading them (with Idempotency-Keys), the runner's side
+(claims, leases, progress, the end, cancels, recovery after a restart), and the fenced
+writes of a worker that holds a job."""
+
+from __future__ import annotations
+
+import json
+import time
+import uuid
+from typing import Any
+
+from sqlalchemy import and_, delete, func, insert, or_, select, update
+from sqlalchemy.engine import Connection
+from sqlalchemy.exc import IntegrityError
+
+from floorplan.models.jobs import JobStatus
+from floorplan.service.records import Job
+from floorplan.service.store.events import EventLog
+from floorplan.service.tables import events, jobs
+
+
+class IdempotencyConflict(Exception):
+    """The same Idempotency-Key came with another body."""
+
+
+class JobRecords(EventLog):
+    """Jobs: created, read, claimed, renewed, ended; each change an event too."""
+
+    # Creating and reading.
+
+    def create(
+        self, *, problem: str, time_limit: float, owner: str = "",
+        idempotency_key: str | None = None, body_hash: str | None = None,
+    ) -> tuple[Job, bool]:
+        """A new queued job, or with a known Idempotency-Key the job it made before
+        (the flag says whether it is new). Another body under that key is refused."""
+        now = time.time()
+        try:
+            with self._tx() as conn:
+                if idempotency_key is not None:
+                    known = self._known(conn, owner, idempotency_key, body_hash)
+                    if known is not None:
+                        return known, False
+                job_id = str(uuid.uuid4())
+                conn.execute(insert(jobs).values(
+                    id=job_id, owner=owner, status=JobStatus.QUEUED, problem=problem,
+                    time_limit=time_limit, idempotency_key=idempotency_key,
+                    body_hash=body_hash, attempts=0, cancel_requested=False, created_at=now,
+                    updated_at=now,
+                ))
+                row = conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
+        except IntegrityError:
+            # A concurrent request with the same key inserted first (the unique index on
+            # owner and key): its job is the answer, as for a replay.
+            if idempotency_key is None:
+                raise
+            with self._tx() as conn:
+                known = self._known(conn, owner, idempotency_key, body_hash)
+            if known is None:
+                raise
+            return known, False
+        return job_of_row(row), True
+
+    @staticmethod
+    def _known(
+        conn: Connection, owner: str, idempotency_key: str, body_hash: str | None
+    ) -> Job | None:
+        """The job `owner` made with `idempotency_key`, if any; another body under that
+        key is refused."""
+        row = conn.execute(select(jobs).where(
+            jobs.c.owner == owner, jobs.c.idempotency_key == idempotency_key
+        )).first()
+        if row is None:
+            return None
+        if row.body_hash != body_hash:
+            raise IdempotencyConflict(idempotency_key)
+        return job_of_row(row)
+
+    def get(self, job_id: str, owner: str | None = None) -> Job | None:
+        query = select(jobs).where(jobs.c.id == job_id)
+        if owner is not None:
+            query = query.where(jobs.c.owner == owner)
+        with self._tx() as conn:
+            row = conn.execute(query).first()
+        return job_of_row(row) if row is not None else None
+
+    def list(
+        self, *, owner: str | None, status: JobStatus | None, limit: int,
+        after: tuple[float, str] | None,
+    ) -> list[Job]:
+        """Newest first; `after` is the (created_at, id) of the last job already seen.
+        Without their problem, result and incumbent (empty and None): a page of 200 jobs
+        would otherwise load every stored layout."""
+        listed = [c for c in jobs.c if c.name not in _HEAVY]
+        query = select(*listed).order_by(jobs.c.created_at.desc(), jobs.c.id.desc()).limit(limit)
+        if owner is not None:
+            query = query.where(jobs.c.owner == owner)
+        if status is not None:
+            query = query.where(jobs.c.status == status)
+        if after is not None:
+            created, job_id = after
+            query = query.where(or_(jobs.c.created_at < created,
+                                    and_(jobs.c.created_at == created, jobs.c.id < job_id)))
+        with self._tx() as conn:
+            return [job_of_row(row, light=True) for row in conn.execute(query)]
+
+    def count(self, status: JobStatus) -> int:
+        with self._tx() as conn:
+            return int(conn.execute(
+                select(func.count()).select_from(jobs).where(jobs.c.status == status)
+            ).scalar_one())
+
+    def active(self, owner: str) -> int:
+        """`owner`'s jobs queued or running."""
+        with self._tx() as conn:
+            return int(conn.execute(select(func.count()).select_from(jobs).where(
+                jobs.c.owner == owner,
+                jobs.c.status.in_([JobStatus.QUEUED, JobStatus.RUNNING]))).scalar_one())
+
+    # The runner's side.
+
+    def claim_next(self) -> Job | None:
+        """The oldest queued job, now running (first in, first out)."""
+        with self._tx() as conn:
+            row = conn.execute(select(jobs.c.id).where(jobs.c.status == JobStatus.QUEUED)
+                               .order_by(jobs.c.created_at, jobs.c.id).limit(1)).first()
+            if row is None:
+                return None
+            now = time.time()
+            claimed = conn.execute(update(jobs).where(
+                jobs.c.id == row.id, jobs.c.status == JobStatus.QUEUED
+            ).values(status=JobStatus.RUNNING, started_at=now, updated_at=now,
+                     attempts=jobs.c.attempts + 1))
+            if claimed.rowcount != 1:
+                return None
+            job = job_of_row(conn.execute(select(jobs).where(jobs.c.id == row.id)).one())
+        self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
+        return job
+
+    def claim(self, job_id: str, worker: str) -> Job | None:
+        """Take a queued job for `worker` (the distributed mode): it is then running, and
+        its lease starts. None when the job is not queued (another worker holds it, it
+        ended, or it was canceled): a duplicate delivery of its task is then a no-op."""
+        now = time.time()
+        with self._tx() as conn:
+            claimed = conn.execute(update(jobs).where(
+                jobs.c.id == job_id, jobs.c.status == JobStatus.QUEUED
+            ).values(status=JobStatus.RUNNING, started_at=now, updated_at=now,
+                     heartbeat_at=now, worker=worker, attempts=jobs.c.attempts + 1))
+            if claimed.rowcount != 1:
+                return None
+            job = job_of_row(conn.execute(select(jobs).where(jobs.c.id == job_id)).one())
+        self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
+        return job
+
+    def heartbeat(self, job_id: str, worker: str) -> bool | None:
+        """Renew `worker`'s lease on a running job. Returns whether a cancel was asked
+        for, or None when the job is no longer this worker's to run."""
+        with self._tx() as conn:
+            renewed = conn.execute(update(jobs).where(
+                jobs.c.id == job_id, jobs.c.worker == worker,
+                jobs.c.status == JobStatus.RUNNING,
+            ).values(heartbeat_at=time.time()))
+            if renewed.rowcount != 1:
+                return None
+            return bool(conn.execute(select(jobs.c.cancel_requested)
+                                     .where(jobs.c.id == job_id)).scalar_one())
+
+    def set_progress(
+        self, job_id: str, progress: dict[str, Any], *, worker: str | None = None
+    ) -> None:
+        with self._tx() as conn:
+            conn.execute(update(jobs).where(*_held(job_id, worker)).values(
+                progress=json.dumps(progress), updated_at=time.time()))
+
+    def set_incumbent(self, job_id: str, layout_json: str, *, worker: str | None = None) -> None:
+        with self._tx() as conn:
+            conn.execute(update(jobs).where(*_held(job_id, worker)).values(
+                incumbent=layout_json, updated_at=time.time()))
+
+    def finish(
+        self, job_id: str, status: JobStatus, *, termination: str | None = None,
+        result: str | None = None, error: dict[str, Any] | None = None,
+        worker: str | None = None,
+    ) -> bool:
+        """Record the end of a job (idempotent: a finished job stays as it ended). With
+        `worker`, only while that worker holds the job. Returns whether it was recorded."""
+        now = time.time()
+        with self._tx() as conn:
+            done = conn.execute(update(jobs).where(
+                *_held(job_id, worker),
+                jobs.c.status.in_([JobStatus.QUEUED, JobStatus.RUNNING]),
+            ).values(status=status, termination=termination, result=result,
+                     error=json.dumps(error) if error else None, finished_at=now,
+                     updated_at=now))
+        if done.rowcount:
+            self.add_event(job_id, "status", {"status": status, "termination": termination,
+                                              "error": error})
+        return bool(done.rowcount)
+
+    def request_cancel(self, job_id: str) -> Job | None:
+        """Mark a job for cancelling; a queued one is canceled at once (only while still
+        queued: one that a worker claimed meanwhile is stopped by that worker)."""
+        now = time.time()
+        with self._tx() as conn:
+            conn.execute(update(jobs).where(
+                jobs.c.id == job_id, jobs.c.status.in_([JobStatus.QUEUED, JobStatus.RUNNING])
+            ).values(cancel_requested=True, updated_at=now))
+            canceled = conn.execute(update(jobs).where(
+                jobs.c.id == job_id, jobs.c.status == JobStatus.QUEUED
+            ).values(status=JobStatus.CANCELED, termination="interrupted", finished_at=now,
+                     updated_at=now))
+        if canceled.rowcount:
+            self.add_event(job_id, "status", {"status": JobStatus.CANCELED,
+                                              "termination": "interrupted", "error": None})
+        return self.get(job_id)
+
+    def delete(self, job_id: str) -> None:
+        with self._tx() as conn:
+            conn.execute(delete(events).where(events.c.job_id == job_id))
+            conn.execute(delete(jobs).where(jobs.c.id == job_id))
+
+    def recover(self, retry_limit: int) -> tuple[int, int]:
+        """After a restart: jobs left running go back to the queue, or fail once they
+        have been tried `retry_limit` + 1 times. Returns (requeued, failed)."""
+        with self._tx() as conn:
+            stale = conn.execute(select(jobs.c.id, jobs.c.attempts, jobs.c.cancel_requested)
+                                 .where(jobs.c.status == JobStatus.RUNNING)).all()
+        requeued = failed = 0
+        for row in stale:
+            if row.cancel_requested:
+                self.finish(row.id, JobStatus.CANCELED, termination="interrupted")
+            elif row.attempts > retry_limit:
+                failed += 1
+                self.finish(row.id, JobStatus.FAILED, error={
+                    "code": "retries_exhausted",
+                    "message": f"the service stopped during this job {row.attempts} times",
+                })
+            else:
+                requeued += 1
+                with self._tx() as conn:
+                    conn.execute(update(jobs).where(jobs.c.id == row.id).values(
+                        status=JobStatus.QUEUED, updated_at=time.time()))
+                self.add_event(row.id, "status", {"status": JobStatus.QUEUED,
+                                                  "detail": "requeued after a restart"})
+        return requeued, failed
+
+    def hand_back(self, job_id: str, *, worker: str | None = None) -> bool:
+        """A running job the service stops gracefully goes back to the queue, and the
+        interrupted run does not count as an attempt. Returns whether it went back."""
+        with self._tx() as conn:
+            back = conn.execute(update(jobs).where(
+                *_held(job_id, worker), jobs.c.status == JobStatus.RUNNING
+            ).values(status=JobStatus.QUEUED, attempts=jobs.c.attempts - 1, worker=None,
+                     dispatched_at=None, updated_at=time.time()))
+        if back.rowcount:
+            self.add_event(job_id, "status", {"status": JobStatus.QUEUED,
+                                              "detail": "handed back by a stopping worker"})
+        return bool(back.rowcount)
+
+
+def _held(job_id: str, worker: str | None) -> list[Any]:
+    """The WHERE clause of a write to a job, fenced to `worker` when one is named."""
+    clause = [jobs.c.id == job_id]
+    if worker is not None:
+        clause.append(jobs.c.worker == worker)
+    return clause
+
+
+#: The columns a listing leaves out: the documents, megabytes each for a large floor.
+_HEAVY = frozenset({"problem", "result", "incumbent"})
+
+
+def job_of_row(row: Any, *, light: bool = False) -> Job:
+    """A row as a job; `light`: a row without the `_HEAVY` columns."""
+    return Job(
+        id=row.id, owner=row.owner, status=JobStatus(row.status), termination=row.termination,
+        problem="" if light else row.problem, time_limit=row.time_limit,
+        result=None if light else row.result, incumbent=None if light else row.incumbent,
+        progress=json.loads(row.progress) if row.progress else None,
+        error=json.loads(row.error) if row.error else None,
+        idempotency_key=row.idempotency_key, body_hash=row.body_hash, attempts=row.attempts,
+        cancel_requested=bool(row.cancel_requested), created_at=row.created_at,
+        started_at=row.started_at, finished_at=row.finished_at, updated_at=row.updated_at,
+        worker=row.worker, heartbeat_at=row.heartbeat_at, batch_id=row.batch_id,
+    )
