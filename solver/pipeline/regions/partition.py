@@ -224,19 +224,14 @@ def fitting_target(target: tuple[float, float], least: tuple[float, float],
     return target if best is None else best[1]
 
 
-def region_problem(problem: Problem, regions: Sequence[Region], time_limit: float, *,
-                   rectangles: bool = True) -> Problem:
+def region_problem(problem: Problem, regions: Sequence[Region], time_limit: float) -> Problem:
     """Regions as the rooms of a first problem. A region's area is its rooms' share of
     the free floor (their target areas, scaled so that all regions fill it: the aisles
     come out of every region in proportion); without a target of its own it is a bar
     two rooms deep plus an aisle, so that each of its rooms can face an aisle, reshaped
     to one the free floor can hold where it can hold none (`fitting_target`). It covers
     its own points (else its rooms' points, at most two) and touches its own exterior
-    walls (else those its rooms ask for). With `rectangles`, each region is one
-    rectangle at level 1 (`max_rects` 1), as a block of rooms between aisles is: an L
-    region's arm, once the aisle along it is taken, may hold no room (office-regions: a
-    4 m arm beside the core left 2.2 m for offices of at least 2.4 m, which then came
-    out relaxed and invalid); without, a region may take the shapes a room may."""
+    walls (else those its rooms ask for)."""
     typical = typical_area(problem)
     holes = free_rectangles(problem.free_area())
     wanted = {g.id: sum(room_area(problem.room(r), typical) for r in g.rooms) for g in regions}
@@ -262,7 +257,6 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
             min_size=g.min_size or (min(least[0], target[0]), min(least[1], target[1])),
             aspect_ratio=g.aspect_ratio, positions=points,
             boundary=g.boundary or sorted({b for r in members for b in r.boundary}, key=str),
-            max_rects=1 if rectangles else None,
         ))
     region_ids = {g.id for g in regions}
     adjacency = [a for a in problem.adjacency if a.a in region_ids]

@@ -53,10 +53,10 @@ REGION_SHARE = 0.2
 #: ... and at most this many seconds per region: slicing lays the regions out at once
 #: and the search after it rarely improves on that (measured: 0 of 8 steps on office-154).
 REGION_SECONDS_PER_REGION = 0.25
-#: When the user's regions got no layout as rectangles in that time (a loaded machine,
-#: regions slicing cannot lay out, or rectangles cannot do), the region layout is solved
-#: again in this share of the time left, the rest kept for the parts, the regions then
-#: of any shape a room may take; an automatic partition is solved without regions instead.
+#: When the user's regions got no layout in that time (the time ran out, not the
+#: constraints: a loaded machine, regions slicing cannot lay out), the region layout is
+#: solved again in this share of the time left, the rest kept for the parts; an automatic
+#: partition is solved without regions instead.
 REGION_RETRY_SHARE = 0.5
 #: The least time (s) a room sub-problem is given ...
 MIN_PART_SECONDS = 0.15
@@ -187,23 +187,21 @@ def _aisles(problem: Problem, given: Sequence[Region], shapes: dict[str, Polygon
 def _region_layout(problem: Problem, given: Sequence[Region], limit: float, deadline: float,
                    solve: Solve, progress: _Progress,
                    should_stop: Callable[[], bool] | None) -> Layout:
-    """The user's regions laid out as the rooms of a first problem (step 2): rectangles,
-    in a short share of the time. When that found nothing (the time ran out, or SCIP
-    proved rectangles cannot do), the user's regions are laid out again in
-    `REGION_RETRY_SHARE` of the time left, as any shape a room may take; an automatic
-    partition falls back on a solve without regions instead (`solve_regions`)."""
+    """The user's regions laid out as the rooms of a first problem (step 2), in a short
+    share of the time; when that found nothing and the time ran out, the user's regions
+    are solved again in `REGION_RETRY_SHARE` of the time left (an automatic partition
+    falls back on a solve without regions instead, in `solve_regions`)."""
     level_one = region_problem(problem, given, max(1.0, min(
         limit * REGION_SHARE, REGION_SECONDS_PER_REGION * len(given))))
     laid = solve(level_one, on_event=progress.sink("regions", incumbents=False),
                  should_stop=should_stop)
     longer = (deadline - time.monotonic()) * REGION_RETRY_SHARE
     if (problem.regions is not None and not laid.rooms
-            and laid.report.termination in (Termination.NO_SOLUTION, Termination.INFEASIBLE)
+            and laid.report.termination is Termination.NO_SOLUTION
             and longer > level_one.options.time_limit
             and not (should_stop is not None and should_stop())):
-        progress.say(f"regions: no layout of rectangles, retrying with {longer:.1f} s "
-                     "and regions of any shape")
-        laid = solve(region_problem(problem, given, longer, rectangles=False),
+        progress.say(f"regions: no layout yet, retrying with {longer:.1f} s")
+        laid = solve(level_one.with_options(time_limit=longer),
                      on_event=progress.sink("regions", incumbents=False),
                      should_stop=should_stop)
     return laid
