@@ -229,9 +229,14 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
     the free floor (their target areas, scaled so that all regions fill it: the aisles
     come out of every region in proportion); without a target of its own it is a bar
     two rooms deep plus an aisle, so that each of its rooms can face an aisle, reshaped
-    to one the free floor can hold where it can hold none (`fitting_target`). It covers
-    its own points (else its rooms' points, at most two) and touches its own exterior
-    walls (else those its rooms ask for)."""
+    to one the free floor can hold where it can hold none (`fitting_target`). Without a
+    minimum of its own, it may shrink from its target as far as its rooms may from
+    theirs (by area: the sum of their minimums over the sum of their targets, each side
+    by the root), and at least to a room's minimum plus an aisle: a region only bound by
+    the latter came out a quarter of its share (office-regions: 5 x 7 m for six offices
+    of 3.5 x 3.1 m) and, padded with a strip of floor the aisle then took, could not hold
+    its rooms. It covers its own points (else its rooms' points, at most two) and
+    touches its own exterior walls (else those its rooms ask for)."""
     typical = typical_area(problem)
     holes = free_rectangles(problem.free_area())
     wanted = {g.id: sum(room_area(problem.room(r), typical) for r in g.rooms) for g in regions}
@@ -252,9 +257,12 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
         if len(points) > 2:
             points = list(max(((p, q) for p in points for q in points),
                               key=lambda pq: math.dist(*pq)))
+        shrink = math.sqrt(sum(math.prod(r.min_size or (0.0, 0.0)) for r in members)
+                           / sum(room_area(r, typical) for r in members))
+        lowest = tuple(min(max(least[k], target[k] * shrink), target[k]) for k in (0, 1))
         rooms.append(Room(
             id=g.id, type="region", target_size=target, max_size=g.max_size,
-            min_size=g.min_size or (min(least[0], target[0]), min(least[1], target[1])),
+            min_size=g.min_size or lowest,
             aspect_ratio=g.aspect_ratio, positions=points,
             boundary=g.boundary or sorted({b for r in members for b in r.boundary}, key=str),
         ))
