@@ -53,6 +53,8 @@ REGION_SHARE = 0.2
 #: ... and at most this many seconds per region: slicing lays the regions out at once
 #: and the search after it rarely improves on that (measured: 0 of 8 steps on office-154).
 REGION_SECONDS_PER_REGION = 0.25
+#: ... and at least this many seconds.
+MIN_REGION_SECONDS = 1.0
 #: When the user's regions got no layout in that time (the time ran out, not the
 #: constraints: a loaded machine, regions slicing cannot lay out), the region layout is
 #: solved again in this share of the time left, the rest kept for the parts; an automatic
@@ -191,7 +193,7 @@ def _region_layout(problem: Problem, given: Sequence[Region], limit: float, dead
     share of the time; when that found nothing and the time ran out, the user's regions
     are solved again in `REGION_RETRY_SHARE` of the time left (an automatic partition
     falls back on a solve without regions instead, in `solve_regions`)."""
-    level_one = region_problem(problem, given, max(1.0, min(
+    level_one = region_problem(problem, given, max(MIN_REGION_SECONDS, min(
         limit * REGION_SHARE, REGION_SECONDS_PER_REGION * len(given))))
     laid = solve(level_one, on_event=progress.sink("regions", incumbents=False),
                  should_stop=should_stop)
