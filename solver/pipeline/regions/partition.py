@@ -8,6 +8,10 @@ import statistics
 from collections import deque
 from collections.abc import Sequence
 
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+
 from floorplan.models import (
     Adjacency,
     Problem,
@@ -164,14 +168,77 @@ def room_area(room: Room, typical: float) -> float:
     return typical
 
 
+def free_rectangles(free: Polygon) -> list[tuple[float, float]]:
+    """[width, depth] of the rectangles the free floor holds, spanned by its vertex
+    coordinates: for every run of grid columns, each run of rows inside all of them."""
+    coords = shapely.get_coordinates(shapely.boundary(free))
+    xs = sorted({round(float(c), 9) for c in coords[:, 0]})
+    ys = sorted({round(float(c), 9) for c in coords[:, 1]})
+    if len(xs) < 2 or len(ys) < 2:
+        return []
+    cx = (np.array(xs[:-1]) + np.array(xs[1:])) / 2
+    cy = (np.array(ys[:-1]) + np.array(ys[1:])) / 2
+    grid_x, grid_y = np.meshgrid(cx, cy)
+    shapely.prepare(free)
+    cells = shapely.contains_xy(free, grid_x, grid_y)  # rows by y, columns by x
+    found: set[tuple[float, float]] = set()
+    for first in range(len(xs) - 1):
+        inside = np.ones(len(ys) - 1, dtype=bool)
+        for last in range(first, len(xs) - 1):
+            inside &= cells[:, last]
+            if not inside.any():
+                break
+            start = None
+            for j, cell in enumerate([*inside, False]):
+                if cell and start is None:
+                    start = j
+                elif not cell and start is not None:
+                    found.add((xs[last + 1] - xs[first], ys[j] - ys[start]))
+                    start = None
+    return sorted(found)
+
+
+def fitting_target(target: tuple[float, float], least: tuple[float, float],
+                   holes: Sequence[tuple[float, float]]) -> tuple[float, float]:
+    """A planned region target (`region_problem`) the free floor can hold as one
+    rectangle: a target that fits nowhere reads, to level 1, as a room its plan drew as
+    an L (`unfitting_targets`), which then starts as two rectangles and loses the rows
+    of slicing; a planned bar is only a guess at a shape (four bars beside a central
+    core fit nowhere, and a region layout then took more than its time). The bar keeps
+    its area and takes the depth nearest its own (and at least `least`) that a free
+    rectangle holding that area allows; unchanged when it fits, or when no free
+    rectangle holds its area (that region is an L)."""
+    width, depth = target
+    if any(w >= width - 1e-9 and d >= depth - 1e-9 for w, d in holes):
+        return target
+    area = width * depth
+    best: tuple[float, tuple[float, float]] | None = None
+    for w, d in holes:
+        lo, hi = max(area / w, least[1]), min(d, area / least[0])
+        if lo > hi + 1e-9:
+            continue
+        deep = min(max(depth, lo), hi)
+        change = abs(math.log(deep / depth))
+        if best is None or change < best[0]:
+            best = (change, (area / deep, deep))
+    return target if best is None else best[1]
+
+
 def region_problem(problem: Problem, regions: Sequence[Region], time_limit: float) -> Problem:
     """Regions as the rooms of a first problem. A region's area is its rooms' share of
     the free floor (their target areas, scaled so that all regions fill it: the aisles
     come out of every region in proportion); without a target of its own it is a bar
-    two rooms deep plus an aisle, so that each of its rooms can face an aisle. It covers
-    its own points (else its rooms' points, at most two) and touches its own exterior
-    walls (else those its rooms ask for)."""
+    two rooms deep plus an aisle, so that each of its rooms can face an aisle, reshaped
+    to one the free floor can hold where it can hold none (`fitting_target`). Without a
+    minimum of its own, it may shrink from its target as far as its rooms may from
+    theirs (by area: the sum of their minimums over the sum of their targets, each side
+    by the root), and at least to a room's minimum plus an aisle: a region only bound by
+    the latter came out a quarter of its share (office-regions: 5 x 7 m for six offices
+    of 3.5 x 3.1 m) and, padded with a strip of floor the aisle then took, could not hold
+    its rooms. It covers its own points (else its rooms' points, at most two) and
+    touches its own exterior walls (else those its rooms ask for)."""
     typical = typical_area(problem)
+    holes = free_rectangles(problem.free_area())
     wanted = {g.id: sum(room_area(problem.room(r), typical) for r in g.rooms) for g in regions}
     scale = float(problem.free_area().area) / sum(wanted.values())
     rooms = []
@@ -184,14 +251,18 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
         target = g.target_size
         if target is None:
             deep = min(2 * statistics.median(depths) + problem.aisle_width, math.sqrt(area))
-            target = (max(area / deep, least[0]), max(deep, least[1]))
+            target = fitting_target((max(area / deep, least[0]), max(deep, least[1])),
+                                    least, holes)
         points = list(g.positions) or [p for r in members for p in r.positions]
         if len(points) > 2:
             points = list(max(((p, q) for p in points for q in points),
                               key=lambda pq: math.dist(*pq)))
+        shrink = math.sqrt(sum(math.prod(r.min_size or (0.0, 0.0)) for r in members)
+                           / sum(room_area(r, typical) for r in members))
+        lowest = tuple(min(max(least[k], target[k] * shrink), target[k]) for k in (0, 1))
         rooms.append(Room(
             id=g.id, type="region", target_size=target, max_size=g.max_size,
-            min_size=g.min_size or (min(least[0], target[0]), min(least[1], target[1])),
+            min_size=g.min_size or lowest,
             aspect_ratio=g.aspect_ratio, positions=points,
             boundary=g.boundary or sorted({b for r in members for b in r.boundary}, key=str),
         ))

@@ -128,31 +128,38 @@ def assign_to_parts(problem: Problem, rooms: Sequence[Room],
 def region_jobs(problem: Problem, region_ids: Sequence[str], given: Sequence[Region],
           network: AisleNetwork) -> list[tuple[str, Polygon, list[Room]]]:
     """The room sub-problems: per region part, its rooms. The user's regions (`given`)
-    keep their rooms; an automatic partition is only a means, so its rooms are dealt
-    over every part by the area the region layout actually gave (a region that came out
-    smaller than planned gets fewer rooms, not squeezed ones), and a part that cannot
-    hold what it was dealt (`find_impossibilities`: too narrow for a room's minimum
-    size, say) is left out and the rooms dealt again, up to `DEAL_ROUNDS` times; the
-    floor of a part left out joins the aisle it opens onto (`_with_leftovers`)."""
+    keep their rooms, dealt over that region's own parts; an automatic partition is only
+    a means, so its rooms are dealt over every part. Either way the rooms are dealt by
+    the area the region layout actually gave (a region part that came out smaller than
+    planned gets fewer rooms, not squeezed ones) and again without the parts that cannot
+    hold what they were dealt (`_dealt`)."""
     if problem.regions is None:
         parts = [(g, part) for g in region_ids for part in network.parts[g]]
-        jobs: list[tuple[str, Polygon, list[Room]]] = []
-        for _ in range(DEAL_ROUNDS):
-            dealt = assign_to_parts(problem, problem.rooms, [p for _, p in parts])
-            jobs = [(g, part, rooms) for (g, part), rooms in zip(parts, dealt, strict=True)
-                    if rooms]
-            cannot = [k for k, (_, part, rooms) in enumerate(jobs)
-                      if not can_hold(problem, part, rooms)]
-            if not cannot or len(cannot) == len(jobs):
-                return jobs
-            left_out = {id(jobs[k][1]) for k in cannot}
-            parts = [(g, part) for g, part in parts if id(part) not in left_out]
-        return jobs
-    return [(g.id, part, rooms) for g in given
-            for part, rooms in zip(network.parts[g.id],
-                                   assign_to_parts(problem, [problem.room(r) for r in g.rooms],
-                                                   network.parts[g.id]), strict=True)
-            if rooms]
+        return _dealt(problem, problem.rooms, parts)
+    return [job for g in given for job in _dealt(
+        problem, [problem.room(r) for r in g.rooms], [(g.id, p) for p in network.parts[g.id]])]
+
+
+def _dealt(problem: Problem, rooms: Sequence[Room], parts: Sequence[tuple[str, Polygon]]
+           ) -> list[tuple[str, Polygon, list[Room]]]:
+    """`rooms` dealt over `parts` (region id, part) by area (`assign_to_parts`); a part
+    that cannot hold what it was dealt (`find_impossibilities`: too narrow for a room's
+    minimum size, a sliver the region layout left, say) is left out and the rooms dealt
+    again, up to `DEAL_ROUNDS` times; the floor of a part left out joins the aisle it
+    opens onto (`_with_leftovers`)."""
+    parts = list(parts)
+    jobs: list[tuple[str, Polygon, list[Room]]] = []
+    for _ in range(DEAL_ROUNDS):
+        dealt = assign_to_parts(problem, rooms, [p for _, p in parts])
+        jobs = [(g, part, dealt_rooms)
+                for (g, part), dealt_rooms in zip(parts, dealt, strict=True) if dealt_rooms]
+        cannot = [k for k, (_, part, dealt_rooms) in enumerate(jobs)
+                  if not can_hold(problem, part, dealt_rooms)]
+        if not cannot or len(cannot) == len(jobs):
+            return jobs
+        left_out = {id(jobs[k][1]) for k in cannot}
+        parts = [(g, part) for g, part in parts if id(part) not in left_out]
+    return jobs
 
 
 def points_kept(problem: Problem, given: Sequence[Region],

@@ -54,6 +54,13 @@ REGION_SHARE = 0.2
 #: and the search after it rarely improves on that (measured: 0 of 8 steps on a 154-room
 #: office floor; bench/NOTES.md, "Regions and aisles").
 REGION_SECONDS_PER_REGION = 0.25
+#: ... and at least this many seconds.
+MIN_REGION_SECONDS = 1.0
+#: When the user's regions got no layout in that time (the time ran out, not the
+#: constraints: a loaded machine, regions slicing cannot lay out), the region layout is
+#: solved again in this share of the time left, the rest kept for the parts; an automatic
+#: partition is solved without regions instead.
+REGION_RETRY_SHARE = 0.5
 #: The least time (s) a room sub-problem is given ...
 MIN_PART_SECONDS = 0.15
 #: ... and, when its rooms ask for sizes and guide points only, at most this many
@@ -130,7 +137,7 @@ def solve_regions(
         given = partition(problem)
         progress.say(f"regions: {len(given)} regions of "
                      f"{', '.join(str(len(g.rooms)) for g in given)} rooms")
-        laid = _region_layout(problem, given, limit, solve, progress, should_stop)
+        laid = _region_layout(problem, given, limit, deadline, solve, progress, should_stop)
         if not laid.rooms:
             if problem.regions is None and not (should_stop and should_stop()):
                 # An automatic partition is only a means: solve flat instead.
@@ -181,13 +188,27 @@ def _aisles(problem: Problem, given: Sequence[Region], shapes: dict[str, Polygon
     return network
 
 
-def _region_layout(problem: Problem, given: Sequence[Region], limit: float, solve: Solve,
-                   progress: _Progress, should_stop: Callable[[], bool] | None) -> Layout:
-    """The user's regions laid out as the rooms of a first problem (step 2)."""
-    level_one = region_problem(problem, given, max(1.0, min(
+def _region_layout(problem: Problem, given: Sequence[Region], limit: float, deadline: float,
+                   solve: Solve, progress: _Progress,
+                   should_stop: Callable[[], bool] | None) -> Layout:
+    """The user's regions laid out as the rooms of a first problem (step 2), in a short
+    share of the time; when that found nothing and the time ran out, the user's regions
+    are solved again in `REGION_RETRY_SHARE` of the time left (an automatic partition
+    falls back on a solve without regions instead, in `solve_regions`)."""
+    level_one = region_problem(problem, given, max(MIN_REGION_SECONDS, min(
         limit * REGION_SHARE, REGION_SECONDS_PER_REGION * len(given))))
-    return solve(level_one, on_event=progress.sink("regions", incumbents=False),
+    laid = solve(level_one, on_event=progress.sink("regions", incumbents=False),
                  should_stop=should_stop)
+    longer = (deadline - time.monotonic()) * REGION_RETRY_SHARE
+    if (problem.regions is not None and not laid.rooms
+            and laid.report.termination is Termination.NO_SOLUTION
+            and longer > level_one.options.time_limit
+            and not (should_stop is not None and should_stop())):
+        progress.say(f"regions: no layout yet, retrying with {longer:.1f} s")
+        laid = solve(level_one.with_options(time_limit=longer),
+                     on_event=progress.sink("regions", incumbents=False),
+                     should_stop=should_stop)
+    return laid
 
 
 def _solve_part(

@@ -22,7 +22,7 @@ from floorplan.solver.pipeline.regions.aisles import aisle_network
 from floorplan.solver.pipeline.regions.bands import band_regions
 from floorplan.solver.pipeline.regions.partition import auto_partition, regions_apply
 from floorplan.solver.verify.checker import check_layout
-from tests.paths import CASES
+from tests.paths import CASES, EXAMPLES
 
 #: End to end (large layouts of up to 150 rooms): left out by `pytest -m "not slow"`.
 pytestmark = pytest.mark.slow
@@ -278,3 +278,47 @@ def test_a_part_out_of_time_is_retried_with_its_share_before_anything_is_relaxed
     assert len(layout.rooms) == len(problem.rooms)
     assert layout.report.valid, [c.detail for c in layout.report.constraints
                                  if not c.satisfied]
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_office_regions_example_lays_out(seed: int) -> None:
+    # examples/office-regions: four given regions around a central 4 x 4 m core. Its
+    # planned bars (about 20 x 8 m) fit nowhere beside the core, so level 1 started every
+    # region with a wing, found nothing in the region layout's 1 s, and the user's regions
+    # were given up with 11 s of the limit left (no_solution in every run); a region
+    # bound only by a room plus an aisle came out too small to hold its rooms.
+    problem = Problem.model_validate_json((EXAMPLES / "office-regions.json").read_text())
+    layout = solve(problem.with_options(seed=seed))
+    report = layout.report
+    assert report.valid, [c.detail for c in report.constraints if not c.satisfied]
+    assert report.coverage >= 0.99
+    owner = {r: g.id for g in problem.regions or [] for r in g.rooms}
+    assert {r.id: r.region for r in layout.rooms} == owner
+    assert report.solve_time <= default_time_limit(len(problem.rooms)) + 1.5
+
+
+def test_given_regions_out_of_time_are_retried_with_more_of_the_limit(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # A loaded machine, made certain: the region layout's first share is cut to a
+    # millisecond, in which slicing finds nothing (as in the test of the parts' retry).
+    # An automatic partition would be solved without regions; the user's regions cannot
+    # be dropped, so their region layout gets half the time left, and the parts the rest.
+    import floorplan.solver.pipeline.first_layout as solve_module
+    import floorplan.solver.pipeline.regions.run as regions
+
+    monkeypatch.setattr(regions, "MIN_REGION_SECONDS", 1e-3)
+    monkeypatch.setattr(regions, "REGION_SECONDS_PER_REGION", 1e-6)
+    slice_in_time = solve_module._slice
+    monkeypatch.setattr(solve_module, "_slice", lambda run, domain, deadline: (
+        None if deadline - time.monotonic() < 0.01 else slice_in_time(run, domain, deadline)))
+    monkeypatch.setattr(solve_module, "guillotine_applies", lambda problem, domain: False)
+    problem = Problem.model_validate(_explicit_problem())
+    said: list[str] = []
+    layout = solve(problem, on_event=lambda e: said.append(e.detail))
+    retried = [d for d in said if d.startswith("regions: no layout yet, retrying with")]
+    assert retried, said
+    assert float(retried[0].split("retrying with ")[1].split(" s")[0]) >= 2.0
+    assert len(layout.rooms) == len(problem.rooms)
+    assert layout.report.valid, [c.detail for c in layout.report.constraints
+                                 if not c.satisfied]
+    assert {r.region for r in layout.rooms} == {f"block-{g}" for g in range(4)}
