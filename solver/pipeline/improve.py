@@ -136,16 +136,21 @@ def improve_level_one(
     middle = time.monotonic() + (deadline - time.monotonic()) * COVERAGE_PHASE_SHARE
 
     rects, steps, improvements = start.rects, 0, 0
-    if not covers:
-        lm, rects, steps, improvements = _coverage_passes(run, domain, lm, rects, middle, rng,
-                                                          improved)
-    best = search_neighbourhoods(
-        lm.spec, rects, domain,
-        deadline=deadline, rng=rng,
-        step=lambda model, limit: run.run(model, limit), should_stop=run.ending,
-        keep_coverage=True, patience=STALL_STEPS if covers else None,
-        on_improvement=improved,
-    )
+    # The search counts its own steps without gain (`STALL_STEPS`): a step takes a large
+    # share of the time-based rule's window. With `options.stop: "limit"`, a search from
+    # a start short of the goal polishes until its deadline.
+    patient = covers or run.problem.options.stop == "stalled"
+    with run.own_stall_rule():
+        if not covers:
+            lm, rects, steps, improvements = _coverage_passes(run, domain, lm, rects, middle,
+                                                              rng, improved)
+        best = search_neighbourhoods(
+            lm.spec, rects, domain,
+            deadline=deadline, rng=rng,
+            step=lambda model, limit: run.run(model, limit), should_stop=run.ending,
+            keep_coverage=True, patience=STALL_STEPS if patient else None,
+            on_improvement=improved,
+        )
     run.stalled = covers and time.monotonic() < deadline - 0.05 and not run.stopped()
     run.emit(Phase.LEVEL, objective=best.objective,
              detail=f"neighbourhood search: {improvements + best.improvements} of "

@@ -219,12 +219,16 @@ def reshaping_stages(run: Run, domain: Domain, rooms: dict[str, list[Box]],
             stages.append(rooms := closed)
     now = time.monotonic()
     for k, (step, until) in enumerate(RESHAPE_SCHEDULE):
-        if time.monotonic() >= deadline or run.ending():
-            break
+        if time.monotonic() >= deadline or run.stopped() or (step == "anneal"
+                                                             and run.ending()):
+            # A stalled reshaping anneals no more; a slide costs milliseconds and may
+            # still gain, so it runs.
+            continue
         end = now + until * (deadline - now)
         if step == "anneal":
             annealed = reshape(problem, domain, rooms, deadline=end,
-                               seed=problem.options.seed + k, should_stop=stop)
+                               seed=problem.options.seed + k, should_stop=stop,
+                               on_progress=run.note_progress)
             changed, new = annealed.steps > 0, annealed.rooms
         else:
             new, moves = slide_walls(problem, domain, rooms, deadline=end, should_stop=stop)

@@ -4,7 +4,8 @@ covering incumbent) and Eq. 12 on a layout, shared by every step of the pipeline
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import shapely
@@ -98,6 +99,9 @@ class Run:
     stage_stalled: bool = False
     #: Stages that ended because they stalled.
     stalls: int = 0
+    #: A stage with a stall rule of its own runs (`own_stall_rule`): the time-based one
+    #: waits.
+    stall_paused: bool = False
     #: The last whole-floor MIQP's answer, if any (`ScipAnswer`).
     scip_answer: ScipAnswer | None = None
     #: SCIP's check of the answer (solver/pipeline/judge.py) runs until then (0: `end`).
@@ -154,7 +158,8 @@ class Run:
         true, stays true until the next stage begins."""
         if self.stage_stalled:
             return True
-        if self.last_gain is None or self.problem.options.stop != "stalled":
+        if (self.last_gain is None or self.stall_paused
+                or self.problem.options.stop != "stalled"):
             return False
         now = time.monotonic()
         if now - self.last_gain > stall_window(now - self.started):
@@ -170,6 +175,18 @@ class Run:
         self.stage_stalled = False
         if self.last_gain is not None:
             self.last_gain = time.monotonic()
+
+    @contextmanager
+    def own_stall_rule(self) -> Iterator[None]:
+        """A stage that counts its own steps without gain (the neighbourhood search,
+        whose steps take a large share of the window) runs with the time-based rule
+        paused; the next stage starts afresh (`begin_stage`)."""
+        self.stall_paused = True
+        try:
+            yield
+        finally:
+            self.stall_paused = False
+            self.begin_stage()
 
     def note_progress(self) -> None:
         """A stage's own measure improved significantly (the reshaping lowers a cost of

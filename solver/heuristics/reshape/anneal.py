@@ -14,6 +14,7 @@ from shapely.geometry import Polygon, box
 from shapely.geometry.base import BaseGeometry
 
 from floorplan.models import Problem
+from floorplan.solver.budget import significant_gain
 from floorplan.solver.geometry import Box, Domain, rectangles_of
 from floorplan.solver.heuristics.reshape.needs import (
     TOL,
@@ -77,22 +78,35 @@ class ReshapeResult:
 
 def reshape(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]], *,
             deadline: float, seed: int = 0,
-            should_stop: Callable[[], bool] | None = None) -> ReshapeResult:
+            should_stop: Callable[[], bool] | None = None,
+            on_progress: Callable[[], None] | None = None) -> ReshapeResult:
     """Lower Eq. 12 of a layout by moving strips of floor between neighbours (a gap
     counts as a neighbour that costs lambda_cover per m²), annealing until `deadline`
     (time.monotonic()), `RESTARTS` times from `rooms` with seeds drawn from `seed`, each
     with an equal share of the time left. Returns the best layout found that covers as
     much as the coverage goal asks and has no higher Eq. 12 than `rooms`; unchanged
-    rooms as given."""
+    rooms as given. `on_progress` is called whenever the lowest cost of all runs so far
+    falls significantly (`solver.budget.significant_gain`): the stall rule of the solve
+    then knows the reshaping is still gaining."""
     best: tuple[float, ReshapeResult] | None = None
     steps = candidates = 0
+    lowest = math.inf
+
+    def on_best(total: float) -> None:
+        nonlocal lowest
+        if on_progress is not None and (lowest == math.inf or significant_gain(lowest, total)):
+            on_progress()
+        if total < lowest:
+            lowest = total
+
     for k in range(RESTARTS):
         left = deadline - time.monotonic()
         if left <= 0 or (should_stop is not None and should_stop()):
             break
         total, result = _anneal(problem, domain, rooms,
                                 deadline=time.monotonic() + left / (RESTARTS - k),
-                                seed=seed * RESTARTS + k, should_stop=should_stop)
+                                seed=seed * RESTARTS + k, should_stop=should_stop,
+                                on_best=on_best)
         steps += result.steps
         candidates += result.candidates
         if best is None or total < best[0] - TOL:
@@ -104,7 +118,8 @@ def reshape(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
 
 def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]], *,
             deadline: float, seed: int,
-            should_stop: Callable[[], bool] | None) -> tuple[float, ReshapeResult]:
+            should_stop: Callable[[], bool] | None,
+            on_best: Callable[[float], None] | None = None) -> tuple[float, ReshapeResult]:
     """One annealing run of `reshape`: its best layout, with the total cost it lowers
     (Eq. 12's terms, the area error and the corners; infinite when nothing was found)."""
     shapes = {r: shape_of(boxes) for r, boxes in rooms.items() if boxes}
@@ -246,6 +261,8 @@ def _anneal(problem: Problem, domain: Domain, rooms: Mapping[str, Sequence[Box]]
         if (total < best[0] - TOL and sum(c.size for c in cost.values()) <= start + TOL
                 and covered(domain, state) >= goal):
             best = (total, dict(state))
+            if on_best is not None:
+                on_best(total)
     final = {r: p for r, p in best[1].items() if not r.startswith(GAP)}
     changed = {r for r in final if not final[r].equals(shapes[r])}
     out = {r: list(boxes) for r, boxes in rooms.items()}
