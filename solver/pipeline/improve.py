@@ -151,7 +151,6 @@ def improve_level_one(
             keep_coverage=True, patience=STALL_STEPS if patient else None,
             on_improvement=improved,
         )
-    run.stalled = covers and time.monotonic() < deadline - 0.05 and not run.stopped()
     run.emit(Phase.LEVEL, objective=best.objective,
              detail=f"neighbourhood search: {improvements + best.improvements} of "
                     f"{steps + best.steps} steps improved")

@@ -47,9 +47,10 @@ COVER_MARGIN = 5e-4
 
 @dataclass(frozen=True)
 class ScipAnswer:
-    """The best solution SCIP returned for a model of the whole floor (level 1, one
-    rectangle per room and its wings), as rooms, with whether SCIP proved it optimal and
-    its dual bound on Eq. 12: what the report may claim when this is the layout returned."""
+    """The best solution SCIP returned for a model of the whole floor (level 1 solved
+    outright, or SCIP's check of the answer), as rooms, with whether SCIP proved it
+    optimal and its dual bound on Eq. 12 (None when the model's objective is not Eq. 12
+    itself): what the report may claim when this is the layout returned."""
 
     rooms: dict[str, list[Box]]
     optimal: bool
@@ -70,8 +71,6 @@ class Run:
     #: The size window of the first layout (None: the user's own bounds).
     window: float | None = None
     level: int = 1
-    #: The level-1 search ended early, fully covering and no longer improving.
-    stalled: bool = False
     #: The problem as the user sent it, before require_connected added to it.
     asked: Problem | None = None
     #: Extra level-1 rectangles per room (docs/method.md, "Rooms of several rectangles"),
