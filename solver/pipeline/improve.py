@@ -28,8 +28,14 @@ from floorplan.solver.pipeline.run import Run, ScipAnswer, covered, goal_area
 
 #: Share of the neighbourhood search spent with coverage weighted first.
 COVERAGE_PHASE_SHARE = 0.85
-#: A fully covering layout's polish ends after this many steps in a row without gain.
+#: A fully covering layout's polish ends after this many steps in a row without gain
+#: with `options.stop: "limit"` ...
 STALL_STEPS = 8
+#: ... and after this many under the stall rule (`"stalled"`, the default): on planted
+#: briefs the steps after the fourth without gain rarely gain, and the reshaping, which
+#: gives rooms their L shapes, is better served by the time (bench/NOTES.md, "SCIP
+#: decides: the stall rule and SCIP's check of the answer").
+STALLED_STEPS = 4
 #: Rooms given a second rectangle at level 1 to reach gaps, at most ...
 GAP_WINGS = 2
 #: ... for gaps larger than this (m²), trying this many rooms per gap.
@@ -148,7 +154,7 @@ def improve_level_one(
             lm.spec, rects, domain,
             deadline=deadline, rng=rng,
             step=lambda model, limit: run.run(model, limit), should_stop=run.ending,
-            keep_coverage=True, patience=STALL_STEPS if patient else None,
+            keep_coverage=True, patience=_patience(run) if patient else None,
             on_improvement=improved,
         )
     run.emit(Phase.LEVEL, objective=best.objective,
@@ -216,3 +222,8 @@ def _eq12_bound(run: Run, lm: LevelModel, dual_bound: float | None) -> float | N
             or any(room.target_size is None for room in run.problem.rooms)):
         return None
     return max(dual_bound, 0.0)
+
+
+def _patience(run: Run) -> int:
+    """Steps in a row without gain after which the polish of a covering layout ends."""
+    return STALLED_STEPS if run.problem.options.stop == "stalled" else STALL_STEPS
