@@ -5,13 +5,14 @@ for a flat's dozen rooms, growing in proportion on large floors) is a ceiling: a
 ends sooner when more time is unlikely to buy anything (the stall rule below). Within
 it, a floor's stages get named shares (`FloorBudget`, one table):
 
-| stage                       | until                                                       |
-|-----------------------------|-------------------------------------------------------------|
-| level 1 (first layout and its neighbourhood search) | `level_one_end`: 90 % of the search time |
-| refinement levels (Sec. 5.3) | `search_end`: what level 1 leaves of the search time       |
-| reshaping                   | `end`: a quarter of the time before it, at most 1 s + 0.1 s a room |
-| SCIP's check of the answer  | `judge_end`: 10 % of the limit, at most 0.3 s + 0.03 s a room |
-| last gaps and the report    | the limit: 10 ms a room, at most 10 % of it                  |
+| stage             | until         | share                                              |
+|-------------------|---------------|----------------------------------------------------|
+| level 1           | level_one_end | 90 % of the search time                            |
+| refinement levels | search_end    | what level 1 leaves of the search time             |
+| reshaping         | end           | 1/4 of the time to the report, <= 1 s + 0.1 s/room |
+| SCIP's check      | judge_end     | 10 % of the limit, <= 0.3 s + 0.03 s/room, taken   |
+|                   |               | from the reshaping's share                         |
+| last gaps, report | the limit     | 10 ms a room, at most 10 % of the limit            |
 
 A stage that stalls ends early and leaves its time to the next.
 """
@@ -121,12 +122,14 @@ class FloorBudget:
         """The shares of a floor of `rooms` rooms solved from `started` within `limit`."""
         finish = min(FINISH_SHARE * limit, FINISH_SECONDS_PER_ROOM * rooms)
         judge_end = started + limit - finish
-        end = judge_end - judge_seconds(limit, rooms)
-        reshaping = min(RESHAPE_SHARE * (end - started),
+        reshaping = min(RESHAPE_SHARE * (judge_end - started),
                         RESHAPE_SECONDS + RESHAPE_SECONDS_PER_ROOM * rooms)
-        search_end = end - reshaping
+        search_end = judge_end - reshaping
+        # SCIP's check comes out of the reshaping's share, never the search's: a first
+        # layout matters more than its polish.
+        end = max(judge_end - judge_seconds(limit, rooms), search_end)
         return cls(started, limit, started + (search_end - started) * LEVEL_ONE_SHARE,
-                   search_end, end - SHORT_RESHAPE_SHARE * reshaping, end, judge_end)
+                   search_end, judge_end - SHORT_RESHAPE_SHARE * reshaping, end, judge_end)
 
     def table(self) -> str:
         """The shares as seconds from the start, one line each (for logs and docs)."""
