@@ -13,7 +13,7 @@ import shapely
 
 from floorplan.models import Layout, Problem, Termination
 from floorplan.solver import solve
-from floorplan.solver.budget import significant_gain, stall_window
+from floorplan.solver.budget import FloorBudget, judge_seconds, significant_gain, stall_window
 from floorplan.solver.events import Phase, SolveEvent
 from floorplan.solver.geometry import Box, make_domain
 from floorplan.solver.pipeline.assemble import same_layout, termination
@@ -165,3 +165,14 @@ def test_a_layout_breaking_the_model_is_left_as_it_is() -> None:
     now = time.monotonic()
     run = Run(problem, now + 30, now, None, None, end=now + 30)
     assert judged(run, domain, rooms, now + 30) is rooms and run.scip_answer is None
+
+
+@pytest.mark.parametrize(("rooms", "limit"), [(5, 5.0), (13, 11.0), (40, 12.2), (154, 38.5)])
+def test_the_floor_budget_hands_out_the_limit_in_order(rooms: int, limit: float) -> None:
+    budget = FloorBudget.of(100.0, limit, rooms)
+    ends = [budget.level_one_end, budget.search_end, budget.end, budget.judge_end]
+    assert 100.0 < ends[0] <= ends[1] <= ends[2] <= ends[3] <= 100.0 + limit
+    assert budget.search_end <= budget.short_end <= budget.judge_end
+    # SCIP's check comes out of the reshaping's share: the search keeps what it had.
+    assert budget.judge_end - budget.end <= judge_seconds(limit, rooms) + 1e-9
+    assert len(budget.table().splitlines()) == 5
