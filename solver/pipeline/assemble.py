@@ -77,7 +77,7 @@ def termination(run: Run, rooms: Mapping[str, list[Box]]) -> tuple[Termination, 
         if answer.optimal:
             return Termination.OPTIMAL, answer.bound
         bound = answer.bound
-    if time.monotonic() < run.end - END_SLACK:
+    if time.monotonic() < (run.judge_end or run.end) - END_SLACK:
         return Termination.STALLED, bound
     return Termination.TIME_LIMIT, bound
 

@@ -69,8 +69,9 @@ def first_level(
     problem = run.problem
     if not has_soft(problem):
         # Nothing else needs the time when there is no first layout: the search for
-        # one may go on until the solve's end.
-        return _level_one(run, domain, deadline, first_by=max(deadline, run.end))
+        # one may go on until the solve's end (SCIP's check of the answer included).
+        return _level_one(run, domain, deadline,
+                          first_by=max(deadline, run.judge_end or run.end))
     # A layout meeting every constraint, soft ones too, is looked for first (no price
     # per metre makes a violating layout reliably lose to it); the soft model takes
     # over when there is none, or none found in its share of the time (docs/method.md,
