@@ -130,7 +130,7 @@ TWO_ROOMS_L = Problem.model_validate({
     "rooms": [
         {"id": "l", "min_size": [2, 2], "max_size": [4, 4], "target_size": [4, 4],
          "shape": "free", "boundary": ["south"]},
-        {"id": "sq", "min_size": [1.5, 1.5], "max_size": [3, 3], "target_size": [2, 2]},
+        {"id": "sq", "min_size": [1.5, 1.5], "max_size": [3, 3], "target_size": [2.5, 2]},
     ],
     "adjacency": [{"a": "l", "b": "sq", "min_contact": 1.0}],
     "options": {"time_limit": GENEROUS},
@@ -155,6 +155,18 @@ def test_scip_takes_an_l_shaped_room_as_it_is_and_keeps_the_layout_valid() -> No
         problem, domain, rooms) + 1e-6
     # An L room aims its rectangles at their own sizes: no bound on Eq. 12 is claimed.
     assert run.scip_answer.bound is None
+
+
+def test_a_layout_at_eq12_zero_is_optimal_without_a_search() -> None:
+    problem = TWO_ROOMS_L.model_copy(update={"rooms": [
+        TWO_ROOMS_L.rooms[0], TWO_ROOMS_L.rooms[1].model_copy(update={"target_size": (2, 2)})]})
+    domain = make_domain(problem)
+    rooms = {"l": [Box(0, 0, 4, 2), Box(0, 2, 2, 4)], "sq": [Box(2, 2, 4, 4)]}
+    assert layout_objective(problem, domain, rooms) == pytest.approx(0.0)
+    now = time.monotonic()
+    run = Run(problem, now + 30, now, None, None, end=now + 30)
+    assert judged(run, domain, rooms, now + 30) is rooms
+    assert run.scip_answer == ScipAnswer(rooms, True, 0.0)
 
 
 def test_a_layout_breaking_the_model_is_left_as_it_is() -> None:
