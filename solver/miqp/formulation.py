@@ -24,7 +24,7 @@ from collections.abc import Callable, Sequence
 from functools import partial
 from typing import Any, NamedTuple
 
-from pyscipopt import SCIP_PARAMEMPHASIS, Model, Variable, quicksum
+from pyscipopt import Model, Variable, quicksum
 
 from floorplan.solver.families import FAMILIES as REGISTERED
 from floorplan.solver.geometry import EPS, Box, Edge, Notch, bounding_box
@@ -667,12 +667,7 @@ def build_level(
         lm.families.append(family.__name__)
     if not feasibility:
         e_objective(lm)
-    else:
-        # Any layout will do: SCIP's feasibility emphasis (more primal heuristics, less
-        # work on the bound) finds one sooner (bench/NOTES.md, "Feasibility emphasis on
-        # the zero-objective models").
-        m.setEmphasis(SCIP_PARAMEMPHASIS.FEASIBILITY)
-    if feasibility and lm.slacks:
+    elif lm.slacks:
         # A first layout of a soft problem: the least violation, Eq. 12 left for later.
         m.setObjective(e_violation(lm), "minimize")
     return lm
