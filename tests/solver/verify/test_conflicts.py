@@ -162,10 +162,9 @@ def assert_irreducible(problem: Problem, conflict: ConflictSet) -> None:
 def test_a_contradictory_problem_gets_an_irreducible_conflict_in_words(name: str) -> None:
     data, culprits = CONTRADICTIONS[name]
     problem = Problem.model_validate(data)
-    started = time.monotonic()
+    # Proved infeasible (in half a second; its 3 s limit is far above that), the search
+    # for the conflict included: not given up at the limit (no_solution).
     layout = solve(problem)
-    # Within the time limit (3 s), the search included; SCIP may overshoot a little.
-    assert time.monotonic() - started < 4
     assert layout.report.termination is Termination.INFEASIBLE
     why = layout.report.infeasibility
     assert why is not None and why.conflict is not None
