@@ -5,6 +5,7 @@ must now fail."""
 from __future__ import annotations
 
 import base64
+import itertools
 import json
 import math
 import pickle
@@ -616,10 +617,17 @@ def test_the_dispatcher_backs_off_while_the_store_refuses_writes(
     with caplog.at_level(logging.INFO, logger="floorplan.runner"):
         runner.start()
         try:
-            time.sleep(5)
-            failures = [r for r in caplog.records if "dispatcher error" in r.getMessage()]
-            # 0.5 s polls: 10 in 5 s; backing off (1, 2, 4 s): 3.
-            assert 2 <= len(failures) <= 4, [r.getMessage() for r in failures]
+            deadline = time.monotonic() + 60
+            while len(failures := [r for r in caplog.records
+                                   if "dispatcher error" in r.getMessage()]) < 3:
+                assert time.monotonic() < deadline, [r.getMessage() for r in failures]
+                time.sleep(0.1)
+            # Backing off: each wait twice the last (1, 2, 4 s), said and kept (it polled
+            # every 0.5 s); a load on the machine only makes the gaps longer.
+            said = [re.search(r"trying again in (\d+) s", r.getMessage()) for r in failures]
+            assert [int(m.group(1)) if m else None for m in said[:3]] == [1, 2, 4]
+            gaps = [b.created - a.created for a, b in itertools.pairwise(failures[:3])]
+            assert gaps[0] >= 1 - 0.05 and gaps[1] >= 2 - 0.05, gaps
             assert sum(r.exc_info is not None for r in failures) == 1
             filler.unlink()
             deadline = time.monotonic() + 40
@@ -753,7 +761,9 @@ def test_explain_calls_are_limited_per_key_and_starve_nothing(fair: Server) -> N
                             params={"explain": "true"})
         assert_too_many(fifth, "FLOORPLAN_MAX_EXPLAINS_PER_KEY")
         slowest = {"healthz": 0.0, "validate": 0.0, "events": 0.0}
+        rounds = 0
         while any(call.is_alive() for call in calls):
+            rounds += 1
             for name, call in (
                     ("healthz", lambda: client.get("/healthz")),
                     ("validate", lambda: client.post("/v1/validate", json=SMALL,
@@ -769,5 +779,10 @@ def test_explain_calls_are_limited_per_key_and_starve_nothing(fair: Server) -> N
     assert [answers[key].status_code for key in FAIR_KEYS] == [200] * 4
     # Infeasible: proved so, or left open when the time ran out; never feasible.
     assert all(answers[key].json()["feasible"] is not True for key in FAIR_KEYS)
-    assert slowest["healthz"] < 0.2, slowest
-    assert slowest["validate"] < 1.0 and slowest["events"] < 1.0, slowest
+    # Nothing waited for an explanation (in a process of its own): every call was
+    # answered in less than half the time the quickest explanation took, and calls were
+    # answered all along. Against the explanations, not seconds: both grow on a busy
+    # machine (0.2 s for /healthz and 1 s for the others on an idle one).
+    quickest = min(answers[key].elapsed.total_seconds() for key in FAIR_KEYS)
+    assert max(slowest.values()) < quickest / 2, (slowest, quickest)
+    assert rounds >= 3, rounds

