@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import subprocess
 import threading
 import time
 from collections.abc import Iterator
@@ -168,9 +169,19 @@ def test_waiting_solve_processes_end_their_pools_and_exit_when_the_service_close
     processes = SolveProcesses(subdomain_processes=2)
     processes.refill(1)
     waiting = processes._ready[0].process
-    time.sleep(2)  # its imports done and its pool started
+    give_up = time.monotonic() + 60
+    while len(_children(waiting.pid)) < 2:  # its imports done and its pool started
+        assert time.monotonic() < give_up, "the waiting process started no pool"
+        time.sleep(0.05)
     processes.close()
     assert waiting.exitcode == 0  # it ended by itself, not killed
+
+
+def _children(pid: int) -> list[int]:
+    """The spawned children of `pid` (their command line runs spawn_main)."""
+    out = subprocess.run(["ps", "-ww", "-o", "pid=,args=", "--ppid", str(pid)],
+                         capture_output=True, text=True).stdout
+    return [int(line.split()[0]) for line in out.splitlines() if "spawn_main" in line]
 
 
 def _pool_pid(seconds: float) -> int:

@@ -232,7 +232,7 @@ def test_solved_layouts_of_feasible_problems_always_pass_the_checker(p: Problem)
 def test_problems_above_twenty_rooms_get_a_constructive_start_and_come_back_valid(
     rows_up_to: int, start: str, monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    monkeypatch.setattr("solver.heuristics.slicing.DEMANDS_UP_TO", rows_up_to)
+    monkeypatch.setattr("floorplan.solver.heuristics.slicing.DEMANDS_UP_TO", rows_up_to)
     rooms = [{"id": f"cell{k:02d}", "type": "office", "min_size": [1.8, 1.8],
               "max_size": [4, 4], "target_size": [2.5, 2.5]} for k in range(24)]
     rooms[0]["positions"] = [[0.5, 0.5]]
