@@ -29,9 +29,6 @@ from tests.paths import ROOT
 from tests.servers import Cluster, free_port, schema_url
 from tests.service.test_service import LONG, SMALL, TERMINAL, solve_processes, submit, wait
 
-#: End to end (Celery workers on the machine's Redis and PostgreSQL): not in `-m "not slow"`.
-pytestmark = pytest.mark.slow
-
 
 def store_of(cluster: Cluster) -> JobStore:
     return JobStore(cluster.env["FLOORPLAN_DATABASE_URL"], migrate=False)
@@ -70,6 +67,7 @@ def wait_for_incumbent(client: httpx.Client, job_id: str, timeout: float = 30) -
         assert time.monotonic() < deadline, f"no incumbent in {timeout:.0f} s"
         time.sleep(0.2)
 
+@pytest.mark.slow
 def test_a_worker_killed_mid_job_runs_it_again_on_another_worker(tmp_path: Path) -> None:
     cluster = Cluster(tmp_path, workers=2, WORKERS="1").start()
     store = store_of(cluster)
@@ -102,6 +100,7 @@ def test_a_worker_killed_mid_job_runs_it_again_on_another_worker(tmp_path: Path)
         cluster.stop()
 
 
+@pytest.mark.slow
 def test_a_cancel_reaches_the_worker_holding_the_job_and_keeps_its_incumbent(
     tmp_path: Path,
 ) -> None:
@@ -138,6 +137,7 @@ def test_a_cancel_reaches_the_worker_holding_the_job_and_keeps_its_incumbent(
         cluster.stop()
 
 
+@pytest.mark.slow
 def test_a_cancel_whose_message_is_lost_still_reaches_the_worker(tmp_path: Path) -> None:
     # The flag in PostgreSQL alone, as when the pub/sub message is lost: the worker reads
     # it when it renews its lease (every second with the tests' 4 s lease).
@@ -200,6 +200,7 @@ def own_redis(directory: Path) -> Iterator[RedisServer]:
         server.stop()
 
 
+@pytest.mark.slow
 def test_a_redis_restart_loses_no_accepted_job(tmp_path: Path) -> None:
     with own_redis(tmp_path) as broker:
         cluster = Cluster(tmp_path / "cluster", workers=1, WORKERS="1",
@@ -226,6 +227,7 @@ def test_a_redis_restart_loses_no_accepted_job(tmp_path: Path) -> None:
             cluster.stop()
 
 
+@pytest.mark.slow
 def test_sub_domains_go_as_celery_tasks_to_a_sub_domain_worker(tmp_path: Path) -> None:
     from tests.solver.pipeline.test_parallel import TWO_WINGS
 
@@ -321,6 +323,7 @@ def test_migrations_build_the_same_schema_on_sqlite_and_postgresql(tmp_path: Pat
             assert compare_metadata(MigrationContext.configure(conn), metadata) == []
 
 
+@pytest.mark.slow
 def test_an_embedded_store_from_before_migrations_is_upgraded_in_place(tmp_path: Path) -> None:
     # The first revision's tables, as `create_all` made them, with a job in them.
     path = tmp_path / "jobs.sqlite3"

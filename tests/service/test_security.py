@@ -41,9 +41,6 @@ from floorplan.solver.pipeline.subdomains import SubdomainExecutor, SubdomainOut
 from tests.servers import Cluster, Server, schema_url
 from tests.service.test_service import SMALL, wait
 
-#: End to end (real server processes on loopback): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
-
 KEY = {"Authorization": "Bearer alpha"}
 #: One solve at a time and no sub-domain pool: these tests solve little.
 QUIET = {"WORKERS": "1", "FLOORPLAN_SUBDOMAIN_PROCESSES": "1"}
@@ -57,6 +54,7 @@ def keyed(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     server.stop()
 
 
+@pytest.mark.slow
 def test_validate_needs_the_api_key_explain_included(keyed: Server) -> None:
     with httpx.Client(base_url=keyed.url, timeout=30) as client:
         for params in ({}, {"explain": "true", "time_limit": "30"}):
@@ -75,6 +73,7 @@ def test_validate_needs_the_api_key_explain_included(keyed: Server) -> None:
         assert explained.status_code == 200 and explained.json()["feasible"] is True
 
 
+@pytest.mark.slow
 def test_readyz_stays_public_but_shows_its_figures_only_with_a_key(keyed: Server) -> None:
     with httpx.Client(base_url=keyed.url, timeout=30) as client:
         anyone = client.get("/readyz")
@@ -87,6 +86,7 @@ def test_readyz_stays_public_but_shows_its_figures_only_with_a_key(keyed: Server
         assert trusted["running"] == 0 and trusted["queued"] == 0
 
 
+@pytest.mark.slow
 def test_a_keyed_cluster_shows_its_workers_only_with_a_key(tmp_path: Path) -> None:
     # The distributed mode's /readyz adds the broker and the live workers; the start
     # (tests/servers.py, as scripts/run-distributed.sh) waits for them with the key.
@@ -103,6 +103,7 @@ def test_a_keyed_cluster_shows_its_workers_only_with_a_key(tmp_path: Path) -> No
         cluster.stop()
 
 
+@pytest.mark.slow
 def test_without_keys_readyz_and_validate_are_open_as_before(tmp_path: Path) -> None:
     server = Server(tmp_path, **QUIET).start()
     try:
@@ -126,6 +127,7 @@ def building(floors: int, time_limit: float | None = None) -> dict[str, Any]:
     }
 
 
+@pytest.mark.slow
 def test_the_time_limit_ceiling_holds_for_a_whole_building(tmp_path: Path) -> None:
     # 100 floors of 4 rooms: each floor's default is 5 s, 500 s summed, past a 30 s
     # ceiling. The job runs under the ceiling instead, and says so in its time_limit.
@@ -188,6 +190,7 @@ def test_one_idempotency_key_makes_one_job_in_the_store_under_a_race() -> None:
     assert len(store.list(owner="o", status=None, limit=100, after=None)) == 1
 
 
+@pytest.mark.slow
 def test_sixteen_parallel_posts_with_one_key_make_one_job(tmp_path: Path) -> None:
     url = schema_url(f"fptest_{uuid.uuid4().hex[:12]}")
     server = Server(tmp_path, FLOORPLAN_DATABASE_URL=url, **QUIET).start()
@@ -287,6 +290,7 @@ def test_a_sub_domain_task_and_its_outcome_round_trip_through_json() -> None:
         assert decode_outcome(encode_outcome(outcome)) == outcome
 
 
+@pytest.mark.slow
 def test_real_sub_domains_round_trip_and_solve_through_the_codec() -> None:
     from floorplan.models import Problem
     from floorplan.solver import solve
@@ -346,6 +350,7 @@ def test_a_pickled_payload_fails_to_decode_and_runs_nothing(tmp_path: Path) -> N
     assert not marker.exists()
 
 
+@pytest.mark.slow
 def test_a_sub_domain_worker_refuses_a_pickle_and_runs_no_code(tmp_path: Path) -> None:
     from celery import Celery
 
@@ -432,6 +437,7 @@ def open_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     server.stop()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", ["/v1/layouts", "/v1/validate"])
 @pytest.mark.parametrize("content_type", [
     "text/plain", "application/x-www-form-urlencoded", "multipart/form-data; boundary=x",
@@ -450,6 +456,7 @@ def test_a_body_not_sent_as_json_is_a_415(open_server: Server, path: str,
         assert client.get("/v1/layouts").json()["data"] == []  # nothing queued
 
 
+@pytest.mark.slow
 def test_json_with_a_charset_and_the_python_client_and_cli_still_get_through(
         open_server: Server, tmp_path: Path) -> None:
     import subprocess
@@ -477,6 +484,7 @@ def test_json_with_a_charset_and_the_python_client_and_cli_still_get_through(
             wait(client, listed["id"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("host", ["evil.example", "evil.example:8000", "localhost.evil.example",
                                   "127.0.0.1.nip.io", "0.0.0.0"])
 def test_a_service_on_loopback_answers_only_to_loopback_names(open_server: Server,
@@ -492,12 +500,14 @@ def test_a_service_on_loopback_answers_only_to_loopback_names(open_server: Serve
     assert posted.status_code == 400
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("host", ["localhost", "LOCALHOST:1234", "127.0.0.1", "[::1]:8000"])
 def test_loopback_names_are_answered(open_server: Server, host: str) -> None:
     response = httpx.get(open_server.url + "/healthz", headers={"Host": host}, timeout=30)
     assert response.status_code == 200, response.text
 
 
+@pytest.mark.slow
 def test_the_allowed_hosts_are_a_setting(tmp_path: Path) -> None:
     server = Server(tmp_path, FLOORPLAN_ALLOWED_HOSTS="plans.example, *.plans.example",
                     **QUIET)
@@ -546,6 +556,7 @@ def fill(directory: Path) -> Path:
     return filler
 
 
+@pytest.mark.slow
 def test_a_full_data_dir_is_not_ready_and_accepts_nothing(small_disk: Path,
                                                           tmp_path: Path) -> None:
     from tests.service.test_service import LONG
@@ -600,6 +611,7 @@ def test_a_full_data_dir_is_not_ready_and_accepts_nothing(small_disk: Path,
         server.stop()
 
 
+@pytest.mark.slow
 def test_the_dispatcher_backs_off_while_the_store_refuses_writes(
         small_disk: Path, caplog: pytest.LogCaptureFixture) -> None:
     # A queued job and a full disk: claiming it fails. The dispatcher logged a traceback
@@ -669,6 +681,7 @@ def assert_too_many(response: httpx.Response, variable: str) -> None:
     assert variable in problem["detail"]
 
 
+@pytest.mark.slow
 def test_one_key_filling_its_quota_leaves_room_for_the_next(fair: Server) -> None:
     from tests.service.test_service import LONG
 
@@ -699,6 +712,7 @@ def wait_keyed(client: httpx.Client, job_id: str, key: str, cancel: bool = False
         time.sleep(0.2)
 
 
+@pytest.mark.slow
 def test_open_event_streams_are_limited_per_key_and_in_all(fair: Server) -> None:
     from tests.service.test_service import LONG
 
@@ -740,6 +754,7 @@ TIGHT: dict[str, Any] = {
 }
 
 
+@pytest.mark.slow
 def test_explain_calls_are_limited_per_key_and_starve_nothing(fair: Server) -> None:
     answers: dict[str, httpx.Response] = {}
 

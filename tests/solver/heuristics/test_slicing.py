@@ -178,6 +178,7 @@ def test_no_row_plan_when_rows_cannot_hold_the_demands() -> None:
     assert slicing_layout(p, make_domain(p), deadline=time.monotonic() + 0.5) is None
 
 
+@pytest.mark.slow
 def test_a_size_only_problem_solves_fully_covered_and_ends_when_the_search_stalls() -> None:
     # 16 rooms stall in about 15 s (30 took twice that, proving nothing more); the limit
     # is far above that, so a busy machine still stalls first. Stalled or optimal: ended

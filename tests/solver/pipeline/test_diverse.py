@@ -17,6 +17,7 @@ APARTMENT = json.loads((ROOT / "examples/apartment-5.json").read_text())
 FLAT_7 = json.loads((ROOT / "examples/flat-7-template.json").read_text())
 
 
+@pytest.mark.slow
 def test_diverse_seeds_break_ties_differently() -> None:
     from floorplan.solver.distinct import DistinctPlans
 
@@ -63,6 +64,7 @@ def test_a_drawn_programme_is_laid_out_validly() -> None:
     assert {r.id for r in layout.rooms} == {r.id for r in problem.rooms}
 
 
+@pytest.mark.slow
 def test_good_enough_stops_at_the_first_good_layout() -> None:
     from floorplan.solver.stopping import GoodEnough
 
@@ -185,6 +187,7 @@ def _level_ones(problem: Problem) -> tuple[Layout, int, float]:
     return layout, starts, sum(e.elapsed for e in events if e.phase is Phase.DONE)
 
 
+@pytest.mark.slow
 def test_redraws_lay_out_again_whole_until_good_within_the_time_limit() -> None:
     # Two rooms of at most 2 m on a 5 m floor: no draw is ever good (covering 99 %).
     never = Problem.model_validate({

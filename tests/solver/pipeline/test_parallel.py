@@ -41,9 +41,6 @@ from floorplan.solver.verify.checker import check_layout
 from tests.servers import Server
 from tests.service.test_service import submit, wait
 
-#: End to end (process pools and solve processes): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
-
 #: Two wings behind a wall, two rooms each, too small to fill their wing: every
 #: refinement level has two sub-domains with no room in common.
 TWO_WINGS: dict[str, Any] = {
@@ -76,6 +73,7 @@ def test_overlaps_count_other_rooms_only_and_not_touching_walls() -> None:
     assert overlaps_others(rooms, {"a"}, [Box(0, 0, 2.5, 2)])     # into b
 
 
+@pytest.mark.slow
 def test_a_level_s_sub_domains_are_solved_at_once_in_a_process_pool(
     pool: ProcessPoolExecutor,
 ) -> None:
@@ -126,6 +124,7 @@ def test_a_second_level_one_search_runs_in_the_pool_and_the_better_start_wins(
     assert better_start(run, domain, None, None) is None
 
 
+@pytest.mark.slow
 def test_a_solve_process_runs_its_sub_domains_in_a_pool_and_ends_it() -> None:
     messages: multiprocessing.Queue[tuple[str, Any]] = multiprocessing.Queue()
     before = set(multiprocessing.active_children())
@@ -142,6 +141,7 @@ def test_a_solve_process_runs_its_sub_domains_in_a_pool_and_ends_it() -> None:
     assert set(multiprocessing.active_children()) <= before  # its pool is gone with it
 
 
+@pytest.mark.slow
 def test_a_standby_solve_process_starts_its_pool_before_the_job_comes() -> None:
     jobs, send = multiprocessing.Pipe(duplex=False)
     messages: multiprocessing.Queue[tuple[str, Any]] = multiprocessing.Queue()
@@ -206,6 +206,7 @@ def _alive(pid: int) -> bool:
         return False
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="reads /proc")
 def test_a_pool_whose_parent_dies_ends_itself() -> None:
     pids: multiprocessing.Queue[list[int]] = multiprocessing.get_context("spawn").Queue()
@@ -221,6 +222,7 @@ def test_a_pool_whose_parent_dies_ends_itself() -> None:
     assert not any(_alive(pid) for pid in workers)
 
 
+@pytest.mark.slow
 def test_the_service_with_a_sub_domain_pool_per_solve(tmp_path: Path) -> None:
     # The real chain: a spawned (daemonic) solve process starting its own pool.
     s = Server(tmp_path, FLOORPLAN_SUBDOMAIN_PROCESSES="2", WORKERS="1").start()
@@ -235,6 +237,7 @@ def test_the_service_with_a_sub_domain_pool_per_solve(tmp_path: Path) -> None:
         s.stop()
 
 
+@pytest.mark.slow
 def test_the_benchmark_runs_ours_with_a_sub_domain_pool() -> None:
     from bench.solvers import run_ours
 

@@ -23,9 +23,6 @@ from floorplan.solver.pipeline.regions.partition import auto_partition, regions_
 from floorplan.solver.verify.checker import check_layout
 from tests.paths import CASES
 
-#: End to end (large layouts of up to 150 rooms): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
-
 
 def _offices(count: int, seed: int, prefix: str = "o") -> list[dict]:
     rng = random.Random(seed)
@@ -52,6 +49,7 @@ def _union(polygons: list[list[tuple[float, float]]]) -> shapely.Geometry:
     return shapely.union_all([Polygon(p) for p in polygons])
 
 
+@pytest.mark.slow
 def test_explicit_regions_aisles_connect_every_region_to_the_entrance() -> None:
     problem = Problem.model_validate(_explicit_problem())
     events: list[SolveEvent] = []
@@ -87,6 +85,7 @@ def test_explicit_regions_aisles_connect_every_region_to_the_entrance() -> None:
     assert events[-1].phase is Phase.DONE
 
 
+@pytest.mark.slow
 def test_auto_partition_of_45_offices() -> None:
     data = {"name": "office-45", "boundary": [[0, 0], [34, 0], [34, 19], [0, 19]],
             "entrance": [17.0, 0.0],
@@ -172,6 +171,7 @@ def test_planned_bars_tile_the_floor_and_keep_only_the_aisles_needed() -> None:
         assert beside and all(abs(g.area - g.envelope.area) <= 1e-6 for g in beside)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["office-154", "mall-140"])
 def test_large_bench_cases_are_solved_through_regions(case: str) -> None:
     # The bench's large floors (no entrance, no regions) at their default time limit
@@ -224,6 +224,7 @@ def test_invalid_regions_name_the_field(change, field) -> None:  # type: ignore[
     assert field in [tuple(e["loc"]) for e in err.value.errors()]
 
 
+@pytest.mark.slow
 def test_adjacency_between_regions_and_within_one() -> None:
     data = _explicit_problem()
     data["adjacency"] = [{"a": "block-0", "b": "block-1", "min_contact": 2.0},
@@ -235,6 +236,7 @@ def test_adjacency_between_regions_and_within_one() -> None:
     assert all(c.satisfied for c in checks), checks
 
 
+@pytest.mark.slow
 def test_layout_with_aisles_round_trips() -> None:
     problem = Problem.model_validate(_explicit_problem())
     layout = solve(problem)
@@ -242,6 +244,7 @@ def test_layout_with_aisles_round_trips() -> None:
     assert again.aisles == layout.aisles
 
 
+@pytest.mark.slow
 def test_a_part_out_of_time_is_retried_with_its_share_before_anything_is_relaxed(
         monkeypatch: pytest.MonkeyPatch) -> None:
     # A loaded machine, made certain: the parts' short slicing budget (the minimum plus

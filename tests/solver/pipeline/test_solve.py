@@ -155,6 +155,7 @@ def test_infeasibility_proved_by_scip_names_families_and_relaxations() -> None:
     assert len(report.infeasibility.relaxations_tried) > 1
 
 
+@pytest.mark.slow
 def test_same_seed_gives_the_same_layout_on_a_small_problem() -> None:
     first = solve(L_SHAPE_WITH_OBSTACLE)
     second = solve(L_SHAPE_WITH_OBSTACLE)
@@ -215,6 +216,7 @@ def partitioned_problems(draw: st.DrawFn) -> Problem:
     )
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(partitioned_problems())
 def test_solved_layouts_of_feasible_problems_always_pass_the_checker(p: Problem) -> None:
@@ -225,6 +227,7 @@ def test_solved_layouts_of_feasible_problems_always_pass_the_checker(p: Problem)
     assert {r.id for r in layout.rooms} == {r.id for r in p.rooms}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("rows_up_to", "start"), [
     (40, "sliced into rows: found"),  # rows of columns honour its adjacencies and walls
     (0, "built in batches: found"),  # without the row search: the batch construction
@@ -262,6 +265,7 @@ def test_rectangles_that_do_not_join_fail_a_check_instead_of_raising() -> None:
     assert any(c.kind == "connected" and not c.satisfied for c in checks.constraints)
 
 
+@pytest.mark.slow
 def test_require_connected_returns_a_plan_where_every_room_is_reachable() -> None:
     # Left to itself the storage room ends up with no wall its door policy allows
     # (its one adjacency is to a bedroom); the demands put it next to the hall or foyer.
@@ -276,6 +280,7 @@ def test_require_connected_returns_a_plan_where_every_room_is_reachable() -> Non
                    for c in layout.report.constraints)
 
 
+@pytest.mark.slow
 def test_every_incumbent_is_announced_as_it_would_be_returned_and_the_end_keeps_coverage(
 ) -> None:
     # The house of the examples at seed 0 once reached full coverage early, then traded

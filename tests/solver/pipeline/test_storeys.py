@@ -159,6 +159,7 @@ def test_outputs_draw_every_floor(
     assert "GROUND-ROOM_STAIRS" in dxf and "UPPER-ROOM_BEDROOM" in dxf
 
 
+@pytest.mark.slow
 def test_three_floors_with_a_lift_through_all_and_stairs_through_two() -> None:
     problem = Problem.model_validate(office_block())
     layout = solve(problem)
@@ -296,6 +297,7 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     s.stop()
 
 
+@pytest.mark.slow
 def test_service_round_trip_of_a_two_floor_problem(server: Server) -> None:
     with httpx.Client(base_url=server.url, timeout=30) as client:
         # Ended at its first good layout (a busy machine found none in a 5 s limit).
