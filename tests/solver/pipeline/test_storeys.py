@@ -75,7 +75,9 @@ def office_block() -> dict[str, Any]:
 
 @pytest.fixture(scope="module")
 def solved_house() -> tuple[Problem, Layout, list[SolveEvent]]:
-    problem = Problem.model_validate(house())
+    # Each floor ends at its first good layout (valid, 99 % covered): a limit of 6 s
+    # left a busy machine without one.
+    problem = Problem.model_validate(house(time_limit=60, stop_when_good=True))
     events: list[SolveEvent] = []
     layout = solve(problem, on_event=events.append)
     return problem, layout, events
@@ -121,7 +123,7 @@ def test_building_report_sums_up_the_floors(
     assert layout.report.coverage == pytest.approx(
         sum(f.report.coverage for f in layout.floors) / 2)  # equal floor areas
     assert layout.report.termination in (Termination.OPTIMAL, Termination.STALLED,
-                                         Termination.TIME_LIMIT)
+                                         Termination.INTERRUPTED)
     assert set(layout.report.size_error) >= {"ground/living", "upper/bed-1"}
     assert len(layout.all_rooms) == 6 + 6
     assert Layout.model_validate_json(layout.model_dump_json()) == layout
