@@ -82,7 +82,7 @@ def test_a_worker_killed_mid_job_runs_it_again_on_another_worker(tmp_path: Path)
             next(w for w in cluster.workers if w.pid == first).kill()
 
             # Its solve processes notice and stop: no orphan keeps solving.
-            deadline = time.monotonic() + 10
+            deadline = time.monotonic() + 60
             while any(running(pid) for pid in solves):
                 assert time.monotonic() < deadline, "the dead worker's solves go on"
                 time.sleep(0.2)
@@ -148,7 +148,7 @@ def test_a_cancel_whose_message_is_lost_still_reaches_the_worker(tmp_path: Path)
             job = submit(client, LONG)
             wait_for_incumbent(client, job["id"])
             store.request_cancel(job["id"])  # no message on Redis
-            done = wait(client, job["id"], timeout=15)
+            done = wait(client, job["id"], timeout=60)
             assert done["status"] == "canceled" and done["termination"] == "interrupted"
             assert client.get(f"/v1/layouts/{job['id']}/result").json()["report"]["valid"]
     finally:
@@ -173,7 +173,7 @@ class RedisServer:
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
         )
         client = redis.Redis(port=self.port, socket_connect_timeout=1)
-        deadline = time.monotonic() + 10
+        deadline = time.monotonic() + 60
         while True:
             try:
                 if client.ping():
