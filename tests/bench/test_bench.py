@@ -13,9 +13,6 @@ from bench.evaluate import RunRecord
 from bench.report import build_results, complexity, markdown
 from floorplan.models import Problem
 
-#: End to end (benchmark runs): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
-
 TINY = {
     "name": "tiny-3",
     "boundary": [[0, 0], [6, 0], [6, 4], [0, 4]],
@@ -39,6 +36,7 @@ def cases(tmp_path: Path) -> Path:
     return directory
 
 
+@pytest.mark.slow
 def test_harness_writes_every_output_with_every_field(cases: Path, tmp_path: Path) -> None:
     out = tmp_path / "results"
     code = main(["--cases", str(cases), "--repeat", "1", "--out", str(out),
@@ -139,6 +137,7 @@ def test_results_give_the_spread_of_the_runs_beside_the_median() -> None:
     assert "Speed-up" not in table and "Quality against the flat baseline" not in table
 
 
+@pytest.mark.slow
 def test_bench_batch_measures_ours_and_the_annealer_on_the_same_brief(tmp_path: Path) -> None:
     from bench.batch import main as batch_main
 

@@ -113,7 +113,7 @@ def test_cancel_keeps_the_incumbent(server: AnyServer) -> None:
             await job.delete()
         await job.cancel()
         with pytest.raises(JobCanceled):
-            await job.wait(timeout=15)
+            await job.wait(timeout=60)
         assert job.info.termination is Termination.INTERRUPTED
         assert (await job.result()).report.termination is Termination.INTERRUPTED
         await job.delete()

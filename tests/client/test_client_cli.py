@@ -36,9 +36,6 @@ from tests.client.test_client import CROWDED
 from tests.servers import Server
 from tests.service.test_service import LONG, SMALL
 
-#: End to end (floorplan submit against a real server): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
-
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
@@ -58,6 +55,7 @@ def submit(*args: str | Path, cwd: Path) -> subprocess.CompletedProcess[str]:
                           capture_output=True, text=True, timeout=120, cwd=cwd)
 
 
+@pytest.mark.slow
 def test_submit_without_wait_prints_the_job_id(server: Server, tmp_path: Path) -> None:
     done = submit(problem_file(tmp_path, SMALL), "--server", server.url, cwd=tmp_path)
     assert done.returncode == EXIT_OK, done.stderr
@@ -66,6 +64,7 @@ def test_submit_without_wait_prints_the_job_id(server: Server, tmp_path: Path) -
         assert fp.get(job_id).wait(timeout=60).report.valid
 
 
+@pytest.mark.slow
 def test_submit_wait_writes_the_layout_and_the_plan(server: Server, tmp_path: Path) -> None:
     done = submit(problem_file(tmp_path, SMALL), "--server", server.url, "--wait",
                   "-o", "layout.json", "--svg", "plan.svg", "--time-limit", "1", cwd=tmp_path)
@@ -82,6 +81,7 @@ def test_submit_wait_writes_the_layout_and_the_plan(server: Server, tmp_path: Pa
     assert json.loads(quiet.stdout)["type"] == "FeatureCollection"
 
 
+@pytest.mark.slow
 def test_refused_and_infeasible_problems(server: Server, tmp_path: Path) -> None:
     ghost = {**SMALL, "adjacency": [{"a": "living", "b": "ghost"}]}
     refused = submit(problem_file(tmp_path, ghost), "--server", server.url, cwd=tmp_path)
@@ -110,6 +110,7 @@ def _default_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
+@pytest.mark.slow
 def test_ctrl_c_cancels_the_job_and_writes_the_best_layout(server: Server,
                                                            tmp_path: Path) -> None:
     with Client(server.url, api_key=None) as fp:

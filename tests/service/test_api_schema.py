@@ -15,6 +15,9 @@ from schemathesis import checks
 
 from tests.servers import BACKENDS, service
 
+#: End to end (real server processes on loopback): left out by `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 #: What the service promises of every response. Not "schema-valid data is accepted":
 #: cross-field rules (an axis-aligned outline, known room ids) are beyond JSON Schema,
 #: so a schema-valid body may rightly get a 422.

@@ -68,9 +68,9 @@ def test_the_runner_moves_a_batch_layout_that_repeats_a_finished_one(tmp_path: P
     assert moved.report.valid and plans.is_new(moved)
     details = [json.loads(e.data).get("detail") for e in store.events_after(second.id, 0)
                if e.kind == "progress"]
+    # Moved apart: the runner answered its ask for the batch's plans (unanswered, the
+    # layout would stay as solved).
     assert MOVED_APART in details
-    assert second.finished_at is not None and second.started_at is not None
-    assert second.finished_at - second.started_at < 8  # no wait for an answer
 
 
 def test_a_repeated_plan_is_moved_apart_and_a_new_one_left_as_solved() -> None:

@@ -12,14 +12,10 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-import pytest
 import yaml
 
 from floorplan.service.settings import Settings
 from tests.paths import ROOT
-
-#: End to end (the deployment files against real processes): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
 
 
 def compose() -> dict[str, Any]:

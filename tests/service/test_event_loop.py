@@ -22,12 +22,14 @@ pytestmark = pytest.mark.slow
 
 #: One solve at a time and no sub-domain pool: these tests solve nothing.
 QUIET = {"WORKERS": "1", "FLOORPLAN_SUBDOMAIN_PROCESSES": "1"}
-#: Seconds /healthz may wait while large bodies are validated (it once waited 15 s).
-#: The validation runs in worker threads, but one pydantic-core call holds the GIL while
-#: it runs, so /healthz waits for the longest one: about 0.5 s for `big_body` on a
-#: typical machine, up to 1.4 s on a slow one. Within 0.2 s would need the parsing in a
-#: process of its own (as explain has).
-HEALTHZ_WITHIN = 2.0
+#: The longest /healthz may wait while large bodies are validated, as a share of the
+#: time the validation took: all of it (nearly 1) when the validation ran on the event
+#: loop (it once waited 15 s). It runs in worker threads now, but one pydantic-core call
+#: holds the GIL while it runs, so /healthz waits for the longest one: a third to a half
+#: of `big_body`'s validation, on an idle or a busy machine alike. Within a small share
+#: would need the parsing in a process of its own (as explain has). A share, not
+#: seconds: how long either takes depends on the machine (the bench's).
+HEALTHZ_SHARE = 0.8
 #: `big_body` within the limits: it is validated, it is not refused.
 ROOMY = {"FLOORPLAN_MAX_VERTICES": "1000", "FLOORPLAN_MAX_REGIONS": "100000"}
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
@@ -73,19 +75,21 @@ def roomy(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
 
 
 def slowest_healthz_while(posts: list[threading.Thread], url: str) -> float:
-    """Start `posts`, ask /healthz over and over until they are done: its slowest answer."""
+    """Start `posts`, ask /healthz over and over until they are done: its slowest answer
+    as a share of the time the posts took (near 1 when the validation held it up)."""
+    started = time.monotonic()
     for post in posts:
         post.start()
     slowest = 0.0
     with httpx.Client(base_url=url, timeout=60) as client:
         while any(post.is_alive() for post in posts):
-            started = time.monotonic()
+            asked = time.monotonic()
             assert client.get("/healthz").status_code == 200
-            slowest = max(slowest, time.monotonic() - started)
+            slowest = max(slowest, time.monotonic() - asked)
             time.sleep(0.05)
     for post in posts:
         post.join()
-    return slowest
+    return slowest / (time.monotonic() - started)
 
 
 @pytest.mark.parametrize("path", ["/v1/validate", "/v1/layouts"])
@@ -99,7 +103,7 @@ def test_healthz_answers_soon_while_a_large_body_is_validated(
     slowest = slowest_healthz_while([threading.Thread(target=post)], roomy.url)
     # Validated, and invalid (r0 in 20,000 regions): not refused for its size.
     assert [a.status_code for a in answers] == [200 if path == "/v1/validate" else 422]
-    assert slowest < HEALTHZ_WITHIN
+    assert slowest < HEALTHZ_SHARE
     # The first 100 of its 19,999 invalid fields, not a 2.4 MB answer.
     errors = answers[0].json()["errors"]
     assert len(errors) == 100
@@ -118,15 +122,15 @@ def test_a_flood_of_large_bodies_does_not_hold_up_healthz(roomy: Server) -> None
     slowest = slowest_healthz_while([threading.Thread(target=post) for _ in range(4)],
                                     roomy.url)
     assert statuses == [200] * 4
-    assert slowest < HEALTHZ_WITHIN
+    assert slowest < HEALTHZ_SHARE
 
 
 @pytest.mark.parametrize("path", ["/v1/validate", "/v1/layouts"])
 def test_the_issues_body_is_refused_at_once_naming_the_fields(server: Server,
                                                               path: str) -> None:
-    started = time.monotonic()
+    # Refused before the validation (413 naming the limits, not the 422 of the 19,999
+    # invalid fields that validating it finds).
     response = httpx.post(server.url + path, content=big_body(), headers=JSON, timeout=60)
-    assert time.monotonic() - started < 5
     assert response.status_code == 413
     assert response.headers["content-type"].startswith("application/problem+json")
     problem = response.json()

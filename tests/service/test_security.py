@@ -5,6 +5,7 @@ attacker did must now fail."""
 from __future__ import annotations
 
 import base64
+import itertools
 import json
 import math
 import pickle
@@ -40,9 +41,6 @@ from floorplan.solver.pipeline.subdomains import SubdomainExecutor, SubdomainOut
 from tests.servers import Cluster, Server, schema_url
 from tests.service.test_service import SMALL, wait
 
-#: End to end (real server processes on loopback): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
-
 KEY = {"Authorization": "Bearer alpha"}
 #: One solve at a time and no sub-domain pool: these tests solve little.
 QUIET = {"WORKERS": "1", "FLOORPLAN_SUBDOMAIN_PROCESSES": "1"}
@@ -56,6 +54,7 @@ def keyed(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     server.stop()
 
 
+@pytest.mark.slow
 def test_validate_needs_the_api_key_explain_included(keyed: Server) -> None:
     with httpx.Client(base_url=keyed.url, timeout=30) as client:
         for params in ({}, {"explain": "true", "time_limit": "30"}):
@@ -74,6 +73,7 @@ def test_validate_needs_the_api_key_explain_included(keyed: Server) -> None:
         assert explained.status_code == 200 and explained.json()["feasible"] is True
 
 
+@pytest.mark.slow
 def test_readyz_stays_public_but_shows_its_figures_only_with_a_key(keyed: Server) -> None:
     with httpx.Client(base_url=keyed.url, timeout=30) as client:
         anyone = client.get("/readyz")
@@ -86,6 +86,7 @@ def test_readyz_stays_public_but_shows_its_figures_only_with_a_key(keyed: Server
         assert trusted["running"] == 0 and trusted["queued"] == 0
 
 
+@pytest.mark.slow
 def test_a_keyed_cluster_shows_its_workers_only_with_a_key(tmp_path: Path) -> None:
     # The distributed mode's /readyz adds the broker and the live workers; the start
     # (tests/servers.py, as scripts/run-distributed.sh) waits for them with the key.
@@ -102,6 +103,7 @@ def test_a_keyed_cluster_shows_its_workers_only_with_a_key(tmp_path: Path) -> No
         cluster.stop()
 
 
+@pytest.mark.slow
 def test_without_keys_readyz_and_validate_are_open_as_before(tmp_path: Path) -> None:
     server = Server(tmp_path, **QUIET).start()
     try:
@@ -125,6 +127,7 @@ def building(floors: int, time_limit: float | None = None) -> dict[str, Any]:
     }
 
 
+@pytest.mark.slow
 def test_the_time_limit_ceiling_holds_for_a_whole_building(tmp_path: Path) -> None:
     # 100 floors of 4 rooms: each floor's default is 5 s, 500 s summed, past a 30 s
     # ceiling. The job runs under the ceiling instead, and says so in its time_limit.
@@ -187,6 +190,7 @@ def test_one_idempotency_key_makes_one_job_in_the_store_under_a_race() -> None:
     assert len(store.list(owner="o", status=None, limit=100, after=None)) == 1
 
 
+@pytest.mark.slow
 def test_sixteen_parallel_posts_with_one_key_make_one_job(tmp_path: Path) -> None:
     url = schema_url(f"fptest_{uuid.uuid4().hex[:12]}")
     server = Server(tmp_path, FLOORPLAN_DATABASE_URL=url, **QUIET).start()
@@ -286,6 +290,7 @@ def test_a_sub_domain_task_and_its_outcome_round_trip_through_json() -> None:
         assert decode_outcome(encode_outcome(outcome)) == outcome
 
 
+@pytest.mark.slow
 def test_real_sub_domains_round_trip_and_solve_through_the_codec() -> None:
     from floorplan.models import Problem
     from floorplan.solver import solve
@@ -345,6 +350,7 @@ def test_a_pickled_payload_fails_to_decode_and_runs_nothing(tmp_path: Path) -> N
     assert not marker.exists()
 
 
+@pytest.mark.slow
 def test_a_sub_domain_worker_refuses_a_pickle_and_runs_no_code(tmp_path: Path) -> None:
     from celery import Celery
 
@@ -431,6 +437,7 @@ def open_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     server.stop()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", ["/v1/layouts", "/v1/validate"])
 @pytest.mark.parametrize("content_type", [
     "text/plain", "application/x-www-form-urlencoded", "multipart/form-data; boundary=x",
@@ -449,6 +456,7 @@ def test_a_body_not_sent_as_json_is_a_415(open_server: Server, path: str,
         assert client.get("/v1/layouts").json()["data"] == []  # nothing queued
 
 
+@pytest.mark.slow
 def test_json_with_a_charset_and_the_python_client_and_cli_still_get_through(
         open_server: Server, tmp_path: Path) -> None:
     import subprocess
@@ -476,6 +484,7 @@ def test_json_with_a_charset_and_the_python_client_and_cli_still_get_through(
             wait(client, listed["id"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("host", ["evil.example", "evil.example:8000", "localhost.evil.example",
                                   "127.0.0.1.nip.io", "0.0.0.0"])
 def test_a_service_on_loopback_answers_only_to_loopback_names(open_server: Server,
@@ -491,12 +500,14 @@ def test_a_service_on_loopback_answers_only_to_loopback_names(open_server: Serve
     assert posted.status_code == 400
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("host", ["localhost", "LOCALHOST:1234", "127.0.0.1", "[::1]:8000"])
 def test_loopback_names_are_answered(open_server: Server, host: str) -> None:
     response = httpx.get(open_server.url + "/healthz", headers={"Host": host}, timeout=30)
     assert response.status_code == 200, response.text
 
 
+@pytest.mark.slow
 def test_the_allowed_hosts_are_a_setting(tmp_path: Path) -> None:
     server = Server(tmp_path, FLOORPLAN_ALLOWED_HOSTS="plans.example, *.plans.example",
                     **QUIET)
@@ -545,6 +556,7 @@ def fill(directory: Path) -> Path:
     return filler
 
 
+@pytest.mark.slow
 def test_a_full_data_dir_is_not_ready_and_accepts_nothing(small_disk: Path,
                                                           tmp_path: Path) -> None:
     from tests.service.test_service import LONG
@@ -599,6 +611,7 @@ def test_a_full_data_dir_is_not_ready_and_accepts_nothing(small_disk: Path,
         server.stop()
 
 
+@pytest.mark.slow
 def test_the_dispatcher_backs_off_while_the_store_refuses_writes(
         small_disk: Path, caplog: pytest.LogCaptureFixture) -> None:
     # A queued job and a full disk: claiming it fails. The dispatcher logged a traceback
@@ -616,10 +629,17 @@ def test_the_dispatcher_backs_off_while_the_store_refuses_writes(
     with caplog.at_level(logging.INFO, logger="floorplan.runner"):
         runner.start()
         try:
-            time.sleep(5)
-            failures = [r for r in caplog.records if "dispatcher error" in r.getMessage()]
-            # 0.5 s polls: 10 in 5 s; backing off (1, 2, 4 s): 3.
-            assert 2 <= len(failures) <= 4, [r.getMessage() for r in failures]
+            deadline = time.monotonic() + 60
+            while len(failures := [r for r in caplog.records
+                                   if "dispatcher error" in r.getMessage()]) < 3:
+                assert time.monotonic() < deadline, [r.getMessage() for r in failures]
+                time.sleep(0.1)
+            # Backing off: each wait twice the last (1, 2, 4 s), said and kept (it polled
+            # every 0.5 s); a load on the machine only makes the gaps longer.
+            said = [re.search(r"trying again in (\d+) s", r.getMessage()) for r in failures]
+            assert [int(m.group(1)) if m else None for m in said[:3]] == [1, 2, 4]
+            gaps = [b.created - a.created for a, b in itertools.pairwise(failures[:3])]
+            assert gaps[0] >= 1 - 0.05 and gaps[1] >= 2 - 0.05, gaps
             assert sum(r.exc_info is not None for r in failures) == 1
             filler.unlink()
             deadline = time.monotonic() + 40
@@ -661,6 +681,7 @@ def assert_too_many(response: httpx.Response, variable: str) -> None:
     assert variable in problem["detail"]
 
 
+@pytest.mark.slow
 def test_one_key_filling_its_quota_leaves_room_for_the_next(fair: Server) -> None:
     from tests.service.test_service import LONG
 
@@ -691,6 +712,7 @@ def wait_keyed(client: httpx.Client, job_id: str, key: str, cancel: bool = False
         time.sleep(0.2)
 
 
+@pytest.mark.slow
 def test_open_event_streams_are_limited_per_key_and_in_all(fair: Server) -> None:
     from tests.service.test_service import LONG
 
@@ -711,7 +733,7 @@ def test_open_event_streams_are_limited_per_key_and_in_all(fair: Server) -> None
                     assert_too_many(client.get(f"/v1/layouts/{theirs}/events",
                                                headers=bearer("beta")), "FLOORPLAN_MAX_STREAMS")
             # Closed streams are given back.
-            deadline = time.monotonic() + 10
+            deadline = time.monotonic() + 60
             while True:
                 with open_stream(mine, "alpha") as s1, open_stream(mine, "alpha") as s2, \
                         open_stream(theirs, "beta") as s3:
@@ -732,6 +754,7 @@ TIGHT: dict[str, Any] = {
 }
 
 
+@pytest.mark.slow
 def test_explain_calls_are_limited_per_key_and_starve_nothing(fair: Server) -> None:
     answers: dict[str, httpx.Response] = {}
 
@@ -753,7 +776,9 @@ def test_explain_calls_are_limited_per_key_and_starve_nothing(fair: Server) -> N
                             params={"explain": "true"})
         assert_too_many(fifth, "FLOORPLAN_MAX_EXPLAINS_PER_KEY")
         slowest = {"healthz": 0.0, "validate": 0.0, "events": 0.0}
+        rounds = 0
         while any(call.is_alive() for call in calls):
+            rounds += 1
             for name, call in (
                     ("healthz", lambda: client.get("/healthz")),
                     ("validate", lambda: client.post("/v1/validate", json=SMALL,
@@ -769,5 +794,10 @@ def test_explain_calls_are_limited_per_key_and_starve_nothing(fair: Server) -> N
     assert [answers[key].status_code for key in FAIR_KEYS] == [200] * 4
     # Infeasible: proved so, or left open when the time ran out; never feasible.
     assert all(answers[key].json()["feasible"] is not True for key in FAIR_KEYS)
-    assert slowest["healthz"] < 0.2, slowest
-    assert slowest["validate"] < 1.0 and slowest["events"] < 1.0, slowest
+    # Nothing waited for an explanation (in a process of its own): every call was
+    # answered in less than half the time the quickest explanation took, and calls were
+    # answered all along. Against the explanations, not seconds: both grow on a busy
+    # machine (0.2 s for /healthz and 1 s for the others on an idle one).
+    quickest = min(answers[key].elapsed.total_seconds() for key in FAIR_KEYS)
+    assert max(slowest.values()) < quickest / 2, (slowest, quickest)
+    assert rounds >= 3, rounds

@@ -153,10 +153,9 @@ def test_cancel_stops_the_solve_and_keeps_the_incumbent(client: httpx.Client) ->
         time.sleep(0.2)
     running = client.get(f"/v1/layouts/{job['id']}/result").json()
     assert running["report"]["termination"] == "in_progress"
-    started = time.monotonic()
+    # Stopped by the cancel: the solve would otherwise end at its 20 s limit, succeeded.
     assert client.post(f"/v1/layouts/{job['id']}/cancel").status_code == 200
-    done = wait(client, job["id"], timeout=15)
-    assert time.monotonic() - started < 10
+    done = wait(client, job["id"], timeout=60)
     assert done["status"] == "canceled" and done["termination"] == "interrupted"
     result = client.get(f"/v1/layouts/{job['id']}/result").json()
     assert result["report"]["valid"] and len(result["rooms"]) == 12
@@ -410,7 +409,7 @@ def test_a_crashed_solve_fails_its_own_job_and_the_service_carries_on(
         with httpx.Client(base_url=s.url, timeout=30) as c:
             doomed = submit(c, {**LONG, "options": {"time_limit": 30}})
             wait(c, doomed["id"], until={"running"})
-            deadline = time.monotonic() + 10
+            deadline = time.monotonic() + 60
             while not (children := [pid for parent in s.solver_parents()
                                     for pid in solve_processes(parent)]):
                 assert time.monotonic() < deadline, "no solve process found"

@@ -87,6 +87,7 @@ def hand_bound(problem: Problem, rooms: dict[str, list[Box]]) -> float:
     return sum(c.shortfall for c in check.constraints if c.soft and not c.satisfied)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(OVER_CONSTRAINED))
 def test_an_over_constrained_problem_gets_the_layout_of_least_shortfall(name: str) -> None:
     problem = soft(OVER_CONSTRAINED[name], time_limit=4, seed=1)
@@ -105,6 +106,7 @@ def test_an_over_constrained_problem_gets_the_layout_of_least_shortfall(name: st
     assert report.total_shortfall <= bound + 1e-3
 
 
+@pytest.mark.slow
 def test_the_narrow_flat_keeps_its_rooms_and_says_who_lost_the_facade() -> None:
     report = solve(soft(NARROW_FLAT, seed=1)).report
     assert report.valid and report.coverage > 0.9
@@ -161,6 +163,7 @@ def test_soft_families_are_checked_by_name() -> None:
     assert caught.value.errors()[0]["loc"][:3] == ("rooms", 0, "soft")
 
 
+@pytest.mark.slow
 def test_a_feasible_problem_gets_the_same_layout_in_soft_mode() -> None:
     raw = json.loads((ROOT / "examples" / "apartment-5.json").read_text())
     strict = solve(Problem.model_validate(raw))
@@ -218,6 +221,7 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     s.stop()
 
 
+@pytest.mark.slow
 def test_the_service_validates_and_solves_a_soft_problem(server: Server) -> None:
     body = CROWDED | {"options": {"time_limit": 3, "strict": False}}
     with httpx.Client(base_url=server.url, timeout=30) as client:
@@ -238,6 +242,7 @@ def test_the_service_validates_and_solves_a_soft_problem(server: Server) -> None
     assert layout.report.total_shortfall > 0
 
 
+@pytest.mark.slow
 def test_a_templated_problem_too_full_for_its_floors_is_solved_when_not_strict() -> None:
     raw = {"boundary": [[0, 0], [9, 0], [9, 7], [0, 7]], "entrance": [4.5, 0],
            "template": "residential",

@@ -79,6 +79,7 @@ def test_dxf_by_room_type_opens_in_ezdxf_with_a_layer_per_room_type(
     assert {"OUTLINE", "DOORS", "WINDOWS"} <= {layer.dxf.name for layer in doc.layers}
 
 
+@pytest.mark.slow
 def test_the_command_line_writes_the_format_its_output_asks_for(tmp_path: Path) -> None:
     # The file's format is under test, not the layout: one second a solve.
     out = tmp_path / "plan.dxf"

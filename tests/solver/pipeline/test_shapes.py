@@ -56,6 +56,7 @@ def solved_with_relaxations(problem: Problem) -> tuple[Layout, list[str]]:
     return solve(problem, on_event=on_event), details
 
 
+@pytest.mark.slow
 def test_an_l_shaped_flat_needs_an_l_shaped_living_room_and_gets_one() -> None:
     # The living room must touch a bedroom at the end of each arm of the L; neither
     # bedroom reaches the corner square, so no rectangle can touch both.
@@ -66,8 +67,11 @@ def test_an_l_shaped_flat_needs_an_l_shaped_living_room_and_gets_one() -> None:
     assert single.status is LevelStatus.INFEASIBLE
     layout = solve(p)
     assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
-    assert [(e.room, e.rectangles) for e in layout.report.extra_rectangles] == [("living", 2)]
-    assert "infeasible" in layout.report.extra_rectangles[0].reason
+    # The living room's second rectangle is for the proof; on a busy machine, whose
+    # search stalls sooner, another room may also get one to reach a gap.
+    extra = {e.room: e for e in layout.report.extra_rectangles}
+    assert extra["living"].rectangles == 2 and "infeasible" in extra["living"].reason
+    assert all("gap" in e.reason for room, e in extra.items() if room != "living"), extra
     living = next(r for r in layout.rooms if r.id == "living")
     assert len(living.polygon) > 4  # not a rectangle
 
@@ -84,6 +88,7 @@ def test_one_proof_for_the_users_bounds_ends_the_window_schedule() -> None:
     assert "living as two rectangles" in details[probe + 1]
 
 
+@pytest.mark.slow
 def test_the_probe_of_the_users_bounds_runs_once() -> None:
     # Three windows proved empty, then the probe and the wider windows end without a
     # proof: the schedule goes on without probing again, and the wings keep their time.
@@ -144,6 +149,7 @@ def test_a_second_level_one_search_so_started_says_who_made_the_room_an_l() -> N
     assert rooms == {r.id for r in problem.rooms}
 
 
+@pytest.mark.slow
 def test_a_room_may_ask_to_be_free_from_the_start() -> None:
     layout = solve(example("corridor-flat", time_limit=4))
     assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
@@ -296,6 +302,7 @@ def test_a_living_room_that_must_be_an_l_gets_one_at_its_size() -> None:
     assert max(ys) - min(ys) == pytest.approx(6, rel=0.05)
 
 
+@pytest.mark.slow
 def test_a_living_room_of_three_rectangles_is_not_called_infeasible() -> None:
     layout = solve(Problem.model_validate(U_LIVING))
     report = layout.report
@@ -336,6 +343,7 @@ SQUARES: dict[str, Any] = {
 }
 
 
+@pytest.mark.slow
 def test_infeasible_is_said_only_of_every_shape_the_rooms_may_take() -> None:
     # As rectangles they cannot share the square: proved, and said so.
     rects = Problem.model_validate(SQUARES | {"rooms": [

