@@ -20,8 +20,10 @@ before anything heavy may load (see `models`).
 
 from __future__ import annotations
 
+import os
+import sys
 from dataclasses import dataclass
-from pathlib import PurePath
+from pathlib import Path, PurePath
 from typing import Literal, get_args
 
 #: The name of an output format (what ``format=`` and ``--format`` take).
@@ -142,3 +144,24 @@ def in_words() -> str:
     """The formats for a help text: ``the layout JSON, an SVG plan, ..., or GeoJSON ...``."""
     words = [f.description for f in FORMATS]
     return ", ".join(words[:-1]) + ", or " + words[-1]
+
+
+#: The file name that means standard input or output on the command line.
+STDIO = "-"
+
+
+def write_text_file(target: str, text: str) -> None:
+    """Write `text` to the file `target` (`STDIO`: standard output), as `floorplan solve`
+    and `floorplan submit` both do: written then renamed, so that a reader never sees
+    half a file."""
+    if target == STDIO:
+        sys.stdout.write(text)
+        sys.stdout.flush()
+        return
+    path = Path(target)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)

@@ -37,9 +37,11 @@ from floorplan.models.formats import (
     DEFAULT_STOREY_HEIGHT,
     DXF_LAYERS,
     FORMAT_NAMES,
+    STDIO,
     format_of,
     in_words,
     storey_height_of,
+    write_text_file,
 )
 from floorplan.service.cli.exits import (
     EXIT_FAILURE,
@@ -65,9 +67,6 @@ if TYPE_CHECKING:
 
 #: Objects up to this many characters (with their indent) stay on one line in --expand.
 READABLE_WIDTH = 88
-#: Stands for "stdin" / "stdout" in file arguments.
-STDIO = "-"
-
 
 class UsageError(Exception):
     """Input the command refuses before solving; the message is shown as is."""
@@ -232,7 +231,8 @@ def write_expanded(args: argparse.Namespace, problem: Problem) -> int:
                          "and give -o a .json name")
     _check_writable(args.output)
     try:
-        _write_text(args.output, readable_json(problem.model_dump(mode="json", exclude_unset=True))
+        write_text_file(args.output,
+                        readable_json(problem.model_dump(mode="json", exclude_unset=True))
                     + "\n")
     except OSError as err:
         print(f"{PROG}: error: cannot write {args.output}: {err}", file=sys.stderr)
@@ -364,17 +364,17 @@ def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -
             for i, variant in enumerate(variants, start=1):
                 target = str(Path(args.output) / f"variant-{i}.{BY_NAME[fmt].extension}")
                 if fmt == "json":
-                    _write_text(target, variant.model_dump_json(indent=2) + "\n")
+                    write_text_file(target, variant.model_dump_json(indent=2) + "\n")
                 else:
                     options = ExportOptions(storey_height=args.storey_height,
                                             dxf_layers=args.dxf_layers)
-                    _write_text(target, render(problem, variant, fmt, options).decode())
+                    write_text_file(target, render(problem, variant, fmt, options).decode())
         elif fmt == "json":
-            _write_text(args.output, layout.model_dump_json(indent=2) + "\n")
+            write_text_file(args.output, layout.model_dump_json(indent=2) + "\n")
         else:
             options = ExportOptions(storey_height=args.storey_height,
                                     dxf_layers=args.dxf_layers)
-            _write_text(args.output, render(problem, layout, fmt, options).decode())
+            write_text_file(args.output, render(problem, layout, fmt, options).decode())
     except OSError as err:
         print(f"{PROG}: error: cannot write {args.output}: {err}", file=sys.stderr)
         ok = False
@@ -382,30 +382,15 @@ def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -
         try:
             Path(args.svg).mkdir(exist_ok=True)
             for i, variant in enumerate(variants, start=1):
-                _write_text(str(Path(args.svg) / f"variant-{i}.svg"),
+                write_text_file(str(Path(args.svg) / f"variant-{i}.svg"),
                             render_svg(problem, variant))
         except OSError as err:
             print(f"{PROG}: error: cannot write {args.svg}: {err}", file=sys.stderr)
             ok = False
     elif args.svg:
         try:
-            _write_text(args.svg, render_svg(problem, layout))
+            write_text_file(args.svg, render_svg(problem, layout))
         except OSError as err:
             print(f"{PROG}: error: cannot write {args.svg}: {err}", file=sys.stderr)
             ok = False
     return ok
-
-
-def _write_text(target: str, text: str) -> None:
-    if target == STDIO:
-        sys.stdout.write(text)
-        sys.stdout.flush()
-        return
-    # Write then rename, so a reader never sees half a file.
-    path = Path(target)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)

@@ -11,14 +11,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from floorplan_client.cli.exits import PROG, UsageError
-from floorplan_client.models.formats import format_of, storey_height_of
+from floorplan_client.models.formats import STDIO, format_of, storey_height_of, write_text_file
 
 if TYPE_CHECKING:
     from floorplan_client import Job
     from floorplan_client.models import Layout
-
-#: Stands for stdin / stdout in file arguments.
-STDIO = "-"
 
 
 def storey_height(text: str) -> float:
@@ -69,29 +66,14 @@ def write_outputs(job: Job, layout: Layout, args: argparse.Namespace, *, svg: bo
         text = layout.model_dump_json(indent=2) + "\n" if fmt == "json" \
             else job.result(format=fmt, storey_height=args.storey_height,
                             dxf_layers=args.dxf_layers)
-        _write_text(target, text)
+        write_text_file(target, text)
     except OSError as err:
         print(f"{PROG}: error: cannot write {target}: {err}", file=sys.stderr)
         ok = False
     if svg and args.svg:
         try:
-            _write_text(args.svg, job.result(format="svg"))
+            write_text_file(args.svg, job.result(format="svg"))
         except OSError as err:
             print(f"{PROG}: error: cannot write {args.svg}: {err}", file=sys.stderr)
             ok = False
     return ok
-
-
-def _write_text(target: str, text: str) -> None:
-    if target == STDIO:
-        sys.stdout.write(text)
-        sys.stdout.flush()
-        return
-    # Write then rename, so that a reader never sees half a file.
-    path = Path(target)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
