@@ -302,13 +302,14 @@ def test_given_regions_out_of_time_are_retried_with_more_of_the_limit(
     # be dropped, so their region layout gets half the time left, and the parts the rest.
     import floorplan.solver.pipeline.first_layout as solve_module
     import floorplan.solver.pipeline.regions.run as regions
+    import floorplan.solver.pipeline.second_search as second_search
 
     monkeypatch.setattr(regions, "MIN_REGION_SECONDS", 1e-3)
     monkeypatch.setattr(regions, "REGION_SECONDS_PER_REGION", 1e-6)
     slice_in_time = solve_module._slice
     monkeypatch.setattr(solve_module, "_slice", lambda run, domain, deadline: (
         None if deadline - time.monotonic() < 0.01 else slice_in_time(run, domain, deadline)))
-    monkeypatch.setattr(solve_module, "guillotine_applies", lambda problem, domain: False)
+    monkeypatch.setattr(second_search, "guillotine_applies", lambda problem, domain: False)
     problem = Problem.model_validate(_explicit_problem())
     said: list[str] = []
     layout = solve(problem, on_event=lambda e: said.append(e.detail))
