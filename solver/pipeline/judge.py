@@ -154,7 +154,7 @@ def judged(run: Run, domain: Domain, rooms: dict[str, list[Box]], deadline: floa
         return rooms
     spec, start_boxes = built
     lm = build_level(spec)
-    owner = {name: r.room for r in spec.rects for name in (r.name,)}
+    owner = {r.name: r.room for r in spec.rects}
 
     def as_rooms(rects: Mapping[str, Box]) -> dict[str, list[Box]]:
         out: dict[str, list[Box]] = {}
@@ -187,7 +187,11 @@ def judged(run: Run, domain: Domain, rooms: dict[str, list[Box]], deadline: floa
     seconds = deadline - time.monotonic()
     if problem.options.stop == "stalled":
         seconds = min(seconds, MIN_SECONDS + SPENT_SHARE * run.elapsed())
-    result = run.run(lm, max(seconds, MIN_SECONDS), on_incumbent=announce)
+    if seconds < MIN_SECONDS / 4:
+        # The limit is a ceiling: no time is left to search, the start stands unproven.
+        run.scip_answer = ScipAnswer(rooms, False, None)
+        return rooms
+    result = run.run(lm, seconds, on_incumbent=announce)
     bound = result.dual_bound if is_eq12(problem, spec) else None
     bound = None if bound is None else max(bound, 0.0)
     if result.rects is not None:
