@@ -45,7 +45,9 @@ def test_the_runner_moves_a_batch_layout_that_repeats_a_finished_one(tmp_path: P
     # asks the runner for the batch's layouts and moves its walls apart from it.
     settings = Settings(data_dir=tmp_path, workers=1, subdomain_processes=1)
     store = JobStore(settings.store_url)
-    problem = job_problem(LayoutTask(APARTMENT, 4, 2.0, good_enough=math.inf))
+    # Each solve ends at its first good layout; a limit far above that keeps a busy
+    # machine from handing the second a different plan (at 2 s it once did).
+    problem = job_problem(LayoutTask(APARTMENT, 4, 20.0, good_enough=math.inf))
     _, made = store.create_batch(owner="", name="twice", seed=4, vary_program=False,
                                  problems=[(problem.model_dump_json(), 10.0)] * 2)
     runner = Runner(store, settings)
