@@ -216,6 +216,7 @@ def test_pool_runs_every_task_on_warm_workers() -> None:
     assert len(pids) <= 2  # the same two processes served every task
 
 
+@pytest.mark.slow
 def test_a_task_added_while_others_run_is_handed_out() -> None:
     # `floorplan batch --distinct` adds a task when an outcome asks for it; until then
     # its task list says "none yet" (None) rather than ending.

@@ -9,6 +9,8 @@ import math
 import time
 from pathlib import Path
 
+import pytest
+
 from floorplan.models import Layout, Problem
 from floorplan.models.jobs import JobStatus
 from floorplan.service.batch import MOVED_APART, LayoutTask, apart_from_held, job_problem
@@ -40,6 +42,7 @@ def test_the_store_gives_a_batch_s_finished_layouts_newest_first(tmp_path: Path)
     assert lone.batch_id is None
 
 
+@pytest.mark.slow
 def test_the_runner_moves_a_batch_layout_that_repeats_a_finished_one(tmp_path: Path) -> None:
     # The same seed twice in one batch: the second solve finds the first one's plan,
     # asks the runner for the batch's layouts and moves its walls apart from it.

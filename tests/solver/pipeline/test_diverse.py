@@ -165,6 +165,7 @@ def test_drawn_programmes_of_a_batch_are_all_laid_out_well() -> None:
     assert len(rooms) >= 2
 
 
+@pytest.mark.slow
 def test_stop_when_good_ends_the_solve_at_its_first_good_layout() -> None:
     # A limit far above the first good layout's time: only the stop ends it early, and
     # says so (without it the search would run on and end stalled or at the limit).

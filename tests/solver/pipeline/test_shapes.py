@@ -76,6 +76,7 @@ def test_an_l_shaped_flat_needs_an_l_shaped_living_room_and_gets_one() -> None:
     assert len(living.polygon) > 4  # not a rectangle
 
 
+@pytest.mark.slow
 def test_one_proof_for_the_users_bounds_ends_the_window_schedule() -> None:
     # l-flat has no layout of one rectangle per room: after three windows proved empty,
     # a proof for the user's own bounds holds for every wider window, which are skipped.
