@@ -141,6 +141,7 @@ def test_only_targets_that_over_ask_the_floor_start_the_second_search_with_an_l(
     assert not targets_over_ask(grown_into, make_domain(grown_into))
 
 
+@pytest.mark.slow
 def test_a_second_level_one_search_so_started_says_who_made_the_room_an_l() -> None:
     problem = connection_demands(example("l-flat"))
     outcome = level_one_alone(LevelOneTask(problem, deadline=time.time() + 3), l_start=True)
@@ -290,6 +291,7 @@ U_LIVING: dict[str, Any] = {
 }
 
 
+@pytest.mark.slow
 def test_a_living_room_that_must_be_an_l_gets_one_at_its_size() -> None:
     layout = solve(Problem.model_validate(L_LIVING))
     report = layout.report
