@@ -48,7 +48,7 @@ def test_the_runner_moves_a_batch_layout_that_repeats_a_finished_one(tmp_path: P
     # asks the runner for the batch's layouts and moves its walls apart from it.
     settings = Settings(data_dir=tmp_path, workers=1, subdomain_processes=1)
     store = JobStore(settings.store_url)
-    problem = job_problem(LayoutTask(APARTMENT, 4, 2.0, good_enough=math.inf))
+    problem = job_problem(LayoutTask(APARTMENT, 4, 20.0, good_enough=math.inf))
     _, made = store.create_batch(owner="", name="twice", seed=4, vary_program=False,
                                  problems=[(problem.model_dump_json(), 10.0)] * 2)
     runner = Runner(store, settings)
