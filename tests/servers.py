@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import httpx2 as httpx
+import pytest
 
 
 class Server:
@@ -247,7 +248,9 @@ def _kill_session(process: subprocess.Popen[bytes]) -> None:
     process.wait()
 
 
-BACKENDS = ["embedded", "celery"]
+#: The service's modes, as a fixture's params: a cluster of Celery workers is slow to start
+#: and to stop, so its tests are left out by `pytest -m "not slow"`.
+BACKENDS = ["embedded", pytest.param("celery", marks=pytest.mark.slow)]
 #: The service in either mode.
 AnyServer = Server | Cluster
 

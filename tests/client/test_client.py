@@ -43,9 +43,6 @@ from tests.paths import ROOT
 from tests.servers import BACKENDS, AnyServer, service
 from tests.service.test_service import LONG, SMALL
 
-#: End to end (the client against a real server): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
-
 KEY = "alpha"
 #: Two rooms whose minimum sizes need 32 m² of a 24 m² flat: infeasible at once.
 CROWDED: dict[str, Any] = {**SMALL, "name": "crowded", "adjacency": [],
@@ -83,6 +80,7 @@ def first_incumbent(job: Job, timeout: float = 30) -> Layout:
 # Every call.
 
 
+@pytest.mark.slow
 def test_submit_follow_the_events_wait_and_fetch_the_layout(fp: Client) -> None:
     job = fp.submit(SMALL)
     assert job.info.status is JobStatus.QUEUED and len(job.id) == 36
@@ -114,6 +112,7 @@ def test_submit_follow_the_events_wait_and_fetch_the_layout(fp: Client) -> None:
     assert [e.id for e in again.events(last_event_id=ids[1])] == ids[2:]
 
 
+@pytest.mark.slow
 def test_a_problem_can_be_a_dict_a_path_or_a_model(fp: Client, tmp_path: Path) -> None:
     path = tmp_path / "small.json"
     path.write_text(json.dumps(SMALL))
@@ -130,6 +129,7 @@ def test_a_problem_can_be_a_dict_a_path_or_a_model(fp: Client, tmp_path: Path) -
         fp.submit(42)  # type: ignore[arg-type]
 
 
+@pytest.mark.slow
 def test_events_by_polling_give_the_same_kinds(fp: Client) -> None:
     job = fp.submit(SMALL)
     events = list(job.events(poll=True, timeout=60))
@@ -148,6 +148,7 @@ class NoEventStream(httpx.HTTPTransport):
         return super().handle_request(request)
 
 
+@pytest.mark.slow
 def test_events_fall_back_to_polling_where_there_is_no_stream(server: AnyServer) -> None:
     http = httpx.Client(transport=NoEventStream())
     with Client(server.url, api_key=KEY, http_client=http) as fp, http:
@@ -174,6 +175,7 @@ def test_validate_hands_back_a_templated_problem_expanded(fp: Client) -> None:
     assert fp.validate(verdict.problem).problem == verdict.problem
 
 
+@pytest.mark.slow
 def test_list_pages_through_the_jobs_newest_first(fp: Client) -> None:
     ids = [fp.submit({**SMALL, "name": f"page-{k}"}).id for k in range(3)]
     page = fp.list(limit=2)
@@ -189,6 +191,7 @@ def test_list_pages_through_the_jobs_newest_first(fp: Client) -> None:
     assert ids[0] in {job.id for job in done}
 
 
+@pytest.mark.slow
 def test_cancel_keeps_the_incumbent_and_delete_refuses_a_running_job(fp: Client) -> None:
     job = fp.submit(LONG)
     with pytest.raises(WaitTimeout) as timed_out:
@@ -224,6 +227,7 @@ def test_an_invalid_problem_names_its_bad_fields(fp: Client) -> None:
     assert "adjacency.0.b: unknown room id 'ghost'" in str(err)
 
 
+@pytest.mark.slow
 def test_unknown_jobs_and_other_keys_jobs_are_not_found(fp: Client, server: AnyServer) -> None:
     with pytest.raises(NotFound) as caught:
         fp.get("00000000-0000-0000-0000-000000000000")
@@ -234,6 +238,7 @@ def test_unknown_jobs_and_other_keys_jobs_are_not_found(fp: Client, server: AnyS
     mine.wait(timeout=60)
 
 
+@pytest.mark.slow
 def test_an_idempotency_key_gives_one_job_and_refuses_another_body(fp: Client) -> None:
     first = fp.submit(SMALL, idempotency_key="order-42")
     assert fp.submit(SMALL, idempotency_key="order-42").id == first.id
@@ -243,6 +248,7 @@ def test_an_idempotency_key_gives_one_job_and_refuses_another_body(fp: Client) -
     first.wait(timeout=60)
 
 
+@pytest.mark.slow
 def test_an_infeasible_problem_raises_infeasible_with_its_findings(fp: Client) -> None:
     job = fp.submit(CROWDED)
     with pytest.raises(Infeasible) as caught:
@@ -283,6 +289,7 @@ class LostAnswers(httpx.HTTPTransport):
                                     "status": 503, "detail": "the upstream went away"})
 
 
+@pytest.mark.slow
 def test_a_retried_submit_makes_one_job_with_one_idempotency_key(server: AnyServer) -> None:
     transport = LostAnswers()
     http = httpx.Client(transport=transport)
@@ -308,6 +315,7 @@ def test_a_failing_service_is_a_server_error_after_the_retries(server: AnyServer
     assert caught.value.problem.detail == "the upstream went away"
 
 
+@pytest.mark.slow
 def test_no_service_is_a_connection_error_and_silence_a_timeout() -> None:
     with socket.socket() as listener:
         listener.bind(("127.0.0.1", 0))
@@ -325,6 +333,7 @@ def test_no_service_is_a_connection_error_and_silence_a_timeout() -> None:
             fp.list(timeout=0.3)
 
 
+@pytest.mark.slow
 def test_a_full_queue_is_rate_limited_honouring_retry_after(backend: str, tmp_path: Path) -> None:
     s = service(backend, tmp_path, FLOORPLAN_QUEUE_LIMIT="1", WORKERS="1").start()
     try:
@@ -349,6 +358,7 @@ def test_a_full_queue_is_rate_limited_honouring_retry_after(backend: str, tmp_pa
         s.stop()
 
 
+@pytest.mark.slow
 def test_the_readme_examples_run(server: AnyServer, tmp_path: Path,
                                  monkeypatch: pytest.MonkeyPatch,
                                  capsys: pytest.CaptureFixture[str]) -> None:

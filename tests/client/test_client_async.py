@@ -31,9 +31,6 @@ from tests.client.test_client import CROWDED
 from tests.servers import BACKENDS, AnyServer, service
 from tests.service.test_service import LONG, SMALL
 
-#: End to end (the client against a real server): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
-
 T = TypeVar("T")
 
 
@@ -57,6 +54,7 @@ def run(server: AnyServer, test: Callable[[AsyncClient], Awaitable[T]], **option
     return asyncio.run(main())
 
 
+@pytest.mark.slow
 def test_submit_follow_the_events_wait_and_fetch_the_layout(server: AnyServer) -> None:
     async def test(fp: AsyncClient) -> None:
         job = await fp.submit(SMALL)
@@ -79,6 +77,7 @@ def test_submit_follow_the_events_wait_and_fetch_the_layout(server: AnyServer) -
     run(server, test)
 
 
+@pytest.mark.slow
 def test_validate_and_list(server: AnyServer) -> None:
     async def test(fp: AsyncClient) -> None:
         assert (await fp.validate(SMALL)).valid
@@ -96,6 +95,7 @@ def test_validate_and_list(server: AnyServer) -> None:
     run(server, test)
 
 
+@pytest.mark.slow
 def test_cancel_keeps_the_incumbent(server: AnyServer) -> None:
     async def test(fp: AsyncClient) -> None:
         job = await fp.submit(LONG)

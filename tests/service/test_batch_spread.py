@@ -1,6 +1,6 @@
-"""A service batch's layout moved apart from the batch's finished plans: the store gives
-the runner the batch's layouts, the solve's process moves a repeated plan's walls
-(service.batch.apart_from_held, solver/pipeline/spread.py)."""
+"""A service batch's layout moved apart from the batch's finished plans (issue 23): the
+store gives the runner the batch's layouts, the solve's process moves a repeated plan's
+walls (service.batch.apart_from_held, solver/pipeline/spread.py)."""
 
 from __future__ import annotations
 
@@ -8,6 +8,8 @@ import json
 import math
 import time
 from pathlib import Path
+
+import pytest
 
 from floorplan.models import Layout, Problem
 from floorplan.models.jobs import JobStatus
@@ -40,13 +42,12 @@ def test_the_store_gives_a_batch_s_finished_layouts_newest_first(tmp_path: Path)
     assert lone.batch_id is None
 
 
+@pytest.mark.slow
 def test_the_runner_moves_a_batch_layout_that_repeats_a_finished_one(tmp_path: Path) -> None:
     # The same seed twice in one batch: the second solve finds the first one's plan,
     # asks the runner for the batch's layouts and moves its walls apart from it.
     settings = Settings(data_dir=tmp_path, workers=1, subdomain_processes=1)
     store = JobStore(settings.store_url)
-    # Each solve ends at its first good layout; a limit far above that keeps a busy
-    # machine from handing the second a different plan (at 2 s it once did).
     problem = job_problem(LayoutTask(APARTMENT, 4, 20.0, good_enough=math.inf))
     _, made = store.create_batch(owner="", name="twice", seed=4, vary_program=False,
                                  problems=[(problem.model_dump_json(), 10.0)] * 2)

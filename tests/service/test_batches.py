@@ -18,8 +18,6 @@ import pytest
 from tests.servers import BACKENDS, AnyServer, service
 from tests.service.test_service import SMALL
 
-pytestmark = pytest.mark.slow
-
 TINY = {**SMALL, "options": {}}
 
 
@@ -66,6 +64,7 @@ def results(client: httpx.Client, batch_id: str, **params: Any) -> tuple[list[di
     return lines, response.headers.get("link")
 
 
+@pytest.mark.slow
 def test_a_batch_reports_progress_and_pages_its_results(client: httpx.Client) -> None:
     batch = submit_batch(client, count=5, seed=10, time_limit=1)
     assert batch["count"] == 5 and batch["queued"] + batch["running"] + batch["succeeded"] == 5
@@ -99,6 +98,7 @@ def test_an_invalid_brief_or_count_is_refused(client: httpx.Client) -> None:
     assert client.get("/v1/batches/00000000-0000-0000-0000-000000000000").status_code == 404
 
 
+@pytest.mark.slow
 def test_a_batch_larger_than_the_queue_is_refused(backend: str, tmp_path: Path) -> None:
     s = service(backend, tmp_path, FLOORPLAN_QUEUE_LIMIT="3").start()
     try:
@@ -110,6 +110,7 @@ def test_a_batch_larger_than_the_queue_is_refused(backend: str, tmp_path: Path) 
         s.stop()
 
 
+@pytest.mark.slow
 def test_batches_of_other_keys_are_hidden(backend: str, tmp_path: Path) -> None:
     s = service(backend, tmp_path, FLOORPLAN_API_KEYS="alpha, beta").start()
     try:
@@ -124,6 +125,7 @@ def test_batches_of_other_keys_are_hidden(backend: str, tmp_path: Path) -> None:
         s.stop()
 
 
+@pytest.mark.slow
 def test_a_restart_midway_loses_nothing_and_repeats_nothing(backend: str,
                                                              tmp_path: Path) -> None:
     first = service(backend, tmp_path).start()
@@ -154,6 +156,7 @@ def test_a_restart_midway_loses_nothing_and_repeats_nothing(backend: str,
         second.stop()
 
 
+@pytest.mark.slow
 def test_the_client_and_floorplan_submit_make_and_read_batches(server: AnyServer,
                                                                 tmp_path: Path) -> None:
     import subprocess
@@ -189,6 +192,7 @@ def test_the_client_and_floorplan_submit_make_and_read_batches(server: AnyServer
     assert "2 valid" in done.stderr
 
 
+@pytest.mark.slow
 def test_a_batch_keeps_to_the_key_s_quota_and_the_service_s_limits(tmp_path: Path) -> None:
     # The limits (docs/security.md) hold for batches as for single jobs: a batch is that
     # many jobs of its key, and its brief gets the checks of any body (here the
@@ -213,6 +217,7 @@ FLAT_7 = json.loads((Path(__file__).resolve().parents[2] / "examples/flat-7-temp
                     .read_text())
 
 
+@pytest.mark.slow
 def test_results_come_as_a_zip_of_layouts_paged_and_programmes_vary(
         client: httpx.Client, backend: str) -> None:
     if backend == "celery":

@@ -19,8 +19,6 @@ from shapely.geometry import Polygon
 from tests.paths import ROOT
 from tests.servers import Server
 
-pytestmark = pytest.mark.slow
-
 HOUSE: dict[str, Any] = json.loads((ROOT / "examples" / "house-13.json").read_text())
 ANSWER: dict[str, Any] = json.loads((ROOT / "examples" / "house-13.layout.json").read_text())
 FREE = ("kitchen", "laundry", "bath1", "storage")
@@ -54,6 +52,7 @@ def fields(response: httpx.Response) -> list[str]:
     return [e["field"] for e in response.json()["errors"]]
 
 
+@pytest.mark.slow
 def test_an_edit_with_the_previous_layout_as_start_keeps_the_fixed_rooms(
         client: httpx.Client) -> None:
     brief = edit(start=ANSWER["rooms"])

@@ -17,9 +17,6 @@ import pytest
 
 from tests.servers import Server
 
-#: End to end (real server processes on loopback): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
-
 #: One solve at a time and no sub-domain pool: these tests solve nothing.
 QUIET = {"WORKERS": "1", "FLOORPLAN_SUBDOMAIN_PROCESSES": "1"}
 #: The longest /healthz may wait while large bodies are validated, as a share of the
@@ -92,6 +89,7 @@ def slowest_healthz_while(posts: list[threading.Thread], url: str) -> float:
     return slowest / (time.monotonic() - started)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", ["/v1/validate", "/v1/layouts"])
 def test_healthz_answers_soon_while_a_large_body_is_validated(
         roomy: Server, path: str) -> None:
@@ -112,6 +110,7 @@ def test_healthz_answers_soon_while_a_large_body_is_validated(
         assert answers[0].json()["detail"] == "19999 invalid field(s), the first 100 listed"
 
 
+@pytest.mark.slow
 def test_a_flood_of_large_bodies_does_not_hold_up_healthz(roomy: Server) -> None:
     body, statuses = big_body(), []
 
@@ -125,6 +124,7 @@ def test_a_flood_of_large_bodies_does_not_hold_up_healthz(roomy: Server) -> None
     assert slowest < HEALTHZ_SHARE
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", ["/v1/validate", "/v1/layouts"])
 def test_the_issues_body_is_refused_at_once_naming_the_fields(server: Server,
                                                               path: str) -> None:

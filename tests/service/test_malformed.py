@@ -19,9 +19,6 @@ from schemathesis import GenerationMode, checks
 from tests.servers import Server
 from tests.service.test_service import SMALL, wait
 
-#: End to end (real server processes on loopback): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
-
 QUIET = {"WORKERS": "1", "FLOORPLAN_SUBDOMAIN_PROCESSES": "1", "FLOORPLAN_MAX_TIME_LIMIT": "2"}
 JSON = {"Content-Type": "application/json"}
 #: A room the solve cannot give any area: its layout has a room with an empty polygon.
@@ -148,6 +145,7 @@ HEADER_TEXT = st.text(st.characters(min_codepoint=0x20, max_codepoint=0xFF,
     lambda text: text.strip(" "))
 
 
+@pytest.mark.slow
 def test_any_last_event_id_is_a_stream_or_a_4xx(service: Service) -> None:
     @FUZZ
     @given(value=HEADER_TEXT | st.integers(min_value=-(10**40), max_value=10**40).map(str))
@@ -160,6 +158,7 @@ def test_any_last_event_id_is_a_stream_or_a_4xx(service: Service) -> None:
     check()
 
 
+@pytest.mark.slow
 def test_any_cursor_or_limit_is_a_page_or_a_4xx(service: Service) -> None:
     texts = st.text(max_size=300) | st.binary(max_size=200).map(
         lambda b: base64.urlsafe_b64encode(b).decode())
@@ -176,6 +175,7 @@ def test_any_cursor_or_limit_is_a_page_or_a_4xx(service: Service) -> None:
     check()
 
 
+@pytest.mark.slow
 def test_schema_fuzzing_with_invalid_headers_and_query_strings(service: Service) -> None:
     # Negative cases: every parameter (the headers Last-Event-ID, Idempotency-Key,
     # Authorization, X-API-Key; every query string) and body made invalid in turn. The

@@ -21,9 +21,6 @@ import pytest
 
 from tests.servers import BACKENDS, AnyServer, service
 
-#: End to end (real server processes on loopback): left out by `pytest -m "not slow"`.
-pytestmark = pytest.mark.slow
-
 TERMINAL = {"succeeded", "failed", "canceled"}
 
 SMALL: dict[str, Any] = {
@@ -85,6 +82,7 @@ def wait(client: httpx.Client, job_id: str, timeout: float = 60,
     raise AssertionError(f"job {job_id} still {job['status']} after {timeout} s")
 
 
+@pytest.mark.slow
 def test_submit_follow_the_events_and_fetch_the_result(client: httpx.Client) -> None:
     job = submit(client, SMALL)
     assert job["status"] == "queued"
@@ -145,6 +143,7 @@ def test_submit_follow_the_events_and_fetch_the_result(client: httpx.Client) -> 
     assert ids == [i for i, _, _ in events[3:]]
 
 
+@pytest.mark.slow
 def test_cancel_stops_the_solve_and_keeps_the_incumbent(client: httpx.Client) -> None:
     job = submit(client, LONG)
     deadline = time.monotonic() + 30
@@ -198,6 +197,7 @@ def test_idempotency_key_gives_the_same_job_and_refuses_another_body(
     wait(client, first["id"])
 
 
+@pytest.mark.slow
 def test_listing_pages_through_jobs_newest_first(client: httpx.Client) -> None:
     ids = [submit(client, {**SMALL, "name": f"page-{k}"})["id"] for k in range(3)]
     seen: list[str] = []
@@ -295,6 +295,7 @@ def test_openapi_and_docs_are_served_with_examples(client: httpx.Client) -> None
 CONCURRENT = 16
 
 
+@pytest.mark.slow
 def test_concurrent_submissions_all_finish(client: httpx.Client) -> None:
     # Eight times as many posts at once as workers (2); each job runs in a process of
     # its own, so every one more costs the suite about 0.4 s.
@@ -317,6 +318,7 @@ def test_concurrent_submissions_all_finish(client: httpx.Client) -> None:
     assert all(job["status"] == "succeeded" for job in finished)
 
 
+@pytest.mark.slow
 def test_a_killed_service_resumes_its_jobs_after_a_restart(backend: str, tmp_path: Path) -> None:
     # Distributed: every process dies; the job's lease expires and it runs again.
     first = service(backend, tmp_path).start()
@@ -335,6 +337,7 @@ def test_a_killed_service_resumes_its_jobs_after_a_restart(backend: str, tmp_pat
         second.stop()
 
 
+@pytest.mark.slow
 def test_api_keys_guard_every_request_and_hide_other_keys_jobs(
     backend: str, tmp_path: Path
 ) -> None:
@@ -359,6 +362,7 @@ def test_api_keys_guard_every_request_and_hide_other_keys_jobs(
         s.stop()
 
 
+@pytest.mark.slow
 def test_a_full_queue_answers_429_with_retry_after(backend: str, tmp_path: Path) -> None:
     s = service(backend, tmp_path, FLOORPLAN_QUEUE_LIMIT="1", WORKERS="1").start()
     try:
@@ -376,6 +380,7 @@ def test_a_full_queue_answers_429_with_retry_after(backend: str, tmp_path: Path)
         s.stop()
 
 
+@pytest.mark.slow
 def test_a_stopped_service_hands_running_jobs_back_without_counting_an_attempt(
     backend: str, tmp_path: Path,
 ) -> None:
@@ -401,6 +406,7 @@ def solve_processes(parent: int) -> list[int]:
     return [int(line.split()[0]) for line in out.splitlines() if "spawn_main" in line]
 
 
+@pytest.mark.slow
 def test_a_crashed_solve_fails_its_own_job_and_the_service_carries_on(
     backend: str, tmp_path: Path
 ) -> None:
@@ -439,6 +445,7 @@ TEMPLATED: dict[str, Any] = {
 }
 
 
+@pytest.mark.slow
 def test_a_templated_problem_is_queued_and_solved_to_a_valid_layout(
     client: httpx.Client,
 ) -> None:

@@ -26,9 +26,6 @@ from floorplan.models import Problem
 from tests.paths import EXAMPLES, ROOT
 from tests.servers import Server
 
-#: End to end (the page in headless Chromium, a real server): not in `-m "not slow"`.
-pytestmark = pytest.mark.slow
-
 CHROMIUM = Path("/usr/bin/chromium")
 SCREENSHOTS = ROOT / "build" / "screenshots"
 VIEWPORT = {"width": 1280, "height": 860}
@@ -153,6 +150,7 @@ def test_the_page_and_its_files_are_served_with_a_strict_policy(server: Server) 
     assert missing.headers["content-type"] == "application/problem+json"
 
 
+@pytest.mark.slow
 def test_an_example_redraws_live_then_reports_and_downloads(page: Any, server: Server) -> None:
     page.goto(server.url)
     expect(page.locator("#status")).to_have_text("idle")
@@ -197,6 +195,7 @@ def test_an_example_redraws_live_then_reports_and_downloads(page: Any, server: S
     assert name == "apartment-5.layout.json" and json.loads(layout)["report"]["valid"]
 
 
+@pytest.mark.slow
 def test_bad_input_shows_every_field_path_and_the_findings(page: Any, server: Server) -> None:
     page.goto(server.url)
     page.fill("#problem", '{"boundary": [[0, 0], [6, 0], [6, 4]')
@@ -275,6 +274,7 @@ class Relay:
         self.cut()
 
 
+@pytest.mark.slow
 def test_a_dropped_stream_resumes_and_cancel_keeps_the_best_layout(
     page: Any, server: Server
 ) -> None:
@@ -312,6 +312,7 @@ def test_a_dropped_stream_resumes_and_cancel_keeps_the_best_layout(
         relay.close()
 
 
+@pytest.mark.slow
 def test_a_server_with_keys_asks_for_one_and_works_with_it(
     page: Any, tmp_path: Path
 ) -> None:
@@ -344,6 +345,7 @@ def test_a_server_with_keys_asks_for_one_and_works_with_it(
         keyed.stop()
 
 
+@pytest.mark.slow
 def test_variants_pick_fix_rooms_edit_a_target_resolve_compare_and_undo(
         page: Any, server: Server) -> None:
     page.goto(server.url)

@@ -142,6 +142,7 @@ def test_a_soft_adjacency_that_cannot_hold_gives_way_while_the_hard_ones_hold() 
     assert all(c.satisfied and not c.soft for c in others)
 
 
+@pytest.mark.slow
 def test_a_room_softens_only_the_families_it_lists() -> None:
     # The office may miss its point, but its maximum width and east wall stay hard.
     raw = json.loads(json.dumps(OUT_OF_REACH))
@@ -207,6 +208,7 @@ def test_the_miqp_prices_violations_as_the_python_side_measures_them(name: str) 
     assert spec_shortfall(spec, result.rects) > 0
 
 
+@pytest.mark.slow
 def test_the_summary_line_counts_soft_violations() -> None:
     layout = solve(soft(CHAIN))
     line = summary_line(layout)

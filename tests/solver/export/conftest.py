@@ -17,6 +17,9 @@ EXPORT_TIME_LIMIT = 60.0
 #: The problems whose exports are read back, by name.
 READ_BACK = {"house-13": CASES / "house-13.json",
              "two-storey-house": EXAMPLES / "two-storey-house.json"}
+#: The fixtures' params: the second solve, the two-storey house, is left out by
+#: `pytest -m "not slow"`.
+CASES_READ_BACK = ["house-13", pytest.param("two-storey-house", marks=pytest.mark.slow)]
 
 
 @functools.cache
@@ -30,6 +33,6 @@ def solved(name: str) -> tuple[Problem, Layout]:
     return problem, layout
 
 
-@pytest.fixture(params=list(READ_BACK))
+@pytest.fixture(params=CASES_READ_BACK)
 def solved_case(request: pytest.FixtureRequest) -> tuple[Problem, Layout]:
     return solved(request.param)

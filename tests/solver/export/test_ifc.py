@@ -21,7 +21,7 @@ from floorplan.solver.export import render
 from floorplan.solver.export.ifc import DOOR_HEIGHT, to_ifc
 from floorplan.solver.export.walls import FACADE_THICKNESS
 from tests.paths import EXAMPLES
-from tests.solver.export.conftest import READ_BACK, solved
+from tests.solver.export.conftest import CASES_READ_BACK, solved
 
 #: The NetFloorArea of a space, and the area of its shape, may differ from the
 #: layout's area of the room by this share at most.
@@ -42,7 +42,7 @@ def export(name: str) -> Exported:
     return Exported(problem, layout, ifcopenshell.file.from_string(text))
 
 
-@pytest.fixture(params=list(READ_BACK))
+@pytest.fixture(params=CASES_READ_BACK)
 def exported(request: pytest.FixtureRequest) -> Exported:
     return export(request.param)
 

@@ -65,6 +65,7 @@ def test_an_l_shaped_living_room_around_a_bedroom_at_its_target() -> None:
     assert layout_objective(problem, make_domain(problem), found.rooms) < 0.01
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [2001, 2008])
 def test_a_planted_brief_gets_a_valid_covering_layout_and_a_seed_gives_one(seed: int) -> None:
     problem, _ = draw(seed, rooms=7)

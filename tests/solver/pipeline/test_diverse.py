@@ -31,6 +31,7 @@ def test_diverse_seeds_break_ties_differently() -> None:
     assert exact.plans >= 3
 
 
+@pytest.mark.slow
 def test_the_pull_is_drawn_from_the_seed() -> None:
     problem = Problem.model_validate(APARTMENT)
     one, again = (solve(problem.with_options(seed=4, time_limit=1.5, diverse=True))
@@ -57,6 +58,7 @@ def test_drawn_programmes_differ_in_rooms_and_sizes_within_the_template() -> Non
         assert {r.type for r in plain.rooms} >= {r.type for r in p.rooms} - {"bathroom"}
 
 
+@pytest.mark.slow
 def test_a_drawn_programme_is_laid_out_validly() -> None:
     problem = vary_programme(FLAT_7, 3).with_options(seed=3, time_limit=3, diverse=True)
     layout = solve(problem)
@@ -165,6 +167,7 @@ def test_drawn_programmes_of_a_batch_are_all_laid_out_well() -> None:
     assert len(rooms) >= 2
 
 
+@pytest.mark.slow
 def test_stop_when_good_ends_the_solve_at_its_first_good_layout() -> None:
     # A limit far above the first good layout's time: only the stop ends it early, and
     # says so (without it the search would run on and end stalled or at the limit).

@@ -76,6 +76,7 @@ def test_an_l_shaped_flat_needs_an_l_shaped_living_room_and_gets_one() -> None:
     assert len(living.polygon) > 4  # not a rectangle
 
 
+@pytest.mark.slow
 def test_one_proof_for_the_users_bounds_ends_the_window_schedule() -> None:
     # l-flat has no layout of one rectangle per room: after three windows proved empty,
     # a proof for the user's own bounds holds for every wider window, which are skipped.
@@ -140,6 +141,7 @@ def test_only_targets_that_over_ask_the_floor_start_the_second_search_with_an_l(
     assert not targets_over_ask(grown_into, make_domain(grown_into))
 
 
+@pytest.mark.slow
 def test_a_second_level_one_search_so_started_says_who_made_the_room_an_l() -> None:
     problem = connection_demands(example("l-flat"))
     outcome = level_one_alone(LevelOneTask(problem, deadline=time.time() + 3), l_start=True)
@@ -289,6 +291,7 @@ U_LIVING: dict[str, Any] = {
 }
 
 
+@pytest.mark.slow
 def test_a_living_room_that_must_be_an_l_gets_one_at_its_size() -> None:
     layout = solve(Problem.model_validate(L_LIVING))
     report = layout.report

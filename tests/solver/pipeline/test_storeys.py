@@ -176,6 +176,7 @@ def test_three_floors_with_a_lift_through_all_and_stairs_through_two() -> None:
         "lift", "stairs"}
 
 
+@pytest.mark.slow
 def test_a_footprint_no_other_floor_can_take_fails_naming_the_floor() -> None:
     """The upper floor covers only the west 6 m; the ground floor's foyer, which the
     stairs must touch, is held at the east end: no anchor can satisfy both floors."""
