@@ -253,18 +253,11 @@ def test_a_part_out_of_time_is_retried_with_its_share_before_anything_is_relaxed
     # layout honour every minimum size (it once came back relaxed and invalid).
     # On a fast machine a part's first row plan can still be done within that
     # millisecond, so slicing given less than 10 ms finds nothing here, as under load.
-    import floorplan.solver.pipeline.first_layout as solve_module
     import floorplan.solver.pipeline.regions.run as regions
-    import floorplan.solver.pipeline.second_search as second_search
 
     monkeypatch.setattr(regions, "MIN_PART_SECONDS", 1e-3)
     monkeypatch.setattr(regions, "PART_SECONDS_PER_ROOM", 1e-6)
-    slice_in_time = solve_module._slice
-    monkeypatch.setattr(solve_module, "_slice", lambda run, domain, deadline: (
-        None if deadline - time.monotonic() < 0.01 else slice_in_time(run, domain, deadline)))
-    # The guillotine search would lay such a part out where level 1 found nothing; this
-    # test is of the retry, so it is left out.
-    monkeypatch.setattr(second_search, "guillotine_applies", lambda problem, domain: False)
+    _starve_slicing(monkeypatch)
     problem = Problem.model_validate({
         "boundary": [[0, 0], [34, 0], [34, 19], [0, 19]], "rooms": _offices(45, seed=2),
         "options": {"time_limit": 5, "seed": 0}})
@@ -300,16 +293,11 @@ def test_given_regions_out_of_time_are_retried_with_more_of_the_limit(
     # millisecond, in which slicing finds nothing (as in the test of the parts' retry).
     # An automatic partition would be solved without regions; the user's regions cannot
     # be dropped, so their region layout gets half the time left, and the parts the rest.
-    import floorplan.solver.pipeline.first_layout as solve_module
     import floorplan.solver.pipeline.regions.run as regions
-    import floorplan.solver.pipeline.second_search as second_search
 
     monkeypatch.setattr(regions, "MIN_REGION_SECONDS", 1e-3)
     monkeypatch.setattr(regions, "REGION_SECONDS_PER_REGION", 1e-6)
-    slice_in_time = solve_module._slice
-    monkeypatch.setattr(solve_module, "_slice", lambda run, domain, deadline: (
-        None if deadline - time.monotonic() < 0.01 else slice_in_time(run, domain, deadline)))
-    monkeypatch.setattr(second_search, "guillotine_applies", lambda problem, domain: False)
+    _starve_slicing(monkeypatch)
     problem = Problem.model_validate(_explicit_problem())
     said: list[str] = []
     layout = solve(problem, on_event=lambda e: said.append(e.detail))
@@ -320,3 +308,17 @@ def test_given_regions_out_of_time_are_retried_with_more_of_the_limit(
     assert layout.report.valid, [c.detail for c in layout.report.constraints
                                  if not c.satisfied]
     assert {r.region for r in layout.rooms} == {f"block-{g}" for g in range(4)}
+
+
+def _starve_slicing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Slicing given less than 10 ms finds nothing (on a fast machine a first row plan
+    can be done within a millisecond), as on a loaded machine; and the guillotine
+    search, which would lay out what level 1 found nothing for, is left out: the tests
+    using this are of the retries."""
+    import floorplan.solver.pipeline.first_layout as solve_module
+    import floorplan.solver.pipeline.second_search as second_search
+
+    slice_in_time = solve_module._slice
+    monkeypatch.setattr(solve_module, "_slice", lambda run, domain, deadline: (
+        None if deadline - time.monotonic() < 0.01 else slice_in_time(run, domain, deadline)))
+    monkeypatch.setattr(second_search, "guillotine_applies", lambda problem, domain: False)
