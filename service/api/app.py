@@ -13,6 +13,7 @@ from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 
 from floorplan.models import Problem as LayoutProblem
+from floorplan.models.jobs import BatchRequest
 from floorplan.models.templates import TemplatedProblem
 from floorplan.service.api import web
 from floorplan.service.api.errors import ProblemDetails, TrustedHosts, install
@@ -64,7 +65,7 @@ def _openapi(app: FastAPI) -> dict[str, Any]:
                          routes=app.routes)
     components = schema.setdefault("components", {}).setdefault("schemas", {})
     for model, name in ((LayoutProblem, "Problem"), (TemplatedProblem, "TemplatedProblem"),
-                        (ProblemDetails, "ProblemDetails")):
+                        (BatchRequest, "BatchRequest"), (ProblemDetails, "ProblemDetails")):
         model_schema = model.model_json_schema(ref_template="#/components/schemas/{model}")
         components.update(model_schema.pop("$defs", {}))
         components[name] = model_schema

@@ -1,6 +1,8 @@
-"""The problem a request carries (POST /v1/layouts, POST /v1/validate): read within the
-size limit and validated here rather than by FastAPI, so that every error is a problem
-document; and its description in the OpenAPI schema, with examples."""
+"""The one reader of request bodies (POST /v1/layouts, /v1/validate, /v1/batches): the
+caller's key checked from the headers first, then the media type and the declared
+size, the body read only up to `FLOORPLAN_MAX_BODY_BYTES`, and parsed and validated in
+a worker thread rather than by FastAPI on the event loop, so that every error is a
+problem document; and the bodies' description in the OpenAPI schema, with examples."""
 
 from __future__ import annotations
 
@@ -15,7 +17,8 @@ from fastapi import Depends, Request
 from pydantic import ValidationError
 
 from floorplan.models import Problem as LayoutProblem
-from floorplan.service.api.deps import SettingsDep
+from floorplan.models.jobs import BatchRequest
+from floorplan.service.api.deps import OwnerDep, SettingsDep
 from floorplan.service.api.errors import ApiError, FieldError, field_errors
 from floorplan.service.settings import Settings
 
@@ -50,13 +53,13 @@ EXAMPLE_TEMPLATED: dict[str, Any] = {
 }
 
 
-async def problem_body(request: Request, settings: SettingsDep) -> tuple[LayoutProblem, bytes]:
-    """The request body as a validated problem, within the size limits. The body is read
-    on the event loop; parsing and validating it, which takes time in proportion to its
-    size, runs in a worker thread, at most `FLOORPLAN_PARSE_THREADS` at once, so that a
-    large body does not hold up /healthz or anyone else's request. Only a body sent as
-    `application/json`: the types a web page may post to another site without asking
-    (text/plain, forms) are refused with 415, before the body is read."""
+async def read_body(request: Request, settings: Settings) -> bytes:
+    """The request's body, read only when it is JSON and within the size limit: a body
+    not sent as `application/json` (the types a web page may post to another site
+    without asking, text/plain and forms) is a 415, a `Content-Length` above
+    `FLOORPLAN_MAX_BODY_BYTES` a 413, both before a byte is read; a body streamed
+    without a length is read up to the limit and no further. The caller's key is the
+    route's to check before this (every body route depends on `OwnerDep` first)."""
     media_type = request.headers.get("content-type", "").partition(";")[0].strip().lower()
     if media_type != "application/json":
         raise ApiError(415, f"the body must be sent as application/json, not "
@@ -64,17 +67,60 @@ async def problem_body(request: Request, settings: SettingsDep) -> tuple[LayoutP
                        kind="unsupported-media-type", headers={"Accept-Post": "application/json"})
     declared = request.headers.get("content-length")
     if declared and declared.isdigit() and int(declared) > settings.max_body_bytes:
-        raise ApiError(413, f"the body exceeds {settings.max_body_bytes} bytes",
-                       kind="body-too-large")
+        raise too_large(settings)
     body = bytearray()
     async for chunk in request.stream():
         body += chunk
         if len(body) > settings.max_body_bytes:
-            raise ApiError(413, f"the body exceeds {settings.max_body_bytes} bytes",
-                           kind="body-too-large")
-    raw = bytes(body)
+            raise too_large(settings)
+    return bytes(body)
+
+
+def too_large(settings: Settings) -> ApiError:
+    # Connection: close, since the rest of the body is not read: the client learns at
+    # once that the connection ends with this answer.
+    return ApiError(413, f"the body exceeds {settings.max_body_bytes} bytes "
+                    "(FLOORPLAN_MAX_BODY_BYTES)", kind="body-too-large",
+                    headers={"Connection": "close"})
+
+
+async def problem_body(
+    request: Request, settings: SettingsDep, owner: OwnerDep,
+) -> tuple[LayoutProblem, bytes]:
+    """The request body as a validated problem, within the size limits, after the key
+    (`owner`, resolved first: an unauthenticated body is never read). Parsing and
+    validating it, which takes time in proportion to its size, runs in a worker thread,
+    at most `FLOORPLAN_PARSE_THREADS` at once, so that a large body does not hold up
+    /healthz or anyone else's request."""
+    raw = await read_body(request, settings)
     problem = await run_off_loop(request, partial(parse_problem, raw, settings))
     return problem, raw
+
+
+async def batch_body(request: Request, settings: SettingsDep, owner: OwnerDep) -> BatchRequest:
+    """POST /v1/batches' body, read as `problem_body` reads a problem (key first, size
+    limit, off the event loop): the request's fields, then its brief checked as any
+    job's body (its sizes, the model, the extent, the time-limit ceiling), its errors
+    named under `problem`."""
+    raw = await read_body(request, settings)
+    return await run_off_loop(request, partial(parse_batch, raw, settings))
+
+
+def parse_batch(raw: bytes, settings: Settings) -> BatchRequest:
+    data = parse_json(raw)
+    try:
+        body = BatchRequest.model_validate(data)
+    except ValidationError as err:
+        raise invalid(err, kind="invalid-request") from err
+    try:
+        check_problem(body.problem, settings)
+    except ApiError as err:
+        if err.errors:
+            err.errors = [error.model_copy(update={
+                "loc": ["problem", *error.loc], "field": f"problem.{error.field}"})
+                for error in err.errors]
+        raise
+    return body
 
 
 async def run_off_loop(request: Request, work: Callable[[], T]) -> T:
@@ -83,16 +129,32 @@ async def run_off_loop(request: Request, work: Callable[[], T]) -> T:
     return await anyio.to_thread.run_sync(work, limiter=limiter)
 
 
-def parse_problem(raw: bytes, settings: Settings) -> LayoutProblem:
-    """`raw` as a validated problem: JSON, then its sizes (cheap, before the validation
-    that grows with them), then the model, then the service's own limits."""
+def parse_json(raw: bytes) -> Any:
     try:
-        data = json.loads(raw)
+        return json.loads(raw)
     # ValueError: not JSON, not UTF-8, or an integer beyond Python's 4,300 digits;
     # RecursionError: arrays or objects nested deeper than the parser goes.
     except (ValueError, RecursionError) as err:
         reason = "nested too deeply" if isinstance(err, RecursionError) else str(err)[:200]
         raise ApiError(400, f"the body is not JSON: {reason}", kind="malformed-json") from err
+
+
+def invalid(err: ValidationError, *, kind: str) -> ApiError:
+    """A 422 listing at most `MAX_FIELD_ERRORS` of `err`'s fields."""
+    count = err.error_count()
+    errors = field_errors(err.errors()[:MAX_FIELD_ERRORS])
+    listed = f", the first {len(errors)} listed" if count > len(errors) else ""
+    return ApiError(422, f"{count} invalid field(s){listed}", kind=kind, errors=errors)
+
+
+def parse_problem(raw: bytes, settings: Settings) -> LayoutProblem:
+    """`raw` as a validated problem (`check_problem`)."""
+    return check_problem(parse_json(raw), settings)
+
+
+def check_problem(data: Any, settings: Settings) -> LayoutProblem:
+    """Parsed JSON as a validated problem: its sizes first (cheap, before the validation
+    that grows with them), then the model, then the service's own limits."""
     oversized = size_errors(data, settings)
     if oversized:
         raise ApiError(413, "the problem is larger than this service takes: "
@@ -101,11 +163,7 @@ def parse_problem(raw: bytes, settings: Settings) -> LayoutProblem:
     try:
         problem = LayoutProblem.model_validate(data, context={"max_rooms": settings.max_rooms})
     except ValidationError as err:
-        count = err.error_count()
-        errors = field_errors(err.errors()[:MAX_FIELD_ERRORS])
-        listed = f", the first {len(errors)} listed" if count > len(errors) else ""
-        raise ApiError(422, f"{count} invalid field(s){listed}", kind="invalid-problem",
-                       errors=errors) from err
+        raise invalid(err, kind="invalid-problem") from err
     too_wide = extent_errors(problem, settings.max_extent)
     if too_wide:
         raise ApiError(422, "; ".join(f"{e.field}: {e.message}" for e in too_wide),
@@ -169,6 +227,11 @@ def extent_errors(problem: LayoutProblem, max_extent: float) -> list[FieldError]
 
 
 ProblemBody = Annotated[tuple[LayoutProblem, bytes], Depends(problem_body)]
+BatchBody = Annotated[BatchRequest, Depends(batch_body)]
+BATCH_BODY_DOC: dict[str, Any] = {
+    "requestBody": {"required": True, "content": {"application/json": {
+        "schema": {"$ref": "#/components/schemas/BatchRequest"}}}},
+}
 PROBLEM_BODY_DOC: dict[str, Any] = {
     "requestBody": {
         "required": True,

@@ -6,7 +6,6 @@ in one transaction with the batch's row."""
 from __future__ import annotations
 
 import io
-import json
 import math
 import re
 import zipfile
@@ -18,8 +17,8 @@ from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
 from floorplan.models import Layout
-from floorplan.models.jobs import BatchLayoutLine, BatchPublic, BatchRequest, JobError, JobStatus
-from floorplan.service.api.body import parse_problem
+from floorplan.models.jobs import BatchLayoutLine, BatchPublic, JobError, JobStatus
+from floorplan.service.api.body import BATCH_BODY_DOC, BatchBody
 from floorplan.service.api.deps import BackendDep, OwnerDep, SettingsDep, StoreDep
 from floorplan.service.api.errors import STORE_RETRY_AFTER, ApiError
 from floorplan.service.api.limits import too_many
@@ -49,20 +48,22 @@ def batch_or_404(batch_id: str, store: StoreDep, owner: OwnerDep) -> Batch:
     return batch
 
 
-@router.post("", status_code=202, response_model=BatchPublic,
-             responses={422: {"description": "invalid brief"},
+@router.post("", status_code=202, response_model=BatchPublic, openapi_extra=BATCH_BODY_DOC,
+             responses={401: {"description": "API keys are set and none valid was given"},
+                        413: {"description": "the body, or the brief's outline, obstacles "
+                              "or regions, larger than the service takes"},
+                        415: {"description": "the body not sent as application/json"},
+                        422: {"description": "invalid brief"},
                         429: {"description": "the queue cannot take the batch"}})
 def submit_batch(
-    body: BatchRequest, response: Response, store: StoreDep, backend: BackendDep,
+    body: BatchBody, response: Response, store: StoreDep, backend: BackendDep,
     settings: SettingsDep, owner: OwnerDep,
 ) -> BatchPublic:
     """Queue `count` layouts of the brief, seeds `seed`, `seed` + 1, ..., each solved with
     options.diverse and options.stop_when_good (and with `vary_program` its own
     programme). Follow it with GET /v1/batches/{id} and its results."""
-    # The brief gets the checks of any job's body (docs/security.md, "The limits"): its
-    # sizes, the model (a 422 naming the field), the outline's extent and the time-limit
-    # ceiling.
-    parse_problem(json.dumps(body.problem).encode(), settings)
+    # The body was read after the key, within the size limit, and the brief checked as
+    # any job's body (docs/security.md, "The limits"), off the event loop (BatchBody).
     unwritable = store.unwritable()
     if unwritable is not None:  # accepted, the layouts would be lost: nothing is taken
         raise ApiError(503, f"the job store cannot take jobs now: {unwritable}",

@@ -47,7 +47,7 @@ async def validate_problem(
     layout can exist. A well-formed problem comes back as it would be solved, a
     template expanded."""
     try:
-        problem, _raw = await problem_body(request, settings)
+        problem, _raw = await problem_body(request, settings, owner)
     except ApiError as err:
         if err.status != 422:
             raise
