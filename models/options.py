@@ -58,10 +58,10 @@ class StartRoom(StrictModel):
 
     id: Annotated[str, Field(min_length=1, max_length=100)]
     rectangles: Annotated[list[StartRect], Field(min_length=1, max_length=MAX_START_RECTS)]
-    type: str | None = None
+    type: Annotated[str, Field(max_length=100)] | None = None
     polygon: list[Any] | None = None
     area: float | None = None
-    region: str | None = None
+    region: Annotated[str, Field(max_length=100)] | None = None
 
 
 class Options(StrictModel):
@@ -179,7 +179,11 @@ class Openings(StrictModel):
         1.2, description="width of every window, metres")
     window_spacing: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = Field(
         3.0, description="one window per this many metres of exterior wall, evenly spaced")
-    door_policy: dict[str, list[str]] = Field(
+    door_policy: Annotated[
+        dict[Annotated[str, Field(max_length=100)],
+             Annotated[list[Annotated[str, Field(max_length=100)]], Field(max_length=100)]],
+        Field(max_length=100),
+    ] = Field(
         default_factory=lambda: dict(DEFAULT_DOOR_POLICY),
         description="room type -> the room types it may have a door to ('*' for any); "
         "types not listed may open onto any room",

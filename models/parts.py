@@ -48,6 +48,11 @@ DEFAULT_AISLE_WIDTH = 1.8
 #: Narrowest and widest aisle accepted (metres).
 MIN_AISLE_WIDTH = 0.8
 MAX_AISLE_WIDTH = 10.0
+#: Longest obstacle label: a name, not a payload (each is stored with every job of a
+#: batch and written into drawings).
+MAX_LABEL = 100
+#: A reference to a room by its id (ids are at most 100 characters).
+RoomRef = Annotated[str, Field(max_length=100)]
 
 class Obstacle(StrictModel):
     """A rectangle no room may cover (stairs core, shaft, courtyard)."""
@@ -56,7 +61,7 @@ class Obstacle(StrictModel):
     y: Coordinate
     width: PositiveLength
     depth: PositiveLength
-    label: str = "obstacle"
+    label: Annotated[str, Field(max_length=MAX_LABEL)] = "obstacle"
 
     def to_box(self) -> Polygon:
         return box(self.x, self.y, self.x + self.width, self.y + self.depth)
@@ -162,9 +167,9 @@ class Adjacency(StrictModel):
     """C_adj (Eq. 10): `a` shares a wall of at least `min_contact` metres with `b`,
     or, with `any_of`, with at least one of the listed rooms (Eq. 11 generalised)."""
 
-    a: str
-    b: str | None = None
-    any_of: Annotated[list[str], Field(min_length=1)] | None = None
+    a: RoomRef
+    b: RoomRef | None = None
+    any_of: Annotated[list[RoomRef], Field(min_length=1)] | None = None
     min_contact: Length = 0.9
     soft: bool = Field(
         False, description="the contact may fall short, or the rooms stay apart, at a cost "
@@ -193,7 +198,7 @@ class Region(StrictModel):
     then each region's rooms are laid out inside what is left of it."""
 
     id: Annotated[str, Field(min_length=1, max_length=100)]
-    rooms: Annotated[list[str], Field(min_length=1)] = Field(
+    rooms: Annotated[list[RoomRef], Field(min_length=1)] = Field(
         description="ids of the rooms in this region; a room belongs to at most one region")
     min_size: Size | None = Field(None, description="[width, depth] lower bounds of the region")
     max_size: Size | None = Field(None, description="[width, depth] upper bounds of the region")
@@ -300,7 +305,7 @@ class VerticalRoom(Room):
     on every floor it spans. Its constraints are imposed on the floor that places it
     first; the others take the footprint as it is."""
 
-    floors: Annotated[list[str], Field(max_length=100)] | None = Field(
+    floors: Annotated[list[RoomRef], Field(max_length=100)] | None = Field(
         None, description="ids of the floors it spans, at least two; default every floor")
 
 

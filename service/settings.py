@@ -93,6 +93,11 @@ class Settings(BaseSettings):
         "keys are off) at most; beyond, 429 too-many-jobs. Keep it under queue_limit so "
         "that one key cannot fill the queue for the others",
     )
+    max_batch_bytes: int = Field(
+        64 << 20, ge=1024, description="most bytes the problems of one batch take in the job "
+        "store (each layout's job keeps its problem: the brief times the count); beyond, "
+        "413 batch-too-large",
+    )
     max_streams_per_key: int = Field(
         20, ge=1, description="open event streams of one API key per API process; beyond, "
         "429 too-many-streams",

@@ -13,6 +13,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 from floorplan.service.api.errors import ApiError
 from floorplan.service.settings import Settings
+from floorplan.service.store import Quota, QuotaExceeded
 
 #: Retry-After (seconds) of a refusal by a per-key limit.
 RETRY_AFTER = 5
@@ -23,6 +24,22 @@ def too_many(what: str, count: int, limit: int, variable: str, kind: str) -> Api
     return ApiError(429, f"{what}: {count} of at most {limit} ({variable}); try again when "
                     "one has ended", kind=kind, title="Too Many Requests",
                     headers={"Retry-After": str(RETRY_AFTER)})
+
+
+def quota(settings: Settings) -> Quota:
+    """The job limits the store admits new jobs within, counted in the inserting
+    transaction."""
+    return Quota(per_key=settings.max_jobs_per_key, queue=settings.queue_limit)
+
+
+def refusal(err: QuotaExceeded, adding: int) -> ApiError:
+    """The 429 of jobs the store would not admit (`adding` of them)."""
+    if err.what == "key":
+        return too_many(f"this key's queued and running jobs with the {adding} new",
+                        err.count, err.limit, "FLOORPLAN_MAX_JOBS_PER_KEY", "too-many-jobs")
+    return ApiError(429, f"the queue cannot take {adding} more job(s): {err.count} queued "
+                    f"of at most {err.limit} (FLOORPLAN_QUEUE_LIMIT); try fewer or later",
+                    kind="queue-full", headers={"Retry-After": str(RETRY_AFTER)})
 
 
 class Limits:

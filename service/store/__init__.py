@@ -18,13 +18,14 @@ reconciler finds left behind), `batches` (batches of jobs); `JobStore` is all of
 
 from __future__ import annotations
 
-from floorplan.service.store.base import StoreUnavailable
+from floorplan.service.store.base import Quota, QuotaExceeded, StoreUnavailable
 from floorplan.service.store.batches import BatchRecords
 from floorplan.service.store.events import EVENT_RETRIES
 from floorplan.service.store.jobs import IdempotencyConflict
 from floorplan.service.store.reconciler import Reconciling
 
-__all__ = ["EVENT_RETRIES", "IdempotencyConflict", "JobStore", "StoreUnavailable"]
+__all__ = ["EVENT_RETRIES", "IdempotencyConflict", "JobStore", "Quota", "QuotaExceeded",
+           "StoreUnavailable"]
 
 
 class JobStore(Reconciling, BatchRecords):

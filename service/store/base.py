@@ -7,19 +7,42 @@ from __future__ import annotations
 import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Self
 
-from sqlalchemy import Engine, create_engine, event, select, update
+from sqlalchemy import Engine, create_engine, event, func, select, text, update
 from sqlalchemy.engine import Connection
 from sqlalchemy.exc import DBAPIError
 
+from floorplan.models.jobs import JobStatus
 from floorplan.service.migrations import upgrade
 from floorplan.service.tables import jobs
 
 #: What the database driver raises when the store cannot do what it is asked: a full
 #: disk, a read-only file or server, a lost connection. The API answers it with 503.
 StoreUnavailable = DBAPIError
+
+
+@dataclass(frozen=True)
+class Quota:
+    """The limits new jobs are admitted within: `per_key` queued and running jobs of one
+    owner (FLOORPLAN_MAX_JOBS_PER_KEY), `queue` queued jobs in all (FLOORPLAN_QUEUE_LIMIT)."""
+
+    per_key: int
+    queue: int
+
+
+class QuotaExceeded(Exception):
+    """Admitting the jobs would take `what` ("key" or "queue") to `count`, over `limit`."""
+
+    def __init__(self, what: str, count: int, limit: int) -> None:
+        super().__init__(f"{what}: {count} over {limit}")
+        self.what, self.count, self.limit = what, count, limit
+
+
+#: The PostgreSQL advisory lock every admission takes (an arbitrary 64-bit number).
+ADMISSION_LOCK = 0x666C6F6F72706C61
 
 
 class StoreBase:
@@ -46,6 +69,44 @@ class StoreBase:
     def _tx(self) -> Iterator[Connection]:
         with self.engine.begin() as conn:
             yield conn
+
+    @contextmanager
+    def _admission(self) -> Iterator[Connection]:
+        """A transaction that admits new jobs, one such transaction at a time, so that
+        the counts `_within` reads stay true until its inserts commit: four concurrent
+        batches of 300 cannot each find the key's 400 free. The queue limit is every
+        key's, so admissions are serialized across keys, not per key; each is one short
+        transaction. SQLite: BEGIN IMMEDIATE takes the write lock before the counts are
+        read (a deferred transaction would read, then fail to write). PostgreSQL: a
+        transaction-scoped advisory lock, released by the commit."""
+        if self.engine.dialect.name == "sqlite":
+            with self.engine.connect() as conn:
+                conn.exec_driver_sql("BEGIN IMMEDIATE")
+                try:
+                    yield conn
+                except BaseException:
+                    conn.rollback()
+                    raise
+                conn.commit()
+        else:
+            with self.engine.begin() as conn:
+                conn.execute(text("SELECT pg_advisory_xact_lock(:lock)"),
+                             {"lock": ADMISSION_LOCK})
+                yield conn
+
+    @staticmethod
+    def _within(conn: Connection, owner: str, adding: int, quota: Quota) -> None:
+        """Raise QuotaExceeded when `adding` more queued jobs of `owner` go past `quota`,
+        counted in the admitting transaction (`_admission`)."""
+        mine = int(conn.execute(select(func.count()).select_from(jobs).where(
+            jobs.c.owner == owner,
+            jobs.c.status.in_([JobStatus.QUEUED, JobStatus.RUNNING]))).scalar_one())
+        if mine + adding > quota.per_key:
+            raise QuotaExceeded("key", mine + adding, quota.per_key)
+        queued = int(conn.execute(select(func.count()).select_from(jobs).where(
+            jobs.c.status == JobStatus.QUEUED)).scalar_one())
+        if queued + adding > quota.queue:
+            raise QuotaExceeded("queue", queued + adding, quota.queue)
 
     def unwritable(self) -> str | None:
         """Why the store cannot take a job now, or None when it can: a write is refused

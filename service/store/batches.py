@@ -12,7 +12,7 @@ from sqlalchemy import func, insert, select
 
 from floorplan.models.jobs import JobStatus
 from floorplan.service.records import Batch, BatchLayout, Job
-from floorplan.service.store.base import StoreBase
+from floorplan.service.store.base import Quota, StoreBase
 from floorplan.service.store.jobs import job_of_row
 from floorplan.service.tables import batches, jobs
 
@@ -22,14 +22,17 @@ class BatchRecords(StoreBase):
 
     def create_batch(
         self, *, owner: str, name: str, seed: int, vary_program: bool,
-        problems: list[tuple[str, float]],
+        problems: list[tuple[str, float]], quota: Quota | None = None,
     ) -> tuple[Batch, list[Job]]:
         """A batch and its queued jobs (one per (problem JSON, time limit), in order), in
-        one transaction: a restart finds the whole batch or none of it."""
+        one transaction: a restart finds the whole batch or none of it. Within `quota`,
+        counted in that transaction (QuotaExceeded)."""
         now = time.time()
         batch_id = str(uuid.uuid4())
         ids = [str(uuid.uuid4()) for _ in problems]
-        with self._tx() as conn:
+        with self._admission() as conn:
+            if quota is not None:
+                self._within(conn, owner, len(problems), quota)
             conn.execute(insert(batches).values(
                 id=batch_id, owner=owner, name=name, count=len(problems), seed=seed,
                 vary_program=vary_program, created_at=now))

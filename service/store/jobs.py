@@ -15,6 +15,7 @@ from sqlalchemy.exc import IntegrityError
 
 from floorplan.models.jobs import JobStatus
 from floorplan.service.records import Job
+from floorplan.service.store.base import Quota
 from floorplan.service.store.events import EventLog
 from floorplan.service.tables import events, jobs
 
@@ -31,16 +32,21 @@ class JobRecords(EventLog):
     def create(
         self, *, problem: str, time_limit: float, owner: str = "",
         idempotency_key: str | None = None, body_hash: str | None = None,
+        quota: Quota | None = None,
     ) -> tuple[Job, bool]:
         """A new queued job, or with a known Idempotency-Key the job it made before
-        (the flag says whether it is new). Another body under that key is refused."""
+        (the flag says whether it is new). Another body under that key is refused. A new
+        job is admitted within `quota`, counted in the inserting transaction
+        (QuotaExceeded); a replay is answered whatever the counts."""
         now = time.time()
         try:
-            with self._tx() as conn:
+            with self._admission() as conn:
                 if idempotency_key is not None:
                     known = self._known(conn, owner, idempotency_key, body_hash)
                     if known is not None:
                         return known, False
+                if quota is not None:
+                    self._within(conn, owner, 1, quota)
                 job_id = str(uuid.uuid4())
                 conn.execute(insert(jobs).values(
                     id=job_id, owner=owner, status=JobStatus.QUEUED, problem=problem,

@@ -17,15 +17,21 @@ from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
 from floorplan.models import Layout
-from floorplan.models.jobs import BatchLayoutLine, BatchPublic, JobError, JobStatus
+from floorplan.models.jobs import (
+    MAX_BATCH_COUNT,
+    BatchLayoutLine,
+    BatchPublic,
+    JobError,
+    JobStatus,
+)
 from floorplan.service.api.body import BATCH_BODY_DOC, BatchBody
 from floorplan.service.api.deps import BackendDep, OwnerDep, SettingsDep, StoreDep
 from floorplan.service.api.errors import STORE_RETRY_AFTER, ApiError
-from floorplan.service.api.limits import too_many
-from floorplan.service.api.routes.layouts import RETRY_AFTER, effective_time_limit
+from floorplan.service.api.limits import quota, refusal
+from floorplan.service.api.routes.layouts import effective_time_limit
 from floorplan.service.batch import GOOD_COVERAGE, LayoutTask, job_problem
 from floorplan.service.records import Batch, BatchLayout
-from floorplan.service.store import JobStore
+from floorplan.service.store import JobStore, QuotaExceeded
 
 NDJSON = "application/x-ndjson"
 ZIP = "application/zip"
@@ -68,14 +74,6 @@ def submit_batch(
     if unwritable is not None:  # accepted, the layouts would be lost: nothing is taken
         raise ApiError(503, f"the job store cannot take jobs now: {unwritable}",
                        kind="store-unavailable", headers={"Retry-After": str(STORE_RETRY_AFTER)})
-    mine = store.active(owner)
-    if mine + body.count > settings.max_jobs_per_key:
-        raise too_many(f"this key's queued and running jobs with the batch's {body.count}",
-                       mine + body.count, settings.max_jobs_per_key,
-                       "FLOORPLAN_MAX_JOBS_PER_KEY", "too-many-jobs")
-    if store.count(JobStatus.QUEUED) + body.count > settings.queue_limit:
-        raise ApiError(429, f"the queue cannot take {body.count} more layouts; try fewer or "
-                       "later", kind="queue-full", headers={"Retry-After": str(RETRY_AFTER)})
     problems = []
     for index in range(body.count):
         task = LayoutTask(body.problem, body.seed + index, body.time_limit, body.vary_program,
@@ -83,8 +81,17 @@ def submit_batch(
         problem, time_limit = effective_time_limit(job_problem(task), settings.max_time_limit)
         problems.append((problem.model_dump_json(), time_limit))
     name = body.name or str(body.problem.get("name") or "batch")
-    batch, made = store.create_batch(owner=owner, name=name[:200], seed=body.seed,
-                                     vary_program=body.vary_program, problems=problems)
+    stored = sum(len(problem) for problem, _ in problems)
+    if stored > settings.max_batch_bytes:
+        raise ApiError(413, f"the batch's {body.count} problems take {stored} bytes, more "
+                       f"than {settings.max_batch_bytes} (FLOORPLAN_MAX_BATCH_BYTES); send "
+                       "fewer layouts or a smaller brief", kind="batch-too-large")
+    try:  # the limits counted in the transaction that inserts the batch
+        batch, made = store.create_batch(owner=owner, name=name[:200], seed=body.seed,
+                                         vary_program=body.vary_program, problems=problems,
+                                         quota=quota(settings))
+    except QuotaExceeded as err:
+        raise refusal(err, body.count) from err
     for job in made:
         backend.submitted(job)
     response.headers["Location"] = f"/v1/batches/{batch.id}"
@@ -112,7 +119,8 @@ def get_batch(
     404: {"description": "unknown"}})
 def get_results(
     batch_id: str, request: Request, store: StoreDep, owner: OwnerDep,
-    after: Annotated[int, Query(ge=-1, description="the last index already read")] = -1,
+    after: Annotated[int, Query(ge=-1, lt=MAX_BATCH_COUNT, description="the last index "
+                                "already read (a batch has at most 10,000 layouts)")] = -1,
     limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = DEFAULT_PAGE,
     layouts: Annotated[bool, Query(description="false: the lines without their layouts "
                                    "(NDJSON only)")] = True,

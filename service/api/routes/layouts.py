@@ -39,11 +39,11 @@ from floorplan.service.api.deps import (
     StoreDep,
 )
 from floorplan.service.api.errors import STORE_RETRY_AFTER, ApiError
-from floorplan.service.api.limits import too_many
+from floorplan.service.api.limits import quota, refusal
 from floorplan.service.api.schemas import JobPage, JobPublic, job_public
 from floorplan.service.jobs.backend import JobBackend
 from floorplan.service.records import Job
-from floorplan.service.store import IdempotencyConflict
+from floorplan.service.store import IdempotencyConflict, QuotaExceeded
 from floorplan.solver.export import render
 from floorplan.solver.pipeline.storeys import job_time_limit
 from floorplan.solver.pipeline.variants import variant_time_factor
@@ -86,20 +86,16 @@ def submit_layout(
     if unwritable is not None:  # accepted, the job would be lost: nothing is taken
         raise ApiError(503, f"the job store cannot take jobs now: {unwritable}",
                        kind="store-unavailable", headers={"Retry-After": str(STORE_RETRY_AFTER)})
-    mine = store.active(owner)
-    if mine >= settings.max_jobs_per_key:
-        raise too_many("this key's queued and running jobs", mine, settings.max_jobs_per_key,
-                       "FLOORPLAN_MAX_JOBS_PER_KEY", "too-many-jobs")
-    if store.count(JobStatus.QUEUED) >= settings.queue_limit:
-        raise ApiError(429, "the queue is full; try again later", kind="queue-full",
-                       headers={"Retry-After": str(RETRY_AFTER)})
     problem, time_limit = effective_time_limit(problem, settings.max_time_limit)
     digest = hashlib.sha256(
         json.dumps(json.loads(raw), sort_keys=True, separators=(",", ":")).encode()
     ).hexdigest()
     try:
         job, new = store.create(problem=problem.model_dump_json(), time_limit=time_limit,
-                                 owner=owner, idempotency_key=idempotency_key, body_hash=digest)
+                                 owner=owner, idempotency_key=idempotency_key, body_hash=digest,
+                                 quota=quota(settings))
+    except QuotaExceeded as err:  # counted in the transaction that would insert it
+        raise refusal(err, 1) from err
     except IdempotencyConflict as err:
         raise ApiError(409, "this Idempotency-Key was used with another body",
                        kind="idempotency-conflict") from err
