@@ -5,7 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
-from floorplan.service.api.deps import BackendDep, TrustedDep
+from floorplan.service.api.deps import BackendDep, LimitsDep, TrustedDep
 
 router = APIRouter(tags=["service"])
 
@@ -21,15 +21,20 @@ def healthz() -> dict[str, str]:
 
 
 @router.get("/readyz")
-def readyz(backend: BackendDep, trusted: TrustedDep) -> JSONResponse:
+def readyz(backend: BackendDep, limits: LimitsDep, trusted: TrustedDep) -> JSONResponse:
     """The store answers and takes writes, and jobs are dispatched (with the Celery
     backend, `broker` says whether Redis answers; jobs accepted meanwhile wait in the
     store). `store` says why the store cannot take jobs, if it cannot. The `running`,
-    `queued`, `workers` and `store` figures need a valid key when keys are set."""
+    `queued`, `workers` and `store` figures need a valid key when keys are set. An
+    explain pool that lost a process is not ready (`explain`: "replaced"): it is
+    replaced by this very check, and the next answers ready again."""
     try:
         health = backend.health()
     except Exception as err:  # the store is away
         health = {"ready": False, "store": type(err).__name__}
+    if not limits.explain_ready():
+        health["ready"] = False
+        health["explain"] = "replaced"
     ok = bool(health.pop("ready"))
     if not trusted:
         for figure in FIGURES:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
 from functools import partial
 from typing import Annotated
 
@@ -31,7 +30,9 @@ router = APIRouter(tags=["service"])
                               "regions, larger than the service takes"},
                         415: {"description": "the body not sent as application/json"},
                         429: {"description": "this key's explaining validations at their "
-                              "limit"}})
+                              "limit"},
+                        503: {"description": "the process explaining it was lost (it is "
+                              "replaced): try again"}})
 async def validate_problem(
     request: Request, settings: SettingsDep, owner: OwnerDep, limits: LimitsDep,
     explain: Annotated[bool, Query(
@@ -61,8 +62,7 @@ async def validate_problem(
     seconds = min(time_limit, settings.max_time_limit)
     release = limits.explain(owner)
     try:
-        found = await asyncio.get_running_loop().run_in_executor(
-            limits.explain_pool, partial(diagnose, problem, time_limit=seconds))
+        found = await limits.run_explain(partial(diagnose, problem, time_limit=seconds))
     finally:
         release()
     return Validation(valid=not found.findings and found.feasible is not False, errors=[],
