@@ -99,7 +99,8 @@ def _draw_ncs(doc: Any, problem: Problem, layout: Layout, storey_height: float) 
         tag = _clean(floor.id)
         layer = f"{LEVEL_LAYER}-{tag}"
         if layer not in doc.layers:  # two floor ids may clean to one name
-            doc.layers.add(layer, color=colors.WHITE).description = f"Storey {floor.name}"
+            doc.layers.add(layer, color=colors.WHITE).description = _plain(
+                f"Storey {floor.name}")
         name = f"STOREY-{tag}"
         while name in doc.blocks:
             name += "_"
@@ -108,7 +109,7 @@ def _draw_ncs(doc: Any, problem: Problem, layout: Layout, storey_height: float) 
         _draw_floor(block, view, floor_layout(layout, floor.id))
         elevation = k * storey_height
         x, y = view.outline().bounds[:2]
-        block.add_text(f"{floor.name}  {elevation:+.2f}", height=LEVEL_TEXT,
+        block.add_text(_plain(f"{floor.name}  {elevation:+.2f}"), height=LEVEL_TEXT,
                        dxfattribs={"layer": layer}).set_placement(
             (x, y - 2 * LEVEL_TEXT), align=TextEntityAlignment.BOTTOM_LEFT)
         doc.modelspace().add_blockref(name, (0.0, 0.0, elevation), dxfattribs={"layer": layer})
@@ -223,8 +224,20 @@ def _mtext(text: str) -> str:
     >>> print(_mtext(r"a\Pb {x}"))
     a\\Pb \{x\}
     """
-    text = "".join(" " if ord(c) < 32 else c for c in text)
+    text = _plain(text)
     return text.replace("\\", "\\\\").replace("{", "\\{").replace("}", "\\}")
+
+
+def _plain(text: str) -> str:
+    """User text as a DXF value: every control character (C0, DEL, C1) a space. A DXF
+    file is lines of group code and value, so a newline in a value (a floor name in a
+    layer's description, an id in a TEXT) would start lines of the writer's choosing:
+    group codes, entities, layers of its own.
+
+    >>> _plain("a\\n8\\nPWNED\\r\\x00b")
+    'a 8 PWNED  b'
+    """
+    return "".join(" " if ord(c) < 32 or 127 <= ord(c) < 160 else c for c in text)
 
 
 def _clean(name: str) -> str:
@@ -265,7 +278,7 @@ def _draw_types(doc: Any, problem: Problem, layout: Layout, prefix: str = "") ->
             doc.layers.add(layer, color=TYPE_COLOURS.get(room.type, _colour_of(room.type)))
         msp.add_lwpolyline(room.polygon, close=True, dxfattribs={"layer": layer})
         largest = max(room.rectangles, key=lambda r: r.width * r.depth)
-        label = msp.add_text(f"{room.id} {room.area:.1f} m2", height=0.25,
+        label = msp.add_text(_plain(f"{room.id} {room.area:.1f} m2"), height=0.25,
                              dxfattribs={"layer": layer})
         label.set_placement((largest.x + largest.width / 2, largest.y + largest.depth / 2),
                             align=TextEntityAlignment.MIDDLE_CENTER)
