@@ -288,8 +288,19 @@ def _storey_fixed_errors(problem: Problem) -> list[InitErrorDetails]:
 
 
 def _start_errors(problem: Problem) -> list[InitErrorDetails]:
-    """A warm start (`options.start`) names each room of the problem at most once."""
+    """A warm start (`options.start`) names each room of the problem at most once, and
+    is given to a floor laid out as one, or to an edit (some rooms fixed): a floor laid
+    out by regions (`by_regions`) and nothing fixed is solved region by region, whose
+    parts hold some of the rooms only, and a start naming the others would make the job
+    fail after it was accepted."""
     errors: list[InitErrorDetails] = []
+    start = problem.options.start
+    if start and problem.by_regions and all(room.fixed is None for room in problem.rooms):
+        return [field_error(
+            ("options", "start"), [room.id for room in start], "start_with_regions",
+            "options.start is for a floor laid out as one or an edit: this floor is laid "
+            "out by regions (it names regions, or has more rooms than "
+            f"options.regions_above = {problem.options.regions_above}) and fixes no room")]
     ids = {room.id for room in problem.rooms}
     seen: set[str] = set()
     for k, room in enumerate(problem.options.start or []):

@@ -87,3 +87,30 @@ def test_fixed_rooms_with_regions_are_a_422_naming_the_room(client: httpx.Client
     data = edit()
     data["regions"] = [{"id": "all", "rooms": [r["id"] for r in data["rooms"]]}]
     assert "rooms.0.fixed" in fields(client.post("/v1/layouts", json=data))
+
+
+def test_a_start_for_a_floor_laid_out_by_regions_is_refused_at_submit(
+        client: httpx.Client) -> None:
+    """A floor laid out by regions is solved part by part, each part holding some of
+    the rooms: a start naming the others was accepted (202) and the job then failed on
+    its parts' validation. It is a 422 at submit now, naming options.start; the batch
+    and validate routes say the same."""
+    offices = json.loads((ROOT / "examples" / "office-regions.json").read_text())
+    ids = [room["id"] for room in offices["rooms"]][:16]
+    start = {room_id: [{"x": 1.0 + k, "y": 1.0, "width": 1, "depth": 1}]
+             for k, room_id in enumerate(ids)}
+    brief = {**offices, "options": {**offices.get("options", {}), "start": start}}
+    assert fields(client.post("/v1/layouts", json=brief)) == ["options.start"]
+    assert fields(client.post("/v1/batches", json={"problem": brief, "count": 2})) == [
+        "problem.options.start"]
+    checked = client.post("/v1/validate", json=brief).json()
+    assert not checked["valid"] and [e["field"] for e in checked["errors"]] == ["options.start"]
+    # Laid out as one floor (no regions, few enough rooms), the same start is taken.
+    region_ids = {region["id"] for region in offices["regions"]}
+    flat = {**brief, "options": {**brief["options"], "regions_above": 0, "time_limit": 1},
+            "adjacency": [a for a in offices.get("adjacency", [])
+                          if not {a["a"], a.get("b")} & region_ids]}
+    flat.pop("regions")
+    accepted = client.post("/v1/layouts", json=flat)
+    assert accepted.status_code == 202, accepted.text
+    client.post(f"/v1/layouts/{accepted.json()['id']}/cancel")
