@@ -126,10 +126,27 @@ class JobRecords(EventLog):
     # The runner's side.
 
     def claim_next(self) -> Job | None:
-        """The oldest queued job, now running (first in, first out)."""
+        """The next queued job, now running, fair across owners (docs/security.md,
+        "Fair scheduling"): the owner with the fewest jobs running, among those the one
+        served longest ago (one never served first), and that owner's oldest queued job.
+        First in, first out across keys let one key's batch of hundreds hold every solve
+        while another key's single job waited behind it."""
         with self._tx() as conn:
-            row = conn.execute(select(jobs.c.id).where(jobs.c.status == JobStatus.QUEUED)
-                               .order_by(jobs.c.created_at, jobs.c.id).limit(1)).first()
+            waiting = [row.owner for row in conn.execute(select(jobs.c.owner).distinct().where(
+                jobs.c.status == JobStatus.QUEUED))]
+            if not waiting:
+                return None
+            running = {o: int(n) for o, n in conn.execute(select(jobs.c.owner, func.count()).where(
+                jobs.c.status == JobStatus.RUNNING, jobs.c.owner.in_(waiting)
+            ).group_by(jobs.c.owner))}
+            served = {o: float(t) for o, t in conn.execute(
+                select(jobs.c.owner, func.max(jobs.c.started_at)).where(
+                    jobs.c.owner.in_(waiting), jobs.c.started_at.is_not(None)
+                ).group_by(jobs.c.owner))}
+            owner = min(waiting, key=lambda o: (running.get(o, 0), served.get(o) or 0.0, o))
+            row = conn.execute(select(jobs.c.id).where(
+                jobs.c.status == JobStatus.QUEUED, jobs.c.owner == owner
+            ).order_by(jobs.c.created_at, jobs.c.id).limit(1)).first()
             if row is None:
                 return None
             now = time.time()
