@@ -14,6 +14,7 @@ import uuid
 import redis
 from celery import Celery
 from celery.exceptions import Reject
+from sqlalchemy.exc import DataError, IntegrityError, ProgrammingError
 
 from floorplan.models.jobs import JobStatus
 from floorplan.service.jobs.broker.config import Keys, redis_client
@@ -27,6 +28,24 @@ log = logging.getLogger("floorplan.distributed")
 #: Seconds a worker waits before handing back a task it could not claim (the store
 #: did not answer), so that a store outage is not a busy loop.
 CLAIM_RETRY_SECONDS = 2.0
+#: Times one message is handed back to the broker (the store away) before it is
+#: dropped: a job it named is still in the store, and the reconciler sends it again.
+MAX_REDELIVERIES = 10
+#: What the store raises about the message's data, not about the store's state: such a
+#: message fails the same way every time, so it is dropped, never handed back.
+DATA_ERRORS = (DataError, IntegrityError, ProgrammingError)
+
+
+def job_id_of(value: object) -> str | None:
+    """`value` as a job id (a UUID in its canonical text), or None: whoever can write
+    to Redis can send anything, and a message that names no job is dropped at the door."""
+    if not isinstance(value, str) or len(value) != 36:
+        return None
+    try:
+        canonical = str(uuid.UUID(value))
+    except ValueError:
+        return None
+    return canonical if canonical == value.lower() else None
 
 
 class WorkerRuntime:
@@ -70,14 +89,29 @@ class WorkerRuntime:
         self.dispatcher.redis.set(self.dispatcher.keys.workers + self.identity,
                                   f"{busy}/{self.slots}", ex=max(1, round(ttl)))
 
-    def run(self, job_id: str) -> str:
-        """The task: claim `job_id` and solve it. Returns what happened, for the log."""
+    def run(self, value: object, message_id: str | None = None) -> str:
+        """The task: claim the job `value` names and solve it. Returns what happened,
+        for the log. A message that names no job, or whose data the store refuses, is
+        acknowledged and dropped with a log line; one handed back too often (the store
+        away) too."""
+        job_id = job_id_of(value)
+        if job_id is None:
+            log.warning("dropped a message that names no job: %.80r", value)
+            return "dropped"
         if self.stopping.is_set():
             raise Reject("the worker is stopping", requeue=True)  # for another worker
         token = f"{self.identity}:{uuid.uuid4().hex[:8]}"
         try:
             job = self.store.claim(job_id, token)
+        except DATA_ERRORS as err:
+            log.warning("dropped the message of job %s: the store refuses its data (%s)",
+                        job_id, type(err).__name__)
+            return "dropped"
         except Exception as err:
+            if self._handed_back(message_id) > MAX_REDELIVERIES:
+                log.warning("dropped the message of job %s: handed back %d times (%s); the "
+                            "reconciler sends the job again", job_id, MAX_REDELIVERIES, err)
+                return "dropped"
             # The store is away: the task goes back to the broker, not lost by an ack.
             log.warning("job %s not claimed (%s); handed back to the broker", job_id, err)
             self.stopping.wait(CLAIM_RETRY_SECONDS)
@@ -114,6 +148,19 @@ class WorkerRuntime:
                 busy = len(self._active)
             if not self.stopping.is_set():
                 self.processes.refill(self.slots - busy)
+
+    def _handed_back(self, message_id: str | None) -> int:
+        """How many times the message `message_id` was handed back, this one included
+        (counted in Redis, across workers; 0 when it cannot be counted)."""
+        if not message_id:
+            return 0
+        key = f"{self.dispatcher.keys.queue}:handed-back:{message_id}"
+        try:
+            count = int(self.dispatcher.redis.incr(key))
+            self.dispatcher.redis.expire(key, 3600)
+        except redis.RedisError:
+            return 0
+        return count
 
     def _listen_for_cancels(self) -> None:
         channel = self.dispatcher.keys.cancel

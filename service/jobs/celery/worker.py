@@ -42,9 +42,9 @@ def runtime() -> WorkerRuntime:
     return _runtime
 
 
-@app.task(name=TASK_NAME)
-def solve_job(job_id: str) -> str:
-    return runtime().run(job_id)
+@app.task(name=TASK_NAME, bind=True)
+def solve_job(self: Any, job_id: object) -> str:
+    return runtime().run(job_id, self.request.id)
 
 
 @app.task(name=SUBDOMAIN_TASK, ignore_result=False, acks_late=False)
@@ -52,10 +52,24 @@ def solve_subdomain_task(payload: str) -> str:
     """One sub-domain, in a process of a sub-domain worker's prefork pool. Not acked
     late: a sub-domain whose worker died is not worth solving after its level ended.
     The payload is JSON read field by field: anything else fails here (CodecError)."""
-    from floorplan.service.jobs.broker.codec import decode_task, encode_outcome
+    import time
+
+    from floorplan.service.jobs.broker.codec import CodecError, decode_task, encode_outcome
+    from floorplan.service.jobs.broker.subdomains import SUBDOMAIN_GRACE
     from floorplan.solver.pipeline.subdomains import solve_subdomain
 
-    return encode_outcome(solve_subdomain(decode_task(payload)))
+    task = decode_task(payload)
+    # A budget or deadline no solve of this service sends: whoever wrote it to Redis
+    # would hold a pool process that long.
+    ceiling = _worker_settings.max_time_limit
+    if task.budget > ceiling:
+        raise CodecError(f"task.budget: {task.budget:g} s, more than {ceiling:g} "
+                         "(FLOORPLAN_MAX_TIME_LIMIT)")
+    # A level's deadline may be later than now plus one task's budget (its tasks run
+    # in waves), never later than now plus the longest solve.
+    if task.deadline > time.time() + ceiling + SUBDOMAIN_GRACE:
+        raise CodecError("task.deadline: later than now plus FLOORPLAN_MAX_TIME_LIMIT")
+    return encode_outcome(solve_subdomain(task))
 
 
 @signals.worker_ready.connect
@@ -110,6 +124,14 @@ def run_worker(settings: Settings, *, hostname: str | None = None,
     if hostname:
         argv.append(f"--hostname={hostname}")
     if subdomains:
+        # Prefork set in the configuration, not only on the command line: Celery keeps
+        # the configuration's worker_pool (threads) when the command line asks for its
+        # own default. In a pool process the hard time limit applies, whatever the
+        # message says: no sub-domain runs past the longest solve.
+        from floorplan.service.jobs.broker.subdomains import SUBDOMAIN_GRACE
+
+        app.conf.update(worker_pool="prefork",
+                        task_time_limit=settings.max_time_limit + SUBDOMAIN_GRACE)
         argv.append("--pool=prefork")
     app.worker_main(argv)
     return 0

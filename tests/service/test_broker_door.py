@@ -1,0 +1,109 @@
+"""Broker messages are checked at the worker's door (the distributed mode, real Redis
+and PostgreSQL, real worker processes): a solve task naming no job is acknowledged and
+dropped once, never requeued, and holds up no real job; a sub-domain task whose budget
+or deadline no solve of this service sends is refused before it runs, in a worker that
+really is a prefork pool."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import httpx2 as httpx
+import pytest
+import redis
+
+from floorplan.service.jobs.broker.codec import decode_outcome, encode_task
+from floorplan.service.jobs.broker.config import SUBDOMAIN_TASK, TASK_NAME, Keys, make_celery
+from floorplan.service.settings import Settings
+from tests.servers import Cluster
+from tests.service.test_security import full_task
+from tests.service.test_service import SMALL, wait
+
+#: Bounded waits, not speed claims.
+WAIT = 120
+#: What a writer to Redis put in the job queue: no job ids, the review's among them.
+POISON: list[object] = ["abc\x00def"] * 21 + [42, ["x"], "0" * 36,
+                                              "00000000-0000-0000-0000-00000000000z"]
+DROPPED = "dropped a message that names no job"
+
+
+def children(pid: int) -> list[int]:
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                found.append(int(entry.name))
+    return found
+
+
+@pytest.mark.slow
+def test_poison_solve_messages_are_dropped_once_and_hold_up_no_job(tmp_path: Path) -> None:
+    cluster = Cluster(tmp_path / "cluster", workers=1, WORKERS="1").start()
+    celery = make_celery(Settings(redis_url=cluster.redis_url, namespace=cluster.name))
+    try:
+        for value in POISON:
+            celery.send_task(TASK_NAME, args=[value], queue=cluster.name)
+        with httpx.Client(base_url=cluster.url, timeout=30) as client:
+            made = client.post("/v1/layouts", json=SMALL)
+            assert made.status_code == 202, made.text
+            done = wait(client, made.json()["id"], timeout=WAIT)
+            assert done["status"] == "succeeded", done
+        log = tmp_path / "cluster" / "w0.log"
+        deadline = time.monotonic() + WAIT
+        while log.read_text().count(DROPPED) < len(POISON):
+            assert time.monotonic() < deadline, log.read_text()[-3000:]
+            time.sleep(0.2)
+        # Dropped, not handed back: a few seconds on, no message came round again
+        # (before, each was requeued every 2 s forever).
+        time.sleep(5)
+        assert log.read_text().count(DROPPED) == len(POISON)
+        assert "Traceback" not in log.read_text()
+        queue = redis.Redis.from_url(cluster.redis_url)
+        try:
+            assert queue.llen(f"{cluster.name}:{Keys(cluster.name).queue}") == 0
+        finally:
+            queue.close()
+    finally:
+        celery.close()
+        cluster.stop()
+
+
+@pytest.mark.slow
+def test_a_sub_domain_task_beyond_the_time_limit_is_refused_in_a_prefork_pool(
+        tmp_path: Path) -> None:
+    cluster = Cluster(tmp_path / "cluster", workers=1, WORKERS="1",
+                      FLOORPLAN_SUBDOMAINS="celery", FLOORPLAN_MAX_TIME_LIMIT="60").start()
+    celery = make_celery(Settings(redis_url=cluster.redis_url, namespace=cluster.name))
+    try:
+        sub = cluster.add_worker("sub", "--subdomains", log_level="info")
+        keys = Keys(cluster.name)
+        client = redis.Redis.from_url(cluster.redis_url)
+        deadline = time.monotonic() + WAIT
+        while not list(client.scan_iter(f"{keys.subdomain_workers}*")):
+            assert time.monotonic() < deadline, "the sub-domain worker did not start"
+            time.sleep(0.2)
+        client.close()
+        # Prefork: the worker's pool processes are its children (a thread pool has
+        # none), where Celery's hard time limit applies.
+        assert children(sub.pid), "no pool processes: the worker runs threads"
+        now = time.time()
+        for bad in (replace(full_task(), budget=1e6, deadline=now + 1e6),
+                    replace(full_task(), budget=1.0, deadline=now + 1e6)):
+            result = celery.send_task(SUBDOMAIN_TASK, args=[encode_task(bad)],
+                                      queue=keys.subdomains)
+            with pytest.raises(Exception, match=r"task\.(budget|deadline)"):
+                result.get(timeout=WAIT)
+        # A task within the limits runs as before.
+        fine = celery.send_task(SUBDOMAIN_TASK, args=[encode_task(
+            replace(full_task(), budget=0.0, deadline=time.time() + 5))],
+            queue=keys.subdomains)
+        assert decode_outcome(fine.get(timeout=WAIT)).status.startswith("not started")
+    finally:
+        celery.close()
+        cluster.stop()
