@@ -114,6 +114,10 @@ class Settings(BaseSettings):
         2, ge=1, description="explaining validations (SCIP) running at once, each in a "
         "process of the API node's own pool; more wait their turn",
     )
+    export_processes: int = Field(
+        2, ge=1, description="exports (IFC, DXF, SVG, GeoJSON) made at once, each in a "
+        "process of the API node's own pool; more wait their turn",
+    )
     grace_seconds: float = Field(
         5.0, ge=0, description="after time_limit + grace a solve is interrupted, after another "
         "grace it is killed",

@@ -5,28 +5,20 @@ counted in the store, by the route)."""
 
 from __future__ import annotations
 
-import asyncio
-import logging
-import multiprocessing
-import threading
 import weakref
 from collections import Counter
 from collections.abc import AsyncIterator, Callable
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
 from typing import TypeVar
 
 from floorplan.service.api.errors import ApiError
+from floorplan.service.api.pools import WorkPool
 from floorplan.service.settings import Settings
 from floorplan.service.store import Quota, QuotaExceeded
 
-log = logging.getLogger("floorplan.api")
 T = TypeVar("T")
 
 #: Retry-After (seconds) of a refusal by a per-key limit.
 RETRY_AFTER = 5
-#: Retry-After (seconds) of an explanation whose process was lost.
-EXPLAIN_RETRY_AFTER = 2
 
 
 def too_many(what: str, count: int, limit: int, variable: str, kind: str) -> ApiError:
@@ -63,47 +55,28 @@ class Limits:
         #: SCIP's explain checks, in processes of their own: SCIP holds the GIL while it
         #: solves, so in a thread it would hold up the event loop, and a burst of them
         #: waits here rather than taking threads from parsing or the event streams.
-        self.explain_pool = self._new_pool()
-        self._replacing = threading.Lock()
-
-    def _new_pool(self) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(self.settings.explain_processes,
-                                   mp_context=multiprocessing.get_context("spawn"))
+        self.explain_pool = WorkPool(settings.explain_processes,
+                                     "explaining this validation", "explain-unavailable")
+        #: The exports (IFC, DXF, SVG, GeoJSON) likewise: an IFC of a large layout takes
+        #: seconds of pure Python.
+        self.export_pool = WorkPool(settings.export_processes, "exporting this layout",
+                                    "export-unavailable")
 
     def close(self) -> None:
-        self.explain_pool.shutdown(wait=False, cancel_futures=True)
+        self.explain_pool.close()
+        self.export_pool.close()
 
     async def run_explain(self, work: Callable[[], T]) -> T:
-        """`work` in the explain pool. A pool whose process died (killed, as the OOM
-        killer would) is broken for good: it is replaced, and the calls it held answer
-        503 explain-unavailable, to be tried again, rather than every later call a 500."""
-        pool = self.explain_pool
-        try:
-            return await asyncio.get_running_loop().run_in_executor(pool, work)
-        except BrokenProcessPool as err:
-            self._replace(pool)
-            raise ApiError(503, "the process explaining this validation was lost; try "
-                           "again", kind="explain-unavailable",
-                           headers={"Retry-After": str(EXPLAIN_RETRY_AFTER)}) from err
+        return await self.explain_pool.run(work)
 
-    def explain_ready(self) -> bool:
-        """Whether the explain pool can take work; a broken one is replaced here too,
-        so that a node that takes no explanation for a while is not left unready."""
-        pool = self.explain_pool
-        # The executor marks itself broken as soon as one of its processes dies.
-        if not getattr(pool, "_broken", False):
-            return True
-        self._replace(pool)
-        return False
+    async def run_export(self, work: Callable[[], T]) -> T:
+        return await self.export_pool.run(work)
 
-    def _replace(self, pool: ProcessPoolExecutor) -> None:
-        # /readyz runs in a worker thread, explanations on the event loop: one replaces.
-        with self._replacing:
-            if self.explain_pool is not pool:  # replaced by another call already
-                return
-            log.warning("an explain process was lost; the explain pool is replaced")
-            self.explain_pool = self._new_pool()
-        pool.shutdown(wait=False, cancel_futures=True)
+    def pools_ready(self) -> dict[str, str]:
+        """The pools that lost a process, each replaced by this very check."""
+        return {name: "replaced" for name, pool in (("explain", self.explain_pool),
+                                                    ("export", self.export_pool))
+                if not pool.ready()}
 
     def stream(self, owner: str, events: AsyncIterator[str]) -> AsyncIterator[str]:
         """`events` counted as one of `owner`'s open streams until it ends, is closed

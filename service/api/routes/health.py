@@ -26,15 +26,16 @@ def readyz(backend: BackendDep, limits: LimitsDep, trusted: TrustedDep) -> JSONR
     backend, `broker` says whether Redis answers; jobs accepted meanwhile wait in the
     store). `store` says why the store cannot take jobs, if it cannot. The `running`,
     `queued`, `workers` and `store` figures need a valid key when keys are set. An
-    explain pool that lost a process is not ready (`explain`: "replaced"): it is
-    replaced by this very check, and the next answers ready again."""
+    explain or export pool that lost a process is not ready (`explain` or `export`:
+    "replaced"): it is replaced by this very check, and the next answers ready again."""
     try:
         health = backend.health()
     except Exception as err:  # the store is away
         health = {"ready": False, "store": type(err).__name__}
-    if not limits.explain_ready():
+    lost = limits.pools_ready()
+    if lost:
         health["ready"] = False
-        health["explain"] = "replaced"
+        health.update(lost)
     ok = bool(health.pop("ready"))
     if not trusted:
         for figure in FIGURES:

@@ -8,9 +8,10 @@ import hashlib
 import json
 import time
 from collections.abc import AsyncIterator
+from functools import partial
 from typing import Annotated
 
-from fastapi import APIRouter, Header, Query, Response
+from fastapi import APIRouter, Header, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
 from floorplan.models import Layout
@@ -29,7 +30,7 @@ from floorplan.models.formats import (
 )
 from floorplan.models.jobs import JobStatus
 from floorplan.models.options import MAX_VARIANTS
-from floorplan.service.api.body import PROBLEM_BODY_DOC, ProblemBody
+from floorplan.service.api.body import PROBLEM_BODY_DOC, ProblemBody, run_off_loop
 from floorplan.service.api.deps import (
     BackendDep,
     JobDep,
@@ -145,9 +146,11 @@ def get_layout(job: JobDep) -> JobPublic:
 
 @router.get("/{job_id}/result", response_model=Layout,
             responses={200: {"content": {MEDIA_TYPES[f]: {} for f in RENDERED_FORMAT_NAMES}},
-                       404: {"description": "unknown job, or no layout yet"}})
-def get_result(
-    job: JobDep, format: FormatName = DEFAULT_FORMAT,
+                       404: {"description": "unknown job, or no layout yet"},
+                       503: {"description": "the export process was lost (it is "
+                             "replaced): try again"}})
+async def get_result(
+    job: JobDep, request: Request, limits: LimitsDep, format: FormatName = DEFAULT_FORMAT,
     storey_height: Annotated[float, Query(
         ge=MIN_STOREY_HEIGHT, le=MAX_STOREY_HEIGHT,
         description="ifc (and dxf, for its storeys' elevations): metres from one storey's "
@@ -162,23 +165,30 @@ def get_result(
 ) -> Response:
     """The layout: the final one, or the best so far while the job runs; as JSON, an
     SVG plan, a DXF drawing (metres), GeoJSON (local metric frame) or an IFC4 building
-    model (metres). With `variant`, that design variant of the final layout."""
+    model (metres). With `variant`, that design variant of the final layout. Exports
+    are made in the API's export processes (FLOORPLAN_EXPORT_PROCESSES at once): an IFC
+    of a large layout takes seconds that would otherwise hold up every other request."""
     text = job.result or job.incumbent
     if text is None:
         raise ApiError(404, f"job {job.id} has no layout yet (status {job.status})",
                        kind="no-result-yet", title="No layout yet")
     if variant is not None:
-        text = _variant_text(job, variant)
+        text = await run_off_loop(request, partial(_variant_text, job, variant))
     if format == "json":
         return Response(text, media_type=MEDIA_TYPES["json"])
-    problem = LayoutProblem.model_validate_json(job.problem)
     options = ExportOptions(storey_height=storey_height, dxf_layers=dxf_layers)
-    body = render(problem, Layout.model_validate_json(text), format, options)
+    body = await limits.run_export(partial(export, job.problem, text, format, options))
     # A plan shows in the browser; drawings and data download as files.
     disposition = "inline" if BY_NAME[format].inline else "attachment"
     headers = {"Content-Disposition":
                f'{disposition}; filename="{job.id}.{BY_NAME[format].extension}"'}
     return Response(body, media_type=MEDIA_TYPES[format], headers=headers)
+
+
+def export(problem: str, layout: str, format: FormatName, options: ExportOptions) -> bytes:
+    """A stored job's layout (JSON) in `format`: in an export process."""
+    return render(LayoutProblem.model_validate_json(problem), Layout.model_validate_json(layout),
+                  format, options)
 
 
 def _variant_text(job: Job, index: int) -> str:
