@@ -57,6 +57,7 @@ def explain(client: httpx.Client, seconds: float = 2) -> httpx.Response:
                        params={"explain": "true", "time_limit": str(seconds)})
 
 
+@pytest.mark.slow
 def test_an_explanation_whose_process_is_killed_is_a_503_and_the_next_works(
         server: Server) -> None:
     with httpx.Client(base_url=server.url, timeout=WAIT) as client:
@@ -86,6 +87,7 @@ def test_an_explanation_whose_process_is_killed_is_a_503_and_the_next_works(
         assert client.get("/readyz").status_code == 200
 
 
+@pytest.mark.slow
 def test_readyz_reports_a_lost_explain_process_and_the_pool_comes_back(
         server: Server) -> None:
     with httpx.Client(base_url=server.url, timeout=WAIT) as client:

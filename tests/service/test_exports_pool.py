@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 import httpx2 as httpx
+import pytest
 
 from tests.paths import ROOT
 from tests.servers import Server
@@ -27,6 +28,7 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+@pytest.mark.slow
 def test_concurrent_ifc_exports_hold_up_nothing(tmp_path: Path) -> None:
     server = Server(tmp_path, WORKERS="1", FLOORPLAN_SUBDOMAIN_PROCESSES="1",
                     FLOORPLAN_EXPORT_PROCESSES="2").start()

@@ -11,6 +11,7 @@ from datetime import datetime
 from pathlib import Path
 
 import httpx2 as httpx
+import pytest
 
 from tests.servers import Server
 from tests.service.test_service import SMALL
@@ -36,6 +37,7 @@ def started(client: httpx.Client, job_id: str, key: str) -> datetime:
         time.sleep(0.2)
 
 
+@pytest.mark.slow
 def test_another_key_s_single_job_runs_next_not_after_the_batch(tmp_path: Path) -> None:
     """The review: another key's 1-s job waited 72 s behind a batch of 8 (first come,
     first served). Now it is the next job claimed once a slot frees."""
