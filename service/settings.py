@@ -98,6 +98,11 @@ class Settings(BaseSettings):
         "store (each layout's job keeps its problem: the brief times the count); beyond, "
         "413 batch-too-large",
     )
+    max_stored_bytes_per_key: int = Field(
+        1 << 30, ge=1024, description="bytes one API key's jobs may keep in the store "
+        "(problems, results, incumbents; finished and canceled jobs until deleted); a job or "
+        "batch that would pass it is refused with 429 storage-quota",
+    )
     max_streams_per_key: int = Field(
         20, ge=1, description="open event streams of one API key per API process; beyond, "
         "429 too-many-streams",

@@ -31,11 +31,17 @@ def too_many(what: str, count: int, limit: int, variable: str, kind: str) -> Api
 def quota(settings: Settings) -> Quota:
     """The job limits the store admits new jobs within, counted in the inserting
     transaction."""
-    return Quota(per_key=settings.max_jobs_per_key, queue=settings.queue_limit)
+    return Quota(per_key=settings.max_jobs_per_key, queue=settings.queue_limit,
+                 stored_bytes=settings.max_stored_bytes_per_key)
 
 
 def refusal(err: QuotaExceeded, adding: int) -> ApiError:
     """The 429 of jobs the store would not admit (`adding` of them)."""
+    if err.what == "bytes":
+        return ApiError(429, f"this key's jobs would keep {err.count} bytes in the store, "
+                        f"more than {err.limit} (FLOORPLAN_MAX_STORED_BYTES_PER_KEY); delete "
+                        "finished jobs (DELETE /v1/layouts/{id}) to make room",
+                        kind="storage-quota", title="Too Many Requests")
     if err.what == "key":
         return too_many(f"this key's queued and running jobs with the {adding} new",
                         err.count, err.limit, "FLOORPLAN_MAX_JOBS_PER_KEY", "too-many-jobs")

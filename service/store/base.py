@@ -11,7 +11,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Self
 
-from sqlalchemy import Engine, create_engine, event, func, select, text, update
+from sqlalchemy import (
+    Engine,
+    LargeBinary,
+    cast,
+    create_engine,
+    event,
+    func,
+    select,
+    text,
+    update,
+)
 from sqlalchemy.engine import Connection
 from sqlalchemy.exc import DBAPIError
 
@@ -31,10 +41,14 @@ class Quota:
 
     per_key: int
     queue: int
+    #: Bytes one owner's jobs may keep in the store (FLOORPLAN_MAX_STORED_BYTES_PER_KEY):
+    #: problems, results and incumbents, of every job not yet deleted.
+    stored_bytes: int | None = None
 
 
 class QuotaExceeded(Exception):
-    """Admitting the jobs would take `what` ("key" or "queue") to `count`, over `limit`."""
+    """Admitting the jobs would take `what` ("key", "queue" or "bytes") to `count`, over
+    `limit`."""
 
     def __init__(self, what: str, count: int, limit: int) -> None:
         super().__init__(f"{what}: {count} over {limit}")
@@ -94,10 +108,11 @@ class StoreBase:
                              {"lock": ADMISSION_LOCK})
                 yield conn
 
-    @staticmethod
-    def _within(conn: Connection, owner: str, adding: int, quota: Quota) -> None:
-        """Raise QuotaExceeded when `adding` more queued jobs of `owner` go past `quota`,
-        counted in the admitting transaction (`_admission`)."""
+    def _within(self, conn: Connection, owner: str, adding: int, quota: Quota,
+                adding_bytes: int = 0) -> None:
+        """Raise QuotaExceeded when `adding` more queued jobs of `owner` (their problems
+        `adding_bytes` long) go past `quota`, counted in the admitting transaction
+        (`_admission`)."""
         mine = int(conn.execute(select(func.count()).select_from(jobs).where(
             jobs.c.owner == owner,
             jobs.c.status.in_([JobStatus.QUEUED, JobStatus.RUNNING]))).scalar_one())
@@ -107,6 +122,23 @@ class StoreBase:
             jobs.c.status == JobStatus.QUEUED)).scalar_one())
         if queued + adding > quota.queue:
             raise QuotaExceeded("queue", queued + adding, quota.queue)
+        if quota.stored_bytes is not None:
+            stored = self._stored_bytes(conn, owner) + adding_bytes
+            if stored > quota.stored_bytes:
+                raise QuotaExceeded("bytes", stored, quota.stored_bytes)
+
+    def _stored_bytes(self, conn: Connection, owner: str) -> int:
+        """The bytes `owner`'s jobs keep: problems, results and incumbents, finished and
+        canceled jobs too until they are deleted."""
+        def size(column: Any) -> Any:
+            if self.engine.dialect.name == "sqlite":  # its length() counts characters
+                return func.coalesce(func.length(cast(column, LargeBinary)), 0)
+            return func.coalesce(func.octet_length(column), 0)
+
+        total = select(func.coalesce(func.sum(
+            size(jobs.c.problem) + size(jobs.c.result) + size(jobs.c.incumbent)), 0)
+        ).where(jobs.c.owner == owner)
+        return int(conn.execute(total).scalar_one())
 
     def unwritable(self) -> str | None:
         """Why the store cannot take a job now, or None when it can: a write is refused

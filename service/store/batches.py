@@ -32,7 +32,8 @@ class BatchRecords(StoreBase):
         ids = [str(uuid.uuid4()) for _ in problems]
         with self._admission() as conn:
             if quota is not None:
-                self._within(conn, owner, len(problems), quota)
+                self._within(conn, owner, len(problems), quota,
+                             sum(len(problem.encode()) for problem, _ in problems))
             conn.execute(insert(batches).values(
                 id=batch_id, owner=owner, name=name, count=len(problems), seed=seed,
                 vary_program=vary_program, created_at=now))

@@ -46,7 +46,7 @@ class JobRecords(EventLog):
                     if known is not None:
                         return known, False
                 if quota is not None:
-                    self._within(conn, owner, 1, quota)
+                    self._within(conn, owner, 1, quota, len(problem.encode()))
                 job_id = str(uuid.uuid4())
                 conn.execute(insert(jobs).values(
                     id=job_id, owner=owner, status=JobStatus.QUEUED, problem=problem,

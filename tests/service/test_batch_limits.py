@@ -5,6 +5,7 @@ together, a brief cannot multiply stored bytes, and cursors out of range are a 4
 
 from __future__ import annotations
 
+import json
 import threading
 import time
 from collections.abc import Iterator
@@ -167,5 +168,35 @@ def test_a_batch_s_stored_bytes_are_bounded(tmp_path: Path) -> None:
             fits = client.post("/v1/batches", json={"problem": TINY, "count": 2})
             assert fits.status_code == 202, fits.text
             cancel_all(client, [("", fits.json()["id"])])
+    finally:
+        s.stop()
+
+
+@pytest.mark.slow
+def test_a_key_s_stored_bytes_count_canceled_jobs_until_deleted(tmp_path: Path) -> None:
+    """Canceling a batch freed nothing of the store (the review's 906 MB stayed): a
+    key's jobs, canceled ones included, count against its storage quota until they
+    are deleted."""
+    s = service("embedded", tmp_path, FLOORPLAN_MAX_STORED_BYTES_PER_KEY="40000",
+                WORKERS="1", FLOORPLAN_SUBDOMAIN_PROCESSES="1").start()
+    body = {"problem": TINY, "count": 20}  # about 27 KB of problems
+    try:
+        with httpx.Client(base_url=s.url, timeout=60) as client:
+            first = client.post("/v1/batches", json=body)
+            assert first.status_code == 202, first.text
+            cancel_all(client, [("", first.json()["id"])])
+            refused = client.post("/v1/batches", json=body)
+            assert refused.status_code == 429, refused.text
+            assert refused.json()["type"].endswith("/storage-quota")
+            assert "FLOORPLAN_MAX_STORED_BYTES_PER_KEY" in refused.json()["detail"]
+            lines = client.get(f"/v1/batches/{first.json()['id']}/results",
+                               params={"layouts": "false"}).text.splitlines()
+            assert len(lines) == 20
+            for line in lines:
+                job_id = json.loads(line)["job_id"]
+                assert client.delete(f"/v1/layouts/{job_id}").status_code == 204
+            again = client.post("/v1/batches", json=body)
+            assert again.status_code == 202, again.text
+            cancel_all(client, [("", again.json()["id"])])
     finally:
         s.stop()
