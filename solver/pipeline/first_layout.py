@@ -56,6 +56,9 @@ CONSTRUCT_ABOVE = 20
 #: Share of level 1's time a row plan honouring adjacency and boundary demands may take
 #: (solver/heuristics/row_search.py): found in tens of milliseconds when rows can hold them.
 SLICE_DEMANDS_SHARE = 0.06
+#: Share of level 1's time the improvement of a late first layout gets
+#: (`solver.budget.LATE_FIRST_FACTOR`).
+LATE_IMPROVE_SHARE = 0.25
 #: With soft constraints, the share of level 1's time the search for a layout meeting
 #: every constraint may use before the soft model takes over.
 STRICT_FIRST_SHARE = 0.5
@@ -71,7 +74,7 @@ def first_level(
         # Nothing else needs the time when there is no first layout: the search for
         # one may go on until the solve's end (SCIP's check of the answer included).
         return _level_one(run, domain, deadline,
-                          first_by=max(deadline, run.judge_end or run.end))
+                          first_by=max(deadline, run.late_by or run.judge_end or run.end))
     # A layout meeting every constraint, soft ones too, is looked for first (no price
     # per metre makes a violating layout reliably lose to it); the soft model takes
     # over when there is none, or none found in its share of the time (docs/method.md,
@@ -184,6 +187,11 @@ def _level_one(
                                       explain)
     assert first.rects is not None
     run.incumbent(domain, run.by_room(domain, first.rects))
+    if (late := time.monotonic() - improve_by) > 0 and run.late_by:
+        # A late first layout (`FloorBudget.late_by`): its improvement gets a share of
+        # level 1's time, as the later stages keep theirs.
+        improve_by = min(run.late_by,
+                         improve_by + late + LATE_IMPROVE_SHARE * (improve_by - run.started))
     boxes = improve_level_one(run, domain, first.rects, improve_by)
     return run.pieces(domain, boxes), None
 
