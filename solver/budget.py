@@ -14,7 +14,9 @@ it, a floor's stages get named shares (`FloorBudget`, one table):
 |                   |               | from the reshaping's share                         |
 | last gaps, report | the limit     | 10 ms a room, at most 10 % of the limit            |
 
-A stage that stalls ends early and leaves its time to the next.
+A stage that stalls ends early and leaves its time to the next. Under the default limit
+a search with no first layout may go on until twice the limit (`LATE_FIRST_FACTOR`), the
+later stages then keeping their shares (`FloorBudget.shifted`).
 """
 
 from __future__ import annotations
