@@ -73,8 +73,17 @@ def first_level(
     if not has_soft(problem):
         # Nothing else needs the time when there is no first layout: the search for
         # one may go on until the solve's end (SCIP's check of the answer included).
-        return _level_one(run, domain, deadline,
-                          first_by=max(deadline, run.late_by or run.judge_end or run.end))
+        first_by = max(deadline, run.judge_end or run.end)
+        pieces, failure = _level_one(run, domain, deadline, first_by=first_by)
+        if (pieces is None and failure is not None and run.late_by - time.monotonic() > 0.1
+                and failure.report.termination is Termination.NO_SOLUTION):
+            # The late allowance (`solver.budget.LATE_FIRST_FACTOR`): the schedule again,
+            # each attempt with its share of the longer time, where a search that was
+            # near its layout goes on to it.
+            run.emit(Phase.RELAXATION, detail="no first layout within the time limit: "
+                     "searching on (the default limit's late allowance)")
+            pieces, failure = _level_one(run, domain, deadline, first_by=run.late_by)
+        return pieces, failure
     # A layout meeting every constraint, soft ones too, is looked for first (no price
     # per metre makes a violating layout reliably lose to it); the soft model takes
     # over when there is none, or none found in its share of the time (docs/method.md,
