@@ -163,6 +163,7 @@ function previewProblem() {
 function setStatus(status) {
   state.status = status;
   $("status").textContent = status;
+  $("status").dataset.job = state.job?.id ?? ""; // which job the status is of
   $("status-words").textContent = STATUS_WORDS[status] ?? "";
   const active = !TERMINAL.has(status);
   $("submit").disabled = active;

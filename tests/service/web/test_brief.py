@@ -17,7 +17,7 @@ from shapely.geometry import Polygon
 from floorplan.models.template_rules import KNOWN_TYPES
 from tests.paths import ROOT
 from tests.servers import Server
-from tests.service.web.conftest import JOB_TIMEOUT_MS, download, expect, pick_example, screenshot
+from tests.service.web.conftest import download, expect, pick_example, screenshot
 
 ROWS = "[data-testid=room-row]"
 #: The flat of the done-when: six rooms in 10 x 8 m, made in the form.
@@ -51,11 +51,15 @@ def fill_row(tab: Any, k: int, name: str, kind: str, area: float | None, next_to
         row.locator("[data-testid=room-exterior]").select_option(exterior)
 
 
-def solve(tab: Any, status: str = "succeeded", timeout_ms: int = JOB_TIMEOUT_MS) -> None:
-    tab.click("[data-testid=solve]")
-    expect(tab.locator("#status")).not_to_have_text("idle")
-    expect(tab.locator("#status")).to_have_text(
-        re.compile("^(succeeded|failed|canceled)$"), timeout=timeout_ms)
+def solve(tab: Any, status: str = "succeeded", timeout_ms: int = 120_000) -> None:
+    """Solves the brief on the page and waits for this job's verdict."""
+    with tab.expect_response(lambda r: r.request.method == "POST"
+                             and r.url.endswith("/v1/layouts")) as posted:
+        tab.click("[data-testid=solve]")
+    job = posted.value.json()["id"]
+    ended = tab.locator(f"#status[data-job='{job}']")
+    expect(ended).to_have_text(re.compile("^(succeeded|failed|canceled)$"), timeout=timeout_ms)
+    expect(tab.locator("#summary")).to_be_visible()  # hidden from the post to the verdict
     # On a failure, the page's own verdict says why.
     assert tab.inner_text("#status") == status, tab.inner_text("[data-testid=verdict]")
 
@@ -104,10 +108,12 @@ def test_a_flat_made_in_the_form_alone_is_solved_and_its_room_table_matches_the_
     assert set(rows) == {r["id"] for r in layout["rooms"]} == set(targets)
     for room in layout["rooms"]:
         cells = rows[room["id"]]
-        assert cells[2] == f"{targets[room['id']]:.1f}", cells  # target m2
-        assert cells[3] == f"{room['area']:.1f}", cells  # actual m2
+        # Target and actual m2 to the tenth (JavaScript and Python round halves apart).
+        assert float(cells[2]) == pytest.approx(targets[room["id"]], abs=0.051), cells
+        assert float(cells[3]) == pytest.approx(room["area"], abs=0.051), cells
         diff = round(100 * (room["area"] - targets[room["id"]]) / targets[room["id"]])
-        assert cells[4].replace("−", "-").replace("+", "") == (f"{diff} %" if diff else "0 %")
+        shown = int(cells[4].replace("−", "-").replace("+", "").removesuffix(" %"))
+        assert abs(shown - diff) <= 1, cells
     expect(page.locator("[data-testid=verdict]")).not_to_be_empty()
 
 
@@ -223,7 +229,7 @@ def test_a_picked_variant_is_the_one_reported_and_downloaded(page: Any, server: 
     assert picked["rooms"] == served["rooms"] and picked["report"]["variant"]["index"] == 1
     rows = table_rows(page)
     for room in picked["rooms"]:
-        assert rows[room["id"]][3] == f"{room['area']:.1f}"
+        assert float(rows[room["id"]][3]) == pytest.approx(room["area"], abs=0.051)
     assert "variant=1" in page.get_attribute("#download-svg", "href")
 
 
@@ -234,12 +240,12 @@ def touching(polygons: dict[str, Polygon], ids: set[str]) -> set[str]:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("example", "seconds"), [("apartment-5", "3"), ("house-13", "20")])
+@pytest.mark.parametrize(("example", "seconds"), [("apartment-5", "5"), ("house-13", "60")])
 def test_an_edit_moves_only_rooms_touching_it_and_undo_redo_restore_everything(
         page: Any, server: Server, example: str, seconds: str) -> None:
     page.goto(server.url)
     pick_example(page, example, time_limit=seconds)
-    solve(page, timeout_ms=90_000)
+    solve(page, timeout_ms=180_000)  # house-13 ends once stalled, on a busy machine too
     before = layout_json(page)
     polygons = {r["id"]: Polygon(r["polygon"]) for r in before["rooms"]}
     by_area = sorted(before["rooms"], key=lambda r: -r["area"])
@@ -257,7 +263,7 @@ def test_an_edit_moves_only_rooms_touching_it_and_undo_redo_restore_everything(
     brief_edited = page.input_value("#problem")
     assert brief_edited != brief_before  # the brief shows the new target
     page.click("#resolve")
-    expect(page.locator("#compare")).to_be_visible(timeout=JOB_TIMEOUT_MS)
+    expect(page.locator("#compare")).to_be_visible(timeout=180_000)
     expect(page.locator("#status")).to_have_text("succeeded")
     after = layout_json(page)
     # The same polygon, whichever vertex its ring starts at.
@@ -299,7 +305,7 @@ def test_a_templated_brief_edits_like_a_plain_one(page: Any, server: Server) -> 
     before = page.locator("#plan .room[data-room='living'] polygon").get_attribute("points")
     page.click("#plan .room[data-room='living']")
     page.click("#resolve")
-    expect(page.locator("#compare")).to_be_visible(timeout=JOB_TIMEOUT_MS)
+    expect(page.locator("#compare")).to_be_visible(timeout=120_000)
     expect(page.locator("#status")).to_have_text("succeeded")
     sent = json.loads(page.input_value("#problem"))
     assert [r["id"] for r in sent["rooms"] if "fixed" in r] == ["living"]
