@@ -7,9 +7,10 @@ import { api, ApiProblem, askForKey, authHeaders, clearMessage, problemOf, showM
 import { loadBrief, setupBrief, showFieldErrors, STARTERS } from "./brief.js";
 import { followEvents } from "./events.js";
 import { exploreResult, setupExplore } from "./explore.js";
-import { drawPlan } from "./plan.js";
+import { allRooms, drawPlan, oneFloor } from "./plan.js";
 import { progressFromReport, showVerdict } from "./verdict.js";
 import { prettyJson, showJsonError } from "./jsonview.js";
+import { listSaved, saveBrief, savedBrief } from "./saved.js";
 import { phaseWords, STATUS_WORDS } from "./words.js";
 
 const $ = (id) => document.getElementById(id);
@@ -37,6 +38,7 @@ async function loadExamples() {
     templates.label = "Residential template";
     for (const [value, { title }] of Object.entries(STARTERS)) templates.append(new Option(title, value));
     select.append(templates);
+    listSaved(select);
     const { data } = await api("v1/examples");
     for (const example of data) {
       const option = new Option(`${example.name} (${example.rooms} rooms)`, example.name);
@@ -52,7 +54,7 @@ async function pickExample() {
   if (!name) return;
   try {
     const brief = name in STARTERS ? structuredClone(STARTERS[name].brief)
-      : await api(`v1/examples/${encodeURIComponent(name)}`);
+      : savedBrief(name) ?? await api(`v1/examples/${encodeURIComponent(name)}`);
     clearMessage();
     loadBrief(brief);
   } catch (err) {
@@ -313,27 +315,6 @@ function explainFailure(info, layout) {
   }
 }
 
-/** Every room of a layout: its rooms, or those of every floor of a building. */
-function allRooms(layout) {
-  return layout.floors ? layout.floors.flatMap((f) => f.rooms) : layout.rooms;
-}
-
-/** What the plan shows: the problem and layout as they are, or for a building of
- * several storeys its first floor (an incumbent's: the floor being solved), with that
- * floor's outline, obstacles and entrance. */
-function oneFloor(problem, layout) {
-  if (!layout?.floors?.length || !problem?.floors) return [problem, layout];
-  const shown = layout.floors[0];
-  const index = Math.max(0, problem.floors.findIndex((f) => f.id === shown.id));
-  const floor = problem.floors[index] ?? {};
-  const view = {
-    boundary: floor.boundary ?? problem.boundary,
-    obstacles: floor.obstacles ?? problem.obstacles,
-    entrance: floor.entrance ?? (index === 0 ? problem.entrance : null),
-  };
-  return [view, shown];
-}
-
 // Downloads: real links (to copy or open), but a click fetches the file itself, with
 // the API key when there is one, and saves it under the problem's name: the server
 // names its files after the job id, and a plain link could not send the key.
@@ -482,6 +463,16 @@ function start() {
   });
   $("problem-form").addEventListener("submit", submit);
   $("validate").addEventListener("click", validate);
+  $("save-brief").addEventListener("click", () => {
+    try {
+      const name = saveBrief(JSON.parse($("problem").value));
+      listSaved($("example"));
+      showMessage({ title: `Saved as "${name}"`, ok: true,
+                    detail: "Open it again from Start from, in this browser." });
+    } catch (err) {
+      showProblem(err);
+    }
+  });
   $("cancel").addEventListener("click", cancel);
   $("downloads").addEventListener("click", downloadFile);
   setInterval(showElapsed, CLOCK_MS);

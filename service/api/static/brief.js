@@ -73,15 +73,11 @@ function lShape(w, d, cx, cy) {
   return [[0, 0], [w, 0], [w, round(d - cy)], [round(w - cx), round(d - cy)], [round(w - cx), d], [0, d]];
 }
 
+/** The side whose middle the entrance is at ("custom" elsewhere, kept as written). */
 function sideOf(entrance, boundary) {
   if (!entrance || !boundary) return "";
-  const b = boxOf(boundary);
-  const [x, y] = entrance;
-  if (y === b.y0) return "south";
-  if (y === b.y1) return "north";
-  if (x === b.x0) return "west";
-  if (x === b.x1) return "east";
-  return "custom";
+  const side = SIDES.find((s) => JSON.stringify(entranceOf(s, boundary)) === JSON.stringify(entrance));
+  return side ?? "custom";
 }
 
 const sizeText = (size) => (!size ? "" : size[0] === size[1] ? String(size[0])
