@@ -182,14 +182,20 @@ function fillRoomList() {
 
 const roomOf = (id) => (state.view?.problem.rooms ?? []).find((r) => r.id === id);
 
+/** The chosen room's width and depth on the plan now (its bounding box), else its target. */
 function showTarget() {
-  const room = roomOf($("edit-room").value);
-  const [w, d] = room?.target_size ?? ["", ""];
+  const id = $("edit-room").value;
+  const placed = shown()?.rooms.find((r) => r.id === id);
+  const xs = placed?.polygon.map((p) => p[0]) ?? [];
+  const ys = placed?.polygon.map((p) => p[1]) ?? [];
+  const now = placed ? [Math.max(...xs) - Math.min(...xs), Math.max(...ys) - Math.min(...ys)] : null;
+  const [w, d] = now ?? roomOf(id)?.target_size ?? ["", ""];
   $("target-width").value = w === "" ? "" : Number(w).toFixed(2);
   $("target-depth").value = d === "" ? "" : Number(d).toFixed(2);
 }
 
-/** The boxes' target size into the brief: an undo step of its own. */
+/** The boxes' size into the brief as the room's target and, held, its minimum (its
+ * maximum raised to it where below): an undo step of its own. */
 function applyTarget() {
   const id = $("edit-room").value;
   const w = Number($("target-width").value);
@@ -200,13 +206,20 @@ function applyTarget() {
   }
   snapshot();
   const view = copyView(state.view);
-  view.problem.rooms.find((r) => r.id === id).target_size = [w, d];
+  const room = view.problem.rooms.find((r) => r.id === id);
+  room.target_size = [w, d];
+  const held = $("hold-size").checked;
+  if (held) {
+    room.min_size = [w, d];
+    if (room.max_size) room.max_size = room.max_size.map((m, k) => Math.max(m, room.min_size[k]));
+  }
   view.edited.add(id);
   view.locked.delete(id); // a room whose size changes cannot stay where it is
   view.briefText = state.hooks.briefText(view.problem);
   state.view = view;
   render();
-  $("edit-note").textContent = `${id}: target ${w} × ${d} m; Re-solve to see it.`;
+  $("edit-note").textContent = `${id}: ${held ? "at least" : "target"} ${w} × ${d} m; `
+    + "Re-solve to see it.";
 }
 
 function snapshot() {
@@ -302,6 +315,7 @@ function changeNote() {
   const kept = state.view.previous?.kept?.size ?? 0;
   let note = `Re-solved: ${changed.length} of ${total} rooms changed`;
   note += kept ? `, ${kept} kept in place.` : ".";
+  if (!changed.length) note += " The plan before still meets the brief and scores as well, so it was kept.";
   if (changed.length > total / 2) note += " Many rooms moved: fix the ones you want kept and re-solve, or Undo.";
   return `${note} The previous plan is beside the new one; Undo goes back.`;
 }

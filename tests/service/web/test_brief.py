@@ -290,6 +290,8 @@ def test_an_edit_moves_only_rooms_touching_it_and_undo_redo_restore_everything(
              if Polygon(r["polygon"]).symmetric_difference(polygons[r["id"]]).area > 1e-6}
     may_move = touching(polygons, {fixed, widened}) | {widened}
     assert fixed not in moved and moved <= may_move, (moved, may_move)
+    xs = [x for x, _ in next(r for r in after["rooms"] if r["id"] == widened)["polygon"]]
+    assert max(xs) - min(xs) >= width + 0.3 - 0.01  # held at least that wide
     listed = set(page.locator("#changes li[data-room]").evaluate_all(
         "items => items.map((li) => li.dataset.room)"))
     assert listed == moved

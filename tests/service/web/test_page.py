@@ -297,6 +297,7 @@ def test_variants_pick_fix_rooms_edit_a_target_resolve_compare_and_undo(
     page.uncheck("#keep-others")  # only the rooms fixed by hand are sent fixed
     # The kitchen's target, 10 % smaller per side, in place.
     page.select_option("#edit-room", "kitchen")
+    page.uncheck("#hold-size")  # a target only
     width = float(page.input_value("#target-width"))
     page.fill("#target-width", f"{0.9 * width:.2f}")
     page.click("#apply-target")
