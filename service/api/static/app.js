@@ -268,7 +268,9 @@ async function finish(job) {
   }
   if (!info) return;
   const problem = await expanded(job.problem);
-  if (!exploreResult(job, info, layout, problem)) {
+  const explored = exploreResult(job, info, layout, problem);
+  if (explored === "retry") return; // a wider edit is on its way: it reports
+  if (!explored) {
     showVerdict({ job, info, layout, problem });
     setDownloads(job, Boolean(layout && allRooms(layout).length));
   }

@@ -56,9 +56,13 @@ export const currentView = () => state.view;
  * `info`. Returns false when the result is not one to explore (no rooms, or floors). */
 export function exploreResult(job, info, layout, problem) {
   if (!layout?.rooms?.length || problem?.floors) {
+    if (state.editing && retryWider()) return "retry";
     if (state.editing) { // an edit without a layout: the plan before stays, to undo to
       state.editing = false;
-      $("edit-note").textContent = "This edit found no layout (see the result); Undo goes back.";
+      const kept = state.kept?.size ?? 0;
+      $("edit-note").textContent = "This edit found no layout (see the result)"
+        + (kept ? ` with ${kept} room(s) kept in place: let more rooms move (untick "keep`
+          + ' every room …" or free fixed rooms) and re-solve, or Undo.' : "; Undo goes back.");
       $("undo").disabled = state.history.length === 0;
     } else {
       $("explore").hidden = true;
@@ -74,7 +78,8 @@ export function exploreResult(job, info, layout, problem) {
   };
   if (state.editing && state.view) {
     const before = state.history[state.history.length - 1];
-    view.previous = { problem: before.problem, layout: shown(before), kept: state.kept };
+    view.previous = { problem: before.problem, layout: shown(before), kept: state.kept,
+                      retried: state.ring === 2 ? state.retryNote : null };
     view.locked = new Set(before.locked);
   } else {
     state.history = [];
@@ -241,15 +246,18 @@ function touches(a, b) {
 
 /** The rooms kept in place: those fixed by hand, and with "keep" every room not touching
  * a room whose target changed. */
-function keptRooms() {
+function keptRooms(ring = 1) {
   const { locked, edited } = state.view;
   const kept = new Set(locked);
   if ($("keep-others").checked && edited.size) {
     const rooms = shown().rooms;
-    const changed = rooms.filter((r) => edited.has(r.id));
-    for (const room of rooms) {
-      if (!edited.has(room.id) && !changed.some((c) => touches(c, room))) kept.add(room.id);
+    let free = rooms.filter((r) => edited.has(r.id));
+    for (let k = 0; k < ring; k++) { // the changed rooms, their neighbours, theirs ...
+      const ids = new Set(free.map((r) => r.id));
+      free = rooms.filter((r) => ids.has(r.id) || free.some((f) => touches(f, r)));
     }
+    const ids = new Set(free.map((r) => r.id));
+    for (const room of rooms) if (!ids.has(room.id)) kept.add(room.id);
   }
   return kept;
 }
@@ -275,10 +283,27 @@ function resolve() {
   const problem = editedProblem(kept);
   snapshot();
   state.kept = kept;
+  state.ring = 1;
   state.editing = true;
   const free = state.view.problem.rooms.length - kept.size;
   $("edit-note").textContent = `Re-solving ${free} room(s) around ${kept.size} kept in place …`;
   state.hooks.resubmit(problem);
+}
+
+/** A local edit found no layout: once, the neighbours of the freed rooms are freed too,
+ * and the note says which. Returns whether it was sent. */
+function retryWider() {
+  if (state.ring !== 1 || !$("keep-others").checked || !state.view.edited.size) return false;
+  const kept = keptRooms(2);
+  const freed = [...state.kept].filter((id) => !kept.has(id));
+  if (!freed.length) return false;
+  state.ring = 2;
+  state.kept = kept;
+  state.retryNote = `No layout with only the changed room's neighbours free, so their `
+    + `neighbours were freed too: ${freed.join(", ")}.`;
+  $("edit-note").textContent = `${state.retryNote} Re-solving …`;
+  state.hooks.resubmit(editedProblem(kept));
+  return true;
 }
 
 function undo() {
@@ -316,6 +341,7 @@ function changeNote() {
   let note = `Re-solved: ${changed.length} of ${total} rooms changed`;
   note += kept ? `, ${kept} kept in place.` : ".";
   if (!changed.length) note += " The plan before still meets the brief and scores as well, so it was kept.";
+  if (state.view.previous?.retried) note = `${state.view.previous.retried} ${note}`;
   if (changed.length > total / 2) note += " Many rooms moved: fix the ones you want kept and re-solve, or Undo.";
   return `${note} The previous plan is beside the new one; Undo goes back.`;
 }
