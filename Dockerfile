@@ -22,9 +22,11 @@ RUN useradd --create-home --uid 10001 floorplan && mkdir /data && chown floorpla
 USER floorplan
 ENV FLOORPLAN_DATA_DIR=/data \
     FLOORPLAN_HOST=0.0.0.0
-VOLUME ["/data"]
+# No VOLUME: the Celery-mode containers never write /data, and a declared volume would
+# give each of them an anonymous one that outlives `docker compose down -v`. The embedded
+# mode keeps its jobs across containers with a named volume: -v floorplan-data:/data.
 EXPOSE 8000
 
-# The embedded mode by default (`docker run -p 8000:8000 floorplan`); compose sets
-# FLOORPLAN_BACKEND=celery and runs workers from the same image.
+# The embedded mode by default (`docker run -p 127.0.0.1:8000:8000 -v floorplan-data:/data
+# floorplan`); compose sets FLOORPLAN_BACKEND=celery and runs workers from the same image.
 CMD ["floorplan", "serve", "--host", "0.0.0.0", "--port", "8000"]
