@@ -56,12 +56,12 @@ def cmd_worker(args: argparse.Namespace) -> int:
     from floorplan.service.settings import Settings
 
     overrides = {"workers": args.workers} if args.workers is not None else {}
-    if args.health:  # the light check, without Celery (as the containers run it)
-        try:
-            from floorplan.service.jobs.broker.health import worker_alive
-        except ModuleNotFoundError as err:
-            raise SystemExit(DISTRIBUTED_HINT.format(err)) from err
-        return 0 if worker_alive(Settings(**overrides), subdomains=args.subdomains) else 1
+    if args.health:  # the containers' light check (standard library only)
+        from floorplan.service.jobs.broker.health import worker_alive
+
+        settings = Settings(**overrides)
+        alive = worker_alive(settings.redis_url, settings.namespace, subdomains=args.subdomains)
+        return 0 if alive else 1
     try:
         from floorplan.service.jobs.celery.worker import run_worker
     except ModuleNotFoundError as err:

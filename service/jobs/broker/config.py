@@ -1,5 +1,5 @@
-"""The Celery configuration of one deployment, and its Redis names (from keys.py), shared
-by the API nodes, the workers and the solves that send their sub-domains out."""
+"""The Celery configuration and the Redis names of one deployment, shared by the API
+nodes, the workers and the solves that send their sub-domains out."""
 
 from __future__ import annotations
 
@@ -8,13 +8,31 @@ from typing import Any
 import redis
 from celery import Celery
 
-from floorplan.service.jobs.broker.keys import REDIS_CONNECT_TIMEOUT, Keys
 from floorplan.service.settings import Settings
 
 TASK_NAME = "floorplan.solve"
 SUBDOMAIN_TASK = "floorplan.subdomain"
-__all__ = ["REDIS_CONNECT_TIMEOUT", "SUBDOMAIN_TASK", "TASK_NAME", "Keys", "celery_config",
-           "make_celery", "redis_client"]
+#: Seconds a Redis connection attempt may take before the broker counts as down.
+REDIS_CONNECT_TIMEOUT = 3.0
+
+
+class Keys:
+    """The Redis names of one deployment (FLOORPLAN_NAMESPACE): one Redis can serve
+    several deployments, or test sessions, without them seeing each other."""
+
+    def __init__(self, namespace: str) -> None:
+        self.queue = namespace
+        self.cancel = f"{namespace}:cancel"
+        self.events = f"{namespace}:events"
+        #: Present while Redis still has what it was sent: missing means a fresh or
+        #: restarted Redis, whose queue must be filled again from the store.
+        self.broker_epoch = f"{namespace}:broker-epoch"
+        #: One key per live worker process, expiring unless renewed (for /readyz).
+        self.workers = f"{namespace}:worker:"
+        #: The queue of sub-domain tasks, and the keys of the workers consuming it
+        #: (each holds the worker's concurrency: the solver plans waves by it).
+        self.subdomains = f"{namespace}.subdomains"
+        self.subdomain_workers = f"{namespace}:subworker:"
 
 
 def celery_config(settings: Settings) -> dict[str, Any]:
