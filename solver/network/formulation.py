@@ -139,8 +139,9 @@ def no_island(nm: NetworkModel) -> None:
             nm.L[(i, j, k)] = ell
             hand_over.append(ell)
             m.addCons(ell <= nm.H[(j, k)], f"eq1_{i}_{j}_{k}")
-            m.addCons(nm.D[(j, k)] - nm.D[(i, j)] + big_m * ell <= big_m - length,
-                      f"eq2_{i}_{j}_{k}")
+            m.addCons(
+                nm.D[(j, k)] - nm.D[(i, j)] + big_m * ell <= big_m - length, f"eq2_{i}_{j}_{k}"
+            )
         m.addCons(nm.H[(i, j)] - quicksum(hand_over) <= 0, f"eq3_{i}_{j}")
 
 
@@ -167,8 +168,11 @@ def coverage(nm: NetworkModel) -> None:
         return
     points = spec.mesh.points
     for v, p in enumerate(points):
-        near = [u for u, q in enumerate(points)
-                if math.dist(p, q) <= spec.coverage + 1e-9 and nm.V[u].getUbOriginal() > 0]
+        near = [
+            u
+            for u, q in enumerate(points)
+            if math.dist(p, q) <= spec.coverage + 1e-9 and nm.V[u].getUbOriginal() > 0
+        ]
         nm.model.addCons(quicksum(nm.V[u] for u in near) >= 1, f"eq6_{v}")
 
 
@@ -197,8 +201,9 @@ def travel_cap(nm: NetworkModel) -> None:
     spec = nm.spec
     if spec.max_distance is None:
         return
-    nm.distance_bound = min(nm.distance_bound,
-                            max(0.0, spec.max_distance - max(spec.mesh.lengths, default=0.0)))
+    nm.distance_bound = min(
+        nm.distance_bound, max(0.0, spec.max_distance - max(spec.mesh.lengths, default=0.0))
+    )
     for var in nm.D.values():
         nm.model.chgVarUb(var, nm.distance_bound)
 
@@ -215,7 +220,7 @@ def dead_end_cap(nm: NetworkModel) -> None:
         return
     mesh = spec.mesh
     longest = max(mesh.lengths, default=1.0)
-    n = int(math.floor(spec.dead_end / longest + 1e-9))
+    n = math.floor(spec.dead_end / longest + 1e-9)
     incident = mesh.incident()
     sink_set = set(spec.sinks)
     count = 0
@@ -224,13 +229,16 @@ def dead_end_cap(nm: NetworkModel) -> None:
             continue
         for path, used in _paths(mesh, incident, start, n + 1, sink_set):
             others = {x for v in path[:-1] for x in incident[v]} - set(used)
-            nm.model.addCons(quicksum(nm.E[x] for x in used) - quicksum(
-                nm.E[x] for x in others) <= n, f"dead_end_{count}")
+            nm.model.addCons(
+                quicksum(nm.E[x] for x in used) - quicksum(nm.E[x] for x in others) <= n,
+                f"dead_end_{count}",
+            )
             count += 1
 
 
-def _paths(mesh: Mesh, incident: list[list[int]], start: int, edges: int,
-           sink_set: set[int]) -> Iterator[tuple[list[int], list[int]]]:
+def _paths(
+    mesh: Mesh, incident: list[list[int]], start: int, edges: int, sink_set: set[int]
+) -> Iterator[tuple[list[int], list[int]]]:
     """Simple paths of `edges` edges from `start` whose vertices before the last are not
     sinks: (vertices, edges)."""
     stack: list[tuple[list[int], list[int]]] = [([start], [])]
@@ -261,8 +269,9 @@ def t_junctions(nm: NetworkModel) -> None:
             continue
         for x in edges:
             rest = quicksum(nm.E[y] for y in edges if y != x)
-            t = m.addVar(f"T_{x}_{j}", vtype="B",
-                         ub=0.0 if spec.t_junctions is Feature.FORBID else 1.0)
+            t = m.addVar(
+                f"T_{x}_{j}", vtype="B", ub=0.0 if spec.t_junctions is Feature.FORBID else 1.0
+            )
             nm.T[(x, j)] = t
             m.addCons(rest + (1 - nm.E[x]) - 4 * t <= 3, f"eq13_{x}_{j}")
 

@@ -48,8 +48,11 @@ def islands(mesh: Mesh, edges: Sequence[int], sinks: Sequence[int]) -> set[int]:
 def uncovered(mesh: Mesh, edges: Sequence[int], reach: float) -> list[int]:
     """Vertices farther than `reach` from every active vertex (Eq. 6 violated)."""
     active = [mesh.points[v] for v in active_vertices(mesh, edges)]
-    return [v for v, p in enumerate(mesh.points)
-            if not any(math.dist(p, q) <= reach + 1e-9 for q in active)]
+    return [
+        v
+        for v, p in enumerate(mesh.points)
+        if not any(math.dist(p, q) <= reach + 1e-9 for q in active)
+    ]
 
 
 def dead_ends(mesh: Mesh, edges: Sequence[int], sinks: Sequence[int]) -> list[float]:
@@ -84,9 +87,18 @@ class Judgement:
     value: float  # Eq. 14's length and distance terms
 
 
-def judge(mesh: Mesh, edges: Sequence[int], sinks: Sequence[int], *, reach: float | None,
-          max_distance: float | None, dead_end: float | None, lambda_length: float,
-          lambda_distance: float, covers: Sequence[Sequence[int]] | None = None) -> Judgement:
+def judge(
+    mesh: Mesh,
+    edges: Sequence[int],
+    sinks: Sequence[int],
+    *,
+    reach: float | None,
+    max_distance: float | None,
+    dead_end: float | None,
+    lambda_length: float,
+    lambda_distance: float,
+    covers: Sequence[Sequence[int]] | None = None,
+) -> Judgement:
     """Validity (no island, coverage, sinks reached, caps) and Eq. 14's value with each
     active edge carrying the least distance value Eq. 2 admits in its better direction
     (walk from its far end to a sink, none for an edge into a sink). `covers`: per

@@ -116,14 +116,17 @@ def _cells(length: float, pitch: float, offsets: Sequence[float]) -> int:
     return min(choices, key=misses)
 
 
-def cell_polygon(mesh: Mesh, edges: Sequence[int], width: float,
-                 free: BaseGeometry) -> BaseGeometry:
+def cell_polygon(
+    mesh: Mesh, edges: Sequence[int], width: float, free: BaseGeometry
+) -> BaseGeometry:
     """The corridor floor of `edges`: each edge's centre line widened to `width` (square
     ends, mitred joins), united and clipped to the free floor."""
     if not edges:
         return Polygon()
-    lines = [LineString([mesh.points[mesh.edges[x][0]], mesh.points[mesh.edges[x][1]]])
-             for x in edges]
-    shape = shapely.union_all([line.buffer(width / 2, cap_style="square", join_style="mitre")
-                               for line in lines])
+    lines = [
+        LineString([mesh.points[mesh.edges[x][0]], mesh.points[mesh.edges[x][1]]]) for x in edges
+    ]
+    shape = shapely.union_all(
+        [line.buffer(width / 2, cap_style="square", join_style="mitre") for line in lines]
+    )
     return shape.intersection(free)

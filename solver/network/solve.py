@@ -36,8 +36,9 @@ class NetworkResult:
         return self.status in (NetworkStatus.OPTIMAL, NetworkStatus.FEASIBLE)
 
 
-def solve_network(spec: NetworkSpec, *, time_limit: float, seed: int = 0,
-                  start: bool = True) -> NetworkResult:
+def solve_network(
+    spec: NetworkSpec, *, time_limit: float, seed: int = 0, start: bool = True
+) -> NetworkResult:
     """The best network SCIP finds for `spec` within `time_limit` seconds; with `start`,
     from a greedy network (`start.greedy_network`): on a floor of some 400 edges SCIP
     found no network at all in 40 s without one (bench/NOTES.md, "Corridors")."""
@@ -70,5 +71,4 @@ def solve_network(spec: NetworkSpec, *, time_limit: float, seed: int = 0,
     sol = m.getBestSol()
     edges = [x for x, var in nm.E.items() if m.getSolVal(sol, var) > 0.5]
     kind = NetworkStatus.OPTIMAL if status in ("optimal", "gaplimit") else NetworkStatus.FEASIBLE
-    return NetworkResult(kind, edges, float(m.getSolObjVal(sol)), float(m.getDualbound()),
-                         seconds)
+    return NetworkResult(kind, edges, float(m.getSolObjVal(sol)), float(m.getDualbound()), seconds)

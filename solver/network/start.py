@@ -17,17 +17,28 @@ def greedy_network(spec: NetworkSpec, *, prune: bool = True) -> list[int] | None
     incident = mesh.incident()
     sink_set = set(spec.sinks)
     # A vertex with a single mesh edge is a stub (on the outline): a dead end if used.
-    edges = [x for x, (i, j) in enumerate(mesh.edges)
-             if all(v in sink_set or len(incident[v]) > 1 for v in (i, j))]
+    edges = [
+        x
+        for x, (i, j) in enumerate(mesh.edges)
+        if all(v in sink_set or len(incident[v]) > 1 for v in (i, j))
+    ]
 
     def ok(trial: Sequence[int]) -> bool:
         if spec.too_close is Feature.FORBID:
             chosen = set(trial)
             if any(a in chosen and b in chosen for a, b in mesh.opposite):
                 return False
-        return judge(mesh, trial, spec.sinks, reach=spec.coverage,
-                     max_distance=spec.max_distance, dead_end=spec.dead_end,
-                     lambda_length=1.0, lambda_distance=0.0, covers=covers).valid
+        return judge(
+            mesh,
+            trial,
+            spec.sinks,
+            reach=spec.coverage,
+            max_distance=spec.max_distance,
+            dead_end=spec.dead_end,
+            lambda_length=1.0,
+            lambda_distance=0.0,
+            covers=covers,
+        ).valid
 
     covers = cover_sets(spec)
     if not ok(edges):
@@ -50,8 +61,9 @@ def cover_sets(spec: NetworkSpec) -> list[list[int]] | None:
         return None
     pts = spec.mesh.points
     r2 = (spec.coverage + 1e-9) ** 2
-    return [[u for u, q in enumerate(pts) if (p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 <= r2]
-            for p in pts]
+    return [
+        [u for u, q in enumerate(pts) if (p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 <= r2] for p in pts
+    ]
 
 
 def start_values(nm: NetworkModel, edges: Sequence[int]) -> dict[str, float]:
@@ -77,16 +89,22 @@ def start_values(nm: NetworkModel, edges: Sequence[int]) -> dict[str, float]:
     for x, (i, j) in enumerate(mesh.edges):
         on = x in chosen
         values[nm.E[x].name] = float(on)
-        towards = (i, j) if on and hops.get(j, 0) < hops.get(i, 0) or (
-            on and hops.get(j, 0) == hops.get(i, 0) and j in sink_set) else (j, i)
+        towards = (
+            (i, j)
+            if (on and hops.get(j, 0) < hops.get(i, 0))
+            or (on and hops.get(j, 0) == hops.get(i, 0) and j in sink_set)
+            else (j, i)
+        )
         for a, b in ((i, j), (j, i)):
             active = on and (a, b) == towards
             values[nm.H[(a, b)].name] = float(active)
             values[nm.D[(a, b)].name] = hops.get(b, 0) * longest if active else 0.0
     for (i, j, k), var in nm.L.items():
-        values[var.name] = float(values[nm.H[(i, j)].name] > 0.5
-                                 and values[nm.H[(j, k)].name] > 0.5
-                                 and hops.get(k, 0) < hops.get(j, 0))
+        values[var.name] = float(
+            values[nm.H[(i, j)].name] > 0.5
+            and values[nm.H[(j, k)].name] > 0.5
+            and hops.get(k, 0) < hops.get(j, 0)
+        )
     for v, var in nm.V.items():
         values[var.name] = float(any(x in chosen for x in incident[v]))
     for (x, j), var in nm.T.items():

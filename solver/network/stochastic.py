@@ -26,12 +26,18 @@ class SearchResult:
     seconds: float
 
 
-def _judge(spec: NetworkSpec, edges: list[int],
-           covers: list[list[int]] | None = None) -> Judgement:
-    return judge(spec.mesh, edges, spec.sinks, reach=spec.coverage,
-                 max_distance=spec.max_distance, dead_end=spec.dead_end,
-                 lambda_length=spec.lambda_length, lambda_distance=spec.lambda_distance,
-                 covers=covers)
+def _judge(spec: NetworkSpec, edges: list[int], covers: list[list[int]] | None = None) -> Judgement:
+    return judge(
+        spec.mesh,
+        edges,
+        spec.sinks,
+        reach=spec.coverage,
+        max_distance=spec.max_distance,
+        dead_end=spec.dead_end,
+        lambda_length=spec.lambda_length,
+        lambda_distance=spec.lambda_distance,
+        covers=covers,
+    )
 
 
 def _moves(mesh: Mesh, incident: list[list[int]], active: set[int]) -> Iterator[frozenset[int]]:
@@ -79,8 +85,9 @@ def stochastic_search(spec: NetworkSpec, *, time_limit: float, seed: int = 0) ->
         # Rank-based annealing: early on any of the better half may be taken, at the end
         # almost always the best.
         heat = max(0.0, 1.0 - (time.monotonic() - started) / time_limit)
-        pick = min(len(ranked) - 1, int(rng.random() ** (1 + 8 * (1 - heat)) * len(ranked)
-                                        * 0.5 * heat))
+        pick = min(
+            len(ranked) - 1, int(rng.random() ** (1 + 8 * (1 - heat)) * len(ranked) * 0.5 * heat)
+        )
         current = set(ranked[pick][1])
         steps += 1
         verdict = _judge(spec, ranked[pick][1], covers)
