@@ -9,6 +9,7 @@ from collections.abc import Sequence
 
 from floorplan.solver.network.formulation import Feature, NetworkModel, NetworkSpec
 from floorplan.solver.network.measure import distances, judge
+from floorplan.solver.network.mesh import Mesh
 
 
 def greedy_network(spec: NetworkSpec, *, prune: bool = True) -> list[int] | None:
@@ -42,7 +43,11 @@ def greedy_network(spec: NetworkSpec, *, prune: bool = True) -> list[int] | None
 
     covers = cover_sets(spec)
     if not ok(edges):
-        return None
+        # The whole mesh breaks a rule (too-close edges): try combs of lines instead.
+        combs = [c for c in comb_networks(spec) if ok(c)]
+        if not combs:
+            return None
+        edges = min(combs, key=lambda c: sum(mesh.lengths[x] for x in c))
     if not prune:
         return edges
     reach = distances(mesh, edges, spec.sinks)
@@ -53,6 +58,92 @@ def greedy_network(spec: NetworkSpec, *, prune: bool = True) -> list[int] | None
         if ok(trial):
             current.discard(x)
     return sorted(current)
+
+
+def comb_networks(spec: NetworkSpec) -> list[list[int]]:
+    """Candidate networks that keep two cells between parallel corridors: grid lines every
+    second row (or column) across the floor, cross lines every k-th column (row), and
+    from each sink a straight run inwards to the first line it meets."""
+    mesh = spec.mesh
+    px, py = mesh.pitch
+    x0 = min(p[0] for p in mesh.points)
+    y0 = min(p[1] for p in mesh.points)
+    cell = {
+        (round((p[0] - x0) / px), round((p[1] - y0) / py)): v for v, p in enumerate(mesh.points)
+    }
+    nx = max(i for i, _ in cell)
+    ny = max(j for _, j in cell)
+    index = {e: x for x, e in enumerate(mesh.edges)}
+
+    def edge(a: tuple[int, int], b: tuple[int, int]) -> int | None:
+        if a not in cell or b not in cell:
+            return None
+        return index.get((min(cell[a], cell[b]), max(cell[a], cell[b])))
+
+    def lines(n: int, offset: int) -> list[int]:
+        at = list(range(offset, n, 2))
+        if at and n - 1 - at[-1] >= 2:
+            at.append(n - 1)
+        return at
+
+    out: list[list[int]] = []
+    for horizontal in (True, False):
+        along, across = (nx, ny) if horizontal else (ny, nx)
+        for offset in (1, 2):
+            rows = lines(across, offset)
+            for k in (2, 3, 4, 6, 8):
+                for first in range(1, min(k, along)):
+                    chosen: set[int] = set()
+                    for r in rows:
+                        for t in range(1, along - 1):
+                            a, b = ((t, r), (t + 1, r)) if horizontal else ((r, t), (r, t + 1))
+                            if (x := edge(a, b)) is not None:
+                                chosen.add(x)
+                    for c in range(first, along, k):
+                        for t in range(rows[0] if rows else 0, rows[-1] if rows else 0):
+                            a, b = ((c, t), (c, t + 1)) if horizontal else ((t, c), (t + 1, c))
+                            if (x := edge(a, b)) is not None:
+                                chosen.add(x)
+                    out.append(sorted(chosen | _sink_runs(mesh, spec.sinks, chosen)))
+    return out
+
+
+def _sink_runs(mesh: Mesh, sinks: Sequence[int], chosen: set[int]) -> set[int]:
+    """From each sink, the edges of a straight run inwards to the first vertex of
+    `chosen` (none when the run meets none)."""
+    incident = mesh.incident()
+    on = {v for x in chosen for v in mesh.edges[x]}
+    runs: set[int] = set()
+    for s in sinks:
+        for first in incident[s]:
+            path, here, step = [], s, first
+            while True:
+                path.append(step)
+                there = mesh.other(step, here)
+                if there in on:
+                    runs.update(path)
+                    break
+                dx = mesh.points[there][0] - mesh.points[here][0]
+                dy = mesh.points[there][1] - mesh.points[here][1]
+                step = next(
+                    (
+                        y
+                        for y in incident[there]
+                        if y != step
+                        and abs(
+                            (mesh.points[mesh.other(y, there)][0] - mesh.points[there][0]) * dy
+                            - (mesh.points[mesh.other(y, there)][1] - mesh.points[there][1]) * dx
+                        )
+                        < 1e-9
+                    ),
+                    -1,
+                )
+                if step < 0:
+                    break
+                here = there
+            else:
+                continue
+    return runs
 
 
 def cover_sets(spec: NetworkSpec) -> list[list[int]] | None:
