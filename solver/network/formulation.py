@@ -43,6 +43,10 @@ class NetworkSpec:
     sinks: tuple[int, ...]
     #: Every vertex within this distance (metres) of an active vertex (Eq. 6); None: none.
     coverage: float | None = None
+    #: Every cell of the mesh has an active edge on a side (`face_coverage`).
+    faces_covered: bool = False
+    #: The sinks are joined by the network (one network, every exit reachable from all).
+    join_sinks: bool = False
     #: Vertices the network must pass (Sec. 4.2, L2 (v)).
     required: tuple[int, ...] = ()
     #: Every sink must be reached by the network (exits that are not used are no exits).
@@ -72,6 +76,7 @@ class NetworkModel:
     V: dict[int, Variable] = field(default_factory=dict)
     T: dict[tuple[int, int], Variable] = field(default_factory=dict)
     Z: dict[int, Variable] = field(default_factory=dict)
+    F: dict[tuple[int, int], Variable] = field(default_factory=dict)
     distance_bound: float = 0.0
 
 
@@ -89,7 +94,9 @@ def build_network(spec: NetworkSpec) -> NetworkModel:
     no_island(nm)
     vertex_activity(nm)
     coverage(nm)
+    face_coverage(nm)
     sinks(nm)
+    joined_sinks(nm)
     required_nodes(nm)
     dead_end_cap(nm)
     t_junctions(nm)
@@ -176,6 +183,40 @@ def coverage(nm: NetworkModel) -> None:
         nm.model.addCons(quicksum(nm.V[u] for u in near) >= 1, f"eq6_{v}")
 
 
+def face_coverage(nm: NetworkModel) -> None:
+    """A coverage model of ours for floors (the paper allows others, Sec. 4.1 C2): every
+    cell has an active edge on one of its sides, so whatever fills a cell (a room) lies
+    along the network: sum of E over the cell's sides >= 1."""
+    if not nm.spec.faces_covered:
+        return
+    for k, sides in enumerate(nm.spec.mesh.faces):
+        nm.model.addCons(quicksum(nm.E[x] for x in sides) >= 1, f"face_{k}")
+
+
+def joined_sinks(nm: NetworkModel) -> None:
+    """Ours, in the spirit of the point-to-point constraint (Eq. 7-8) at the cost of a
+    flow: one unit leaves the first sink for each other sink over active edges only
+    (f <= (S - 1) E on both half-edges), so every sink lies in one network; with
+    Prop. 4.2 every active vertex reaches a sink, so the whole network is one piece and
+    every exit can be reached from anywhere on it."""
+    spec = nm.spec
+    if not spec.join_sinks or len(spec.sinks) < 2:
+        return
+    m, mesh = nm.model, spec.mesh
+    units = len(spec.sinks) - 1
+    flow = nm.F
+    for x, (i, j) in enumerate(mesh.edges):
+        for a, b in ((i, j), (j, i)):
+            flow[(a, b)] = m.addVar(f"F_{a}_{b}", lb=0.0, ub=units)
+            m.addCons(flow[(a, b)] <= units * nm.E[x], f"flow_cap_{a}_{b}")
+    source, targets = spec.sinks[0], set(spec.sinks[1:])
+    for v, edges in enumerate(mesh.incident()):
+        out = quicksum(flow[(v, mesh.other(x, v))] for x in edges)
+        into = quicksum(flow[(mesh.other(x, v), v)] for x in edges)
+        supply = units if v == source else (-1 if v in targets else 0)
+        m.addCons(out - into == supply, f"flow_{v}")
+
+
 def sinks(nm: NetworkModel) -> None:
     """Sinks (Sec. 3 (iv)): the exits are vertices the network must reach when
     `sinks_required`; Eq. 1-3 already exempt half-edges into them."""
@@ -192,20 +233,22 @@ def required_nodes(nm: NetworkModel) -> None:
 
 
 def travel_cap(nm: NetworkModel) -> None:
-    """Ours, from Eq. 2: along the hand-over chain from an active half-edge a->b the
-    distance value falls by at least each half-edge's length, so the walk from a to the
-    sink is at most D_{a->b} plus the last half-edge's length. Bounding every distance
-    value by `max_distance` less the longest edge therefore keeps every active vertex
-    (which has an active outgoing half-edge, by Eq. 3 and 4) within `max_distance` of a
-    sink along the network."""
+    """Ours, from Eq. 2: along the hand-over chain from an active half-edge i->j the
+    distance value falls by at least each half-edge's length, so the walk from j to the
+    sink is at most D_{i->j} - Delta_{i->j} plus the last half-edge's length (at most
+    the longest edge). Bounding D_{i->j} by `max_distance` - longest + Delta_{i->j} / 2
+    keeps the middle of every active edge within `max_distance` of a sink along the
+    network (a vertex within that plus half an edge). A bound on the vertices instead
+    refused edges whose two ends are both far (the last cell of a floor's far corner)."""
     spec = nm.spec
     if spec.max_distance is None:
         return
-    nm.distance_bound = min(
-        nm.distance_bound, max(0.0, spec.max_distance - max(spec.mesh.lengths, default=0.0))
-    )
-    for var in nm.D.values():
-        nm.model.chgVarUb(var, nm.distance_bound)
+    longest = max(spec.mesh.lengths, default=0.0)
+    bounds = {}
+    for i, j, length in half_edges(spec.mesh):
+        bounds[(i, j)] = max(0.0, spec.max_distance - longest + length / 2)
+        nm.model.chgVarUb(nm.D[(i, j)], min(nm.distance_bound, bounds[(i, j)]))
+    nm.distance_bound = min(nm.distance_bound, max(bounds.values(), default=0.0))
 
 
 def dead_end_cap(nm: NetworkModel) -> None:

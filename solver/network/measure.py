@@ -87,6 +87,13 @@ class Judgement:
     value: float  # Eq. 14's length and distance terms
 
 
+def joined(mesh: Mesh, edges: Sequence[int], sinks: Sequence[int]) -> bool:
+    """All sinks in one piece of the network."""
+    if len(sinks) < 2:
+        return True
+    return all(s in distances(mesh, edges, sinks[:1]) for s in sinks[1:])
+
+
 def judge(
     mesh: Mesh,
     edges: Sequence[int],
@@ -98,8 +105,11 @@ def judge(
     lambda_length: float,
     lambda_distance: float,
     covers: Sequence[Sequence[int]] | None = None,
+    faces: bool = False,
+    join: bool = False,
 ) -> Judgement:
-    """Validity (no island, coverage, sinks reached, caps) and Eq. 14's value with each
+    """Validity (no island, coverage of vertices and, with `faces`, of cells, sinks
+    reached and, with `join`, in one piece, caps) and Eq. 14's value with each
     active edge carrying the least distance value Eq. 2 admits in its better direction
     (walk from its far end to a sink, none for an edge into a sink). `covers`: per
     vertex, the vertices within `reach`, when the caller has them (a search judging many
@@ -113,8 +123,21 @@ def judge(
         covered = all(any(u in active for u in near) for near in covers)
     else:
         covered = not uncovered(mesh, edges, reach)
+    chosen = set(edges)
+    if faces and not all(any(x in chosen for x in sides) for sides in mesh.faces):
+        covered = False
+    if join and not joined(mesh, edges, sinks):
+        covered = False
     valid = not (active - set(reached)) and all(s in active for s in sinks) and covered
-    far = max((reached.get(v, math.inf) for v in active), default=0.0)
+    # The walk from the middle of each active edge (the travel cap's measure).
+    far = max(
+        (
+            min(reached.get(i, math.inf), reached.get(j, math.inf)) + lengths[x] / 2
+            for x in edges
+            for i, j in [mesh.edges[x]]
+        ),
+        default=0.0,
+    )
     if max_distance is not None and far > max_distance + 1e-9:
         valid = False
     if dead_end is not None and any(d > dead_end + 1e-9 for d in dead_ends(mesh, edges, sinks)):

@@ -34,6 +34,9 @@ class Mesh:
     edges: list[tuple[int, int]]
     opposite: list[tuple[int, int]] = field(default_factory=list)
     pitch: tuple[float, float] = (1.0, 1.0)
+    #: Per grid cell inside the floor, the mesh edges on its sides (its outline sides are
+    #: not mesh edges).
+    faces: list[list[int]] = field(default_factory=list)
 
     @property
     def lengths(self) -> list[float]:
@@ -93,12 +96,21 @@ def grid_mesh(free: BaseGeometry, pitch: float, *, anchors: Sequence[XY] = ()) -
             edge_at[(i, j, d)] = len(edges)
             edges.append((min(v, w), max(v, w)))
     opposite = []
+    faces = []
     for i in range(nx):
         for j in range(ny):
             for a, b in (((i, j, 0), (i, j + 1, 0)), ((i, j, 1), (i + 1, j, 1))):
                 if a in edge_at and b in edge_at:
                     opposite.append((edge_at[a], edge_at[b]))
-    return Mesh(points, edges, opposite, (px, py))
+            centre = Point(x0 + (i + 0.5) * px, y0 + (j + 0.5) * py)
+            if grown.contains(centre):
+                sides = [
+                    edge_at[k]
+                    for k in ((i, j, 0), (i, j + 1, 0), (i, j, 1), (i + 1, j, 1))
+                    if k in edge_at
+                ]
+                faces.append(sides)
+    return Mesh(points, edges, opposite, (px, py), faces)
 
 
 def _cells(length: float, pitch: float, offsets: Sequence[float]) -> int:

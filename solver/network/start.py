@@ -4,8 +4,8 @@ while it stays valid (`measure.judge`); then every variable of the IP in closed 
 
 from __future__ import annotations
 
-import heapq
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 
 from floorplan.solver.network.formulation import Feature, NetworkModel, NetworkSpec
 from floorplan.solver.network.measure import distances, judge
@@ -39,15 +39,22 @@ def greedy_network(spec: NetworkSpec, *, prune: bool = True) -> list[int] | None
             lambda_length=1.0,
             lambda_distance=0.0,
             covers=covers,
+            faces=spec.faces_covered,
+            join=spec.join_sinks,
         ).valid
 
     covers = cover_sets(spec)
-    if not ok(edges):
+    candidates = [edges] if ok(edges) else []
+    if not candidates:
         # The whole mesh breaks a rule (too-close edges): try combs of lines instead.
-        combs = [c for c in comb_networks(spec) if ok(c)]
-        if not combs:
-            return None
-        edges = min(combs, key=lambda c: sum(mesh.lengths[x] for x in c))
+        candidates = sorted(
+            (c for c in comb_networks(spec) if ok(c)), key=lambda c: sum(mesh.lengths[x] for x in c)
+        )
+    fitted = (_fit_distances(spec, c, ok) for c in candidates)
+    found = next((c for c in fitted if c is not None), None)
+    if found is None:
+        return None
+    edges = found
     if not prune:
         return edges
     reach = distances(mesh, edges, spec.sinks)
@@ -55,7 +62,7 @@ def greedy_network(spec: NetworkSpec, *, prune: bool = True) -> list[int] | None
     current = set(edges)
     for x in order:
         trial = sorted(current - {x})
-        if ok(trial):
+        if ok(trial) and _distances_fit(spec, trial):
             current.discard(x)
     return sorted(current)
 
@@ -95,11 +102,11 @@ def comb_networks(spec: NetworkSpec) -> list[list[int]]:
                 for first in range(1, min(k, along)):
                     chosen: set[int] = set()
                     for r in rows:
-                        for t in range(1, along - 1):
+                        for t in range(along):
                             a, b = ((t, r), (t + 1, r)) if horizontal else ((r, t), (r, t + 1))
                             if (x := edge(a, b)) is not None:
                                 chosen.add(x)
-                    for c in range(first, along, k):
+                    for c in sorted({*range(first, along, k), along - first}):
                         for t in range(rows[0] if rows else 0, rows[-1] if rows else 0):
                             a, b = ((c, t), (c, t + 1)) if horizontal else ((t, c), (t + 1, c))
                             if (x := edge(a, b)) is not None:
@@ -157,51 +164,178 @@ def cover_sets(spec: NetworkSpec) -> list[list[int]] | None:
     ]
 
 
-def start_values(nm: NetworkModel, edges: Sequence[int]) -> dict[str, float]:
-    """Every variable's value for the network `edges`: each edge oriented towards its end
-    nearer a sink in hops, distance values the hops times the longest edge (so each falls
-    by at least the edge's length along the hand-over), L on a shortest hop path."""
-    spec, mesh = nm.spec, nm.spec.mesh
-    longest = max(mesh.lengths)
+def half_edge_values(
+    mesh: Mesh, edges: Sequence[int], sinks: Sequence[int]
+) -> dict[tuple[int, int], float]:
+    """The active half-edges of the network `edges` and their distance values, in closed
+    form: on a shortest-walk tree to the sinks each vertex v hands over to its parent n,
+    T(v) = D_{v->n} = 0 when n is a sink, else length(v, n) + T(n); every other edge
+    runs towards its end of smaller T, with D = its length + T of that end (0 into a
+    sink). Eq. 1-4 then hold with L on each half-edge's tree successor."""
+    reach = distances(mesh, edges, sinks)
     chosen = set(edges)
     incident = mesh.incident()
-    hops: dict[int, int] = {}
-    queue = [(0, s) for s in spec.sinks]
-    while queue:
-        h, v = heapq.heappop(queue)
-        if v in hops:
+    lengths = mesh.lengths
+    sink_set = set(sinks)
+    parent: dict[int, int] = {}
+    for v, d in reach.items():
+        if v in sink_set:
             continue
-        hops[v] = h
-        for x in incident[v]:
-            if x in chosen:
-                heapq.heappush(queue, (h + 1, mesh.other(x, v)))
-    values: dict[str, float] = {}
-    sink_set = set(spec.sinks)
-    for x, (i, j) in enumerate(mesh.edges):
-        on = x in chosen
-        values[nm.E[x].name] = float(on)
-        towards = (
-            (i, j)
-            if (on and hops.get(j, 0) < hops.get(i, 0))
-            or (on and hops.get(j, 0) == hops.get(i, 0) and j in sink_set)
-            else (j, i)
+        parent[v] = min(
+            (
+                mesh.other(x, v)
+                for x in incident[v]
+                if x in chosen
+                and abs(reach.get(mesh.other(x, v), math.inf) + lengths[x] - d) < 1e-6
+            ),
+            key=lambda n: reach[n],
         )
+    length_of = {mesh.edges[x]: lengths[x] for x in chosen}
+
+    def size(a: int, b: int) -> float:
+        return length_of[(min(a, b), max(a, b))]
+
+    tail: dict[int, float] = {s: 0.0 for s in sink_set}
+    for v in sorted(parent, key=lambda v: reach[v]):
+        n = parent[v]
+        tail[v] = 0.0 if n in sink_set else size(v, n) + tail[n]
+    out: dict[tuple[int, int], float] = {}
+    for x in chosen:
+        i, j = mesh.edges[x]
+        if i not in tail or j not in tail:
+            continue
+        options = []
         for a, b in ((i, j), (j, i)):
-            active = on and (a, b) == towards
-            values[nm.H[(a, b)].name] = float(active)
-            values[nm.D[(a, b)].name] = hops.get(b, 0) * longest if active else 0.0
-    for (i, j, k), var in nm.L.items():
-        values[var.name] = float(
-            values[nm.H[(i, j)].name] > 0.5
-            and values[nm.H[(j, k)].name] > 0.5
-            and hops.get(k, 0) < hops.get(j, 0)
+            if b in sink_set:
+                options.append((0.0, (a, b)))
+            elif parent.get(b) != a:
+                options.append((lengths[x] + tail[b], (a, b)))
+        if options:
+            value, half = min(options)
+            out[half] = value
+    for v, n in parent.items():
+        out[(v, n)] = tail[v]
+    return out
+
+
+def _fit_distances(
+    spec: NetworkSpec, edges: list[int], ok: Callable[[Sequence[int]], bool]
+) -> list[int] | None:
+    """`edges` less the edges whose distance value exceeds the IP's bound (an edge
+    between two far ends of the network: each direction walks on past the other end),
+    largest first, as long as the network stays valid; None when that does not do."""
+    current = list(edges)
+    mesh = spec.mesh
+    for _ in range(len(edges)):
+        if _distances_fit(spec, current):
+            return current
+        longest = max(mesh.lengths)
+        values = half_edge_values(mesh, current, spec.sinks)
+        worst = sorted(
+            (
+                (d, (min(a, b), max(a, b)))
+                for (a, b), d in values.items()
+                if d
+                > (spec.max_distance or 0.0)
+                - longest
+                + math.dist(mesh.points[a], mesh.points[b]) / 2
+                + 1e-9
+            ),
+            reverse=True,
         )
+        index = {e: x for x, e in enumerate(mesh.edges)}
+        for _d, pair in worst:
+            trial = [x for x in current if x != index[pair]]
+            if ok(trial):
+                current = trial
+                break
+        else:
+            return None
+    return None
+
+
+def _distances_fit(spec: NetworkSpec, edges: Sequence[int]) -> bool:
+    """The closed-form distance values keep within the IP's bound (`travel_cap`)."""
+    if spec.max_distance is None:
+        return True
+    values = half_edge_values(spec.mesh, edges, spec.sinks)
+    longest = max(spec.mesh.lengths)
+
+    def bound(a: int, b: int) -> float:
+        return (
+            (spec.max_distance or 0.0)
+            - longest
+            + math.dist(spec.mesh.points[a], spec.mesh.points[b]) / 2
+        )
+
+    covered = {
+        x for x, e in enumerate(spec.mesh.edges) if e in {(min(a, b), max(a, b)) for a, b in values}
+    }
+    return covered >= set(edges) and all(d <= bound(a, b) + 1e-9 for (a, b), d in values.items())
+
+
+def start_values(nm: NetworkModel, edges: Sequence[int]) -> dict[str, float]:
+    """Every variable's value for the network `edges` (`half_edge_values`; L on each
+    active half-edge's successor of smaller distance value, flows on fewest-edge paths)."""
+    spec, mesh = nm.spec, nm.spec.mesh
+    chosen = set(edges)
+    incident = mesh.incident()
+    active = half_edge_values(mesh, edges, spec.sinks)
+    values: dict[str, float] = {}
+    for x, (i, j) in enumerate(mesh.edges):
+        values[nm.E[x].name] = float(x in chosen)
+        for a, b in ((i, j), (j, i)):
+            values[nm.H[(a, b)].name] = float((a, b) in active)
+            values[nm.D[(a, b)].name] = active.get((a, b), 0.0)
+    for var in nm.L.values():
+        values[var.name] = 0.0
+    for (i, j), d in active.items():
+        successors = [
+            (active[(j, k)], k)
+            for k in (mesh.other(x, j) for x in incident[j])
+            if k != i
+            and (j, k) in active
+            and (i, j, k) in nm.L
+            and active[(j, k)] <= d - math.dist(mesh.points[i], mesh.points[j]) + 1e-9
+        ]
+        if successors:
+            values[nm.L[(i, j, min(successors)[1])].name] = 1.0
     for v, var in nm.V.items():
         values[var.name] = float(any(x in chosen for x in incident[v]))
     for (x, j), var in nm.T.items():
         rest = [y for y in incident[j] if y != x]
         values[var.name] = float(x not in chosen and all(y in chosen for y in rest))
+    if nm.F:
+        for var in nm.F.values():
+            values[var.name] = 0.0
+        for target in spec.sinks[1:]:
+            for a, b in _path(mesh, incident, chosen, spec.sinks[0], target):
+                values[nm.F[(a, b)].name] += 1.0
     for k, var in nm.Z.items():
         a, b = mesh.opposite[k]
         values[var.name] = float(a in chosen and b in chosen)
     return values
+
+
+def _path(
+    mesh: Mesh, incident: list[list[int]], chosen: set[int], source: int, target: int
+) -> list[tuple[int, int]]:
+    """The half-edges of a fewest-edge path from `source` to `target` over `chosen`."""
+    came: dict[int, int] = {source: source}
+    frontier = [source]
+    while frontier and target not in came:
+        nxt = []
+        for v in frontier:
+            for x in incident[v]:
+                w = mesh.other(x, v)
+                if x in chosen and w not in came:
+                    came[w] = v
+                    nxt.append(w)
+        frontier = nxt
+    if target not in came:
+        return []
+    out, here = [], target
+    while here != source:
+        out.append((came[here], here))
+        here = came[here]
+    return out[::-1]

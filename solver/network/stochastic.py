@@ -37,6 +37,8 @@ def _judge(spec: NetworkSpec, edges: list[int], covers: list[list[int]] | None =
         lambda_length=spec.lambda_length,
         lambda_distance=spec.lambda_distance,
         covers=covers,
+        faces=spec.faces_covered,
+        join=spec.join_sinks,
     )
 
 

@@ -6,13 +6,15 @@ the blocks left are the parts the rooms are laid out in by the large-layout pipe
 each door to the nearest exit along the corridors, dead ends, corridor area.
 
 The grid's pitch is a room's depth plus half a corridor, so that a block between two
-corridors a cell apart holds two rows of rooms, each on a corridor; the coverage range is
-a cell's diagonal (every vertex within one cell of the network) and two corridors one cell apart
-are refused (Eq. 12, "too close"), so every block is at least two rows deep.
+corridors a cell apart holds two rows of rooms, each on a corridor. Coverage is by cells
+(every cell has a network edge on a side: `face_coverage`), two corridors one cell apart
+are refused (Eq. 12, "too close"), so inner blocks are two rows deep; the exits are joined
+into one network (`joined_sinks`), so that every exit is reachable from every door.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import statistics
 from dataclasses import dataclass
@@ -69,8 +71,8 @@ def room_depth(problem: Problem) -> float:
 
 
 def network_spec(problem: Problem, corridors: Corridors, pitch: float) -> NetworkSpec:
-    """The IP for this floor: exits as sinks, coverage a cell's diagonal (the floor's
-    corners are reached from inside), no corridors a cell
+    """The IP for this floor: exits as sinks joined into one network, every cell along
+    the network (a room in it opens onto a corridor), no corridors a cell
     apart, the travel cap less half a corridor (a door is on the corridor's side), the
     dead-end cap less half a corridor (the corridor runs on past its last vertex)."""
     free = problem.free_area()
@@ -80,7 +82,9 @@ def network_spec(problem: Problem, corridors: Corridors, pitch: float) -> Networ
     return NetworkSpec(
         mesh,
         sinks,
-        coverage=math.hypot(*mesh.pitch) + 1e-6,
+        coverage=None,
+        faces_covered=True,
+        join_sinks=True,
         max_distance=None if corridors.max_travel is None else corridors.max_travel - half,
         dead_end=None if corridors.dead_ends is None else max(0.0, corridors.dead_ends - half),
         too_close=Feature.FORBID,
@@ -112,11 +116,53 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
         if piece.buffer(-NARROWEST_PART / 2 + 1e-6, join_style="mitre").is_empty:
             narrow.append(piece)  # too thin for a room: corridor floor
         else:
-            blocks[f"block-{len(blocks) + 1}"] = piece
+            for strip in _strips(piece, spec.mesh, shape):
+                blocks[f"block-{len(blocks) + 1}"] = strip
     shape = clean_shape(shapely.union_all([shape, *narrow]))
     pieces = aisle_pieces([shape], free, blocks)
     network = AisleNetwork(pieces, {b: [p] for b, p in blocks.items()})
     return CorridorPlan(spec.mesh, spec.sinks, result, shape, blocks, network)
+
+
+def _strips(block: Polygon, mesh: Mesh, corridors: BaseGeometry) -> list[Polygon]:
+    """A block cut along its length by the grid lines inside it into strips one cell
+    deep: each lies along a corridor (every cell has a network edge on a side), so one
+    row of rooms laid out in it opens onto that corridor. Strips that would touch no
+    corridor stay joined to their neighbour."""
+    x0, y0, x1, y1 = block.bounds
+    px, py = mesh.pitch
+    gx0 = min(p[0] for p in mesh.points)
+    gy0 = min(p[1] for p in mesh.points)
+    lengthwise = x1 - x0 >= y1 - y0
+    if lengthwise:
+        lines = [gy0 + k * py for k in range(math.ceil((y0 - gy0) / py), int((y1 - gy0) / py) + 1)]
+        lines = [y for y in lines if y0 + 1e-6 < y < y1 - 1e-6]
+        cuts = [y0, *lines, y1]
+        boxes = [shapely.box(x0, a, x1, b) for a, b in itertools.pairwise(cuts)]
+    else:
+        lines = [gx0 + k * px for k in range(math.ceil((x0 - gx0) / px), int((x1 - gx0) / px) + 1)]
+        lines = [x for x in lines if x0 + 1e-6 < x < x1 - 1e-6]
+        cuts = [x0, *lines, x1]
+        boxes = [shapely.box(a, y0, b, y1) for a, b in itertools.pairwise(cuts)]
+    grown = corridors.buffer(1e-4, join_style="mitre")
+    out: list[Polygon] = []
+    pending: BaseGeometry | None = None
+    for b in boxes:
+        piece = (
+            block.intersection(b)
+            if pending is None
+            else shapely.union_all([pending, block.intersection(b)])
+        )
+        if piece.area <= SLIVER_AREA:
+            continue
+        if piece.intersection(grown).area <= SLIVER_AREA and b is not boxes[-1]:
+            pending = piece
+            continue
+        pending = None
+        if out and piece.intersection(grown).area <= SLIVER_AREA:
+            piece = shapely.union_all([out.pop(), piece])
+        out += [p for p in polygon_pieces(clean_shape(piece)) if p.area > SLIVER_AREA]
+    return out or [block]
 
 
 def planned_dead_ends(plan: CorridorPlan, width: float) -> list[float]:

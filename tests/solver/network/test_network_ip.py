@@ -170,19 +170,21 @@ def test_a_long_dead_end_is_refused() -> None:
 
 
 def test_travel_stays_within_the_cap() -> None:
-    """Every active vertex within `max_distance` of the exit along the network, walked
-    here; a network walking farther is refused, one just within accepted."""
+    """The middle of every active edge within `max_distance` of the exit along the
+    network, walked here; a network walking farther is refused, one within accepted."""
     mesh = _mesh(18, 12)
     sinks = [_vertex(mesh, (0, 6))]
     capped = NetworkSpec(mesh, tuple(sinks), coverage=4.3, max_distance=18.0)
     edges = _solve(capped)
     walk = _walk(mesh, edges, sinks)
-    active = {v for x in edges for v in mesh.edges[x]}
-    assert all(walk[v] <= 18.0 + 1e-6 for v in active)
+    for x in edges:  # the cap holds at the middle of every corridor edge
+        i, j = mesh.edges[x]
+        middle = min(walk[i], walk[j]) + math.dist(mesh.points[i], mesh.points[j]) / 2
+        assert middle <= 18.0 + 1e-6, (mesh.points[i], mesh.points[j], middle)
     bare = NetworkSpec(mesh, tuple(sinks), max_distance=18.0)
-    within = _edges_of(mesh, (0, 6), (15, 6), (15, 9))  # 18 m to (15, 9)
+    within = _edges_of(mesh, (0, 6), (15, 6), (15, 9))  # 16.5 m to the last edge's middle
     assert not _refused(bare, within)
-    assert _refused(bare, within + _edges_of(mesh, (15, 9), (12, 9)))  # 21 m
+    assert _refused(bare, within + _edges_of(mesh, (15, 9), (12, 9)))  # 19.5 m
 
 
 def test_t_junctions_and_close_edges_forbidden() -> None:
@@ -214,3 +216,18 @@ def test_stochastic_search_returns_a_valid_network() -> None:
     assert found.judgement.valid
     assert active <= _reached(mesh, found.edges, sinks)
     assert found.judgement.length < sum(mesh.lengths)
+
+
+def test_face_coverage_and_joined_exits() -> None:
+    """Every cell has a network edge on a side, and the two exits lie in one network
+    (a walk here from one reaches the other)."""
+    mesh = _mesh(15, 12)
+    sinks = [_vertex(mesh, (0, 6)), _vertex(mesh, (15, 6))]
+    spec = NetworkSpec(mesh, tuple(sinks), faces_covered=True, join_sinks=True, lambda_length=1.0)
+    edges = set(_solve(spec))
+    assert all(any(x in edges for x in sides) for sides in mesh.faces)
+    assert sinks[1] in _reached(mesh, sorted(edges), sinks[:1])
+    apart = _edges_of(mesh, (0, 6), (3, 6)) + _edges_of(mesh, (12, 6), (15, 6))
+    joined_spec = NetworkSpec(mesh, tuple(sinks), join_sinks=True)
+    assert _refused(joined_spec, apart)
+    assert not _refused(NetworkSpec(mesh, tuple(sinks)), apart)
