@@ -254,40 +254,41 @@ def travel_cap(nm: NetworkModel) -> None:
 def dead_end_cap(nm: NetworkModel) -> None:
     """Ours, generalising Eq. 9-10: a dead end runs from a tip (an active non-sink vertex
     of one active edge) through vertices of two active edges to the first junction or
-    sink. None may be longer than n = floor(cap / longest edge) edges: for every simple path
-    v0 .. v_{n+1} of the mesh whose v0..v_n are not sinks, if all its n + 1 edges are
-    active then some other edge at v0..v_n is active too. n = 0 is Eq. 9-10's "no dead
-    ends"."""
+    sink, and none may be longer than the cap. For every simple path v0 .. v_k of the
+    mesh that first gets longer than the cap at its last edge, with v0 .. v_{k-1} not
+    sinks: if all its k edges are active, some other edge at v0 .. v_{k-1} is active too
+    (sum of its edges - sum of those others <= k - 1). A cap below every edge's length is
+    Eq. 9-10's "no dead ends"."""
     spec = nm.spec
     if spec.dead_end is None:
         return
     mesh = spec.mesh
-    longest = max(mesh.lengths, default=1.0)
-    n = math.floor(spec.dead_end / longest + 1e-9)
     incident = mesh.incident()
     sink_set = set(spec.sinks)
     count = 0
     for start in range(len(mesh.points)):
         if start in sink_set or not incident[start]:
             continue
-        for path, used in _paths(mesh, incident, start, n + 1, sink_set):
+        for path, used in _paths(mesh, incident, start, spec.dead_end, sink_set):
             others = {x for v in path[:-1] for x in incident[v]} - set(used)
             nm.model.addCons(
-                quicksum(nm.E[x] for x in used) - quicksum(nm.E[x] for x in others) <= n,
+                quicksum(nm.E[x] for x in used) - quicksum(nm.E[x] for x in others)
+                <= len(used) - 1,
                 f"dead_end_{count}",
             )
             count += 1
 
 
 def _paths(
-    mesh: Mesh, incident: list[list[int]], start: int, edges: int, sink_set: set[int]
+    mesh: Mesh, incident: list[list[int]], start: int, cap: float, sink_set: set[int]
 ) -> Iterator[tuple[list[int], list[int]]]:
-    """Simple paths of `edges` edges from `start` whose vertices before the last are not
-    sinks: (vertices, edges)."""
-    stack: list[tuple[list[int], list[int]]] = [([start], [])]
+    """Simple paths from `start` that first get longer than `cap` at their last edge,
+    whose vertices before the last are not sinks: (vertices, edges)."""
+    lengths = mesh.lengths
+    stack: list[tuple[list[int], list[int], float]] = [([start], [], 0.0)]
     while stack:
-        path, used = stack.pop()
-        if len(used) == edges:
+        path, used, length = stack.pop()
+        if length > cap + 1e-9:
             yield path, used
             continue
         here = path[-1]
@@ -296,7 +297,7 @@ def _paths(
         for x in incident[here]:
             there = mesh.other(x, here)
             if there not in path:
-                stack.append(([*path, there], [*used, x]))
+                stack.append(([*path, there], [*used, x], length + lengths[x]))
 
 
 def t_junctions(nm: NetworkModel) -> None:

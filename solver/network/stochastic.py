@@ -58,13 +58,16 @@ def _moves(mesh: Mesh, incident: list[list[int]], active: set[int]) -> Iterator[
                             yield frozenset((x, y, z))
 
 
-def stochastic_search(spec: NetworkSpec, *, time_limit: float, seed: int = 0) -> SearchResult:
-    """The best valid network found within `time_limit` seconds."""
+def stochastic_search(
+    spec: NetworkSpec, *, time_limit: float, seed: int = 0, start: list[int] | None = None
+) -> SearchResult:
+    """The best valid network found within `time_limit` seconds, from every edge active
+    (the paper's trivial solution) or from `start`."""
     started = time.monotonic()
     rng = random.Random(seed)
     mesh = spec.mesh
     incident = mesh.incident()
-    current = set(range(len(mesh.edges)))
+    current = set(range(len(mesh.edges))) if start is None else set(start)
     best_edges = sorted(current)
     covers = cover_sets(spec)
     best = _judge(spec, best_edges, covers)

@@ -34,9 +34,16 @@ def test_defaults_and_spelling() -> None:
     assert (p.corridors.weights.length, p.corridors.weights.travel) == (1.0, 1.0)
     assert p.corridors.rooms_open_onto_corridor
     assert p.by_regions  # laid out by the large-layout pipeline, any room count
-    full = _problem({"exits": [[0, 6]], "width": 2.0, "max_travel": 45, "dead_ends": 6,
-                     "weights": {"length": 2, "travel": 0.5},
-                     "rooms_open_onto_corridor": False})
+    full = _problem(
+        {
+            "exits": [[0, 6]],
+            "width": 2.0,
+            "max_travel": 45,
+            "dead_ends": 6,
+            "weights": {"length": 2, "travel": 0.5},
+            "rooms_open_onto_corridor": False,
+        }
+    )
     assert full.corridors is not None and full.corridors.dead_ends == 6
 
 
@@ -47,7 +54,8 @@ def test_an_exit_on_a_stair_core_is_accepted() -> None:
 
 def test_an_exit_off_the_outline_is_refused() -> None:
     assert _errors({"exits": [[0, 6], [10, 6]]}) == [
-        (("corridors", "exits", 1), "exit_off_outline")]
+        (("corridors", "exits", 1), "exit_off_outline")
+    ]
 
 
 def test_an_exit_inside_an_obstacle_is_refused() -> None:
@@ -59,17 +67,21 @@ def test_a_corridor_wider_than_the_floor_is_refused() -> None:
     with pytest.raises(ValidationError) as caught:
         Problem.model_validate({**narrow, "corridors": {"exits": [[0, 2]], "width": 5}})
     assert [(tuple(e["loc"]), e["type"]) for e in caught.value.errors()] == [
-        (("corridors", "width"), "corridor_too_wide")]
+        (("corridors", "width"), "corridor_too_wide")
+    ]
 
 
-@pytest.mark.parametrize("bad", [
-    {"exits": []},
-    {"exits": [[0, 6]], "width": 0.5},
-    {"exits": [[0, 6]], "max_travel": -1},
-    {"exits": [[0, 6]], "dead_ends": float("nan")},
-    {"exits": [[0, 6]], "weights": {"length": -1}},
-    {"exits": [[0, 6]], "speed": 3},
-])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"exits": []},
+        {"exits": [[0, 6]], "width": 0.5},
+        {"exits": [[0, 6]], "max_travel": -1},
+        {"exits": [[0, 6]], "dead_ends": float("nan")},
+        {"exits": [[0, 6]], "weights": {"length": -1}},
+        {"exits": [[0, 6]], "speed": 3},
+    ],
+)
 def test_bad_values_name_their_field(bad: dict[str, Any]) -> None:
     locs = [loc for loc, _ in _errors(bad)]
     assert locs and all(loc[0] == "corridors" for loc in locs)
@@ -78,4 +90,5 @@ def test_bad_values_name_their_field(bad: dict[str, Any]) -> None:
 def test_corridors_with_regions_are_refused() -> None:
     regions = [{"id": "a", "rooms": ["r0", "r1"]}]
     assert (("corridors",), "corridors_with_regions") in _errors(
-        {"exits": [[0, 6]]}, regions=regions)
+        {"exits": [[0, 6]]}, regions=regions
+    )
