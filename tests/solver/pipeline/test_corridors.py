@@ -9,6 +9,7 @@ import math
 from collections import deque
 
 import numpy as np
+import pytest
 import shapely
 from shapely.geometry import Point, Polygon
 
@@ -64,6 +65,7 @@ def _walks(corridors: Polygon, doors: dict[str, tuple[float, float]]) -> dict[st
     return {room: float(steps[cell(p)]) * CELL for room, p in doors.items()}
 
 
+@pytest.mark.slow
 def test_corridors_from_their_specification() -> None:
     layout: Layout = solve(_problem())
     assert layout.corridors and not layout.aisles
