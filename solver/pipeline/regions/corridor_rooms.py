@@ -85,7 +85,7 @@ def with_corridors(problem: Problem, layout: Layout, plan: CorridorPlan) -> Layo
         f"{x:g},{y:g}" for x, y in corridors.exits if union.distance(shapely.Point(x, y)) > 1e-3
     ]
     egress = Egress(
-        max_travel=round(max(travel.values()), 3) if travel else None,
+        max_travel=round(max(finite), 3) if finite else None,
         mean_travel=round(statistics.fmean(finite), 3) if finite else None,
         travel={k: round(v, 3) for k, v in travel.items() if math.isfinite(v)},
         dead_ends=[round(d, 3) for d in dead],
