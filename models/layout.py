@@ -326,6 +326,12 @@ class Layout(BaseModel):
         "the first is this layout itself (without `variants`). Null otherwise")
 
     @property
+    def circulation_spaces(self) -> list[Aisle]:
+        """The aisles and the corridors, drawn and exported alike as circulation floor."""
+        return [*self.aisles, *(Aisle(id=c.id, polygon=c.polygon, rectangles=c.rectangles,
+                                      area=c.area, width=c.width) for c in self.corridors)]
+
+    @property
     def all_rooms(self) -> list[RoomLayout]:
         """Every placed room: the rooms, or with `floors` those of every floor (a vertical
         room once per floor it spans)."""
