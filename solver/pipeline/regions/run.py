@@ -9,6 +9,7 @@ from dataclasses import dataclass, field, replace
 
 import shapely
 from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
 
 from floorplan.models import (
     Aisle,
@@ -39,6 +40,7 @@ from floorplan.solver.pipeline.regions.aisles import AisleNetwork, aisle_network
 from floorplan.solver.pipeline.regions.bands import band_regions
 from floorplan.solver.pipeline.regions.corridor_rooms import (
     no_corridors,
+    onto_corridors,
     with_corridors,
 )
 from floorplan.solver.pipeline.regions.corridors import CorridorPlan, plan_corridors
@@ -182,7 +184,8 @@ def solve_regions(
         stage = f"region {region_id} {k + 1}/{len(jobs)}"
         progress.say(stage, subdomain=k + 1, subdomains=len(jobs))
         inner = _solve_part(problem, part, rooms, share, deadline, left_rooms, stage, solve,
-                            progress, should_stop)
+                            progress, should_stop,
+                            facing=plan.shape if plan is not None else None)
         terminations.append(inner.report.termination)
         levels = max(levels, inner.report.levels)
         for room in inner.rooms:
@@ -234,12 +237,18 @@ def _region_layout(problem: Problem, given: Sequence[Region], limit: float, dead
 def _solve_part(
     problem: Problem, part: Polygon, rooms: list[Room], share: float, deadline: float,
     left_rooms: int, stage: str, solve: Solve, progress: _Progress,
-    should_stop: Callable[[], bool] | None,
+    should_stop: Callable[[], bool] | None, *, facing: BaseGeometry | None = None,
 ) -> Layout:
     """One region part's rooms (step 4) in its `share` of the time; retried with the
     part's whole share when the time ran out, then without what cannot hold there.
-    `left_rooms` counts the rooms of the parts after this one."""
+    `left_rooms` counts the rooms of the parts after this one. `facing`: the corridors,
+    which each room must touch when the problem asks (given up last)."""
     sub = room_problem(problem, part, rooms, share)
+    relaxations = RELAXATIONS
+    corridors = problem.corridors
+    if facing is not None and corridors is not None and corridors.rooms_open_onto_corridor:
+        sub = onto_corridors(sub, facing)
+        relaxations = (*RELAXATIONS, ("boundary",))
     if not slicing_has_demands(sub):
         # Sizes alone: slicing lays the rows out at once and the search after it
         # does not pay for its time (measured: no step improved in most parts of a
@@ -259,14 +268,15 @@ def _solve_part(
         sub = sub.with_options(time_limit=longer)
         inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
                       should_stop=should_stop)
-    for relax in RELAXATIONS:
+    for relax in relaxations:
         if inner.rooms or (should_stop is not None and should_stop()):
             break
         # A part the region layout made awkward: keep the rooms, give up what
         # cannot hold there; the final check reports it against the user's problem.
         progress.say(f"{stage}: no layout, retrying without {', '.join(relax)}")
         sub = sub.model_copy(update={"rooms": [
-            r.model_copy(update=dict.fromkeys(relax)) for r in sub.rooms]})
+            r.model_copy(update={k: [] if k == "boundary" else None for k in relax})
+            for r in sub.rooms]})
         sub = sub.with_options(time_limit=max(MIN_PART_SECONDS, share / 2))
         inner = solve(sub, should_stop=should_stop)
     return inner
