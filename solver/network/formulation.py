@@ -7,11 +7,14 @@ order. Variables (paper symbols):
 - ``E[x]``: edge x active; ``H[(i, j)]``: half-edge i->j active (E_{i->j});
 - ``D[(i, j)]``: distance value of half-edge i->j (D_{i->j}), falling towards a sink;
 - ``L[(i, j, k)]``: half-edge i->j hands over to j->k (L_{i->j; j->k});
-- ``V[v]``: vertex v active (V_y); ``T``/``Z``: T-junction and too-close indicators.
+- ``V[v]``: vertex v active (V_y); ``T``/``Z``: T-junction and too-close indicators;
+- ``F[(i, j)]``: flow on half-edge i->j joining the sinks.
 
-Extensions of ours, each in its own function: a cap on every active vertex's network
-distance to a sink (`travel_cap`, from the distance values), and a cap on dead-end length
-(`dead_end_cap`, generalising Eq. 9-10 from "no dead end" to "none longer than n edges").
+Extensions of ours, each in its own function: a cap on the walk to a sink from the middle
+of every active edge (`travel_cap`, from the distance values), a cap on dead-end length
+(`dead_end_cap`, generalising Eq. 9-10 from "no dead end" to "none longer than the cap"),
+coverage of the mesh's cells (`face_coverage`) and the sinks joined into one network
+(`joined_sinks`).
 """
 
 from __future__ import annotations

@@ -2,8 +2,9 @@
 Sec. 5.2): a corridor network planned by the network IP (`solver.network`) on a grid of
 the floor, made into corridor polygons of the asked width and carved out of the floor;
 the blocks left are the parts the rooms are laid out in by the large-layout pipeline
-(`run.py`, in place of its band aisles). Then the plan is measured: travel from
-each door to the nearest exit along the corridors, dead ends, corridor area.
+(`run.py`, in place of its band aisles), each block cut into strips one cell deep along
+its corridors. Then the plan is measured (`corridor_rooms.py`): travel from each door to
+the nearest exit along the corridors, dead ends, corridor area.
 
 The grid's pitch is a room's depth plus half a corridor, so that a block between two
 corridors a cell apart holds two rows of rooms, each on a corridor. Coverage is by cells
