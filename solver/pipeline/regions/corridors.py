@@ -60,9 +60,10 @@ class CorridorPlan:
 
 
 def room_depth(problem: Problem) -> float:
-    """The depth a row of rooms takes: the median of the rooms' longer target side
-    (a room may turn to put it across the row), else of the side of a square of a
-    room's area."""
+    """The depth a row of rooms is planned at: the median of the rooms' longer target
+    side (else the side of a square of a room's area). The longer side, not the depth:
+    fewer corridors, rooms deeper than asked; the depth gave office-154 a third of its
+    floor in corridors (bench/NOTES.md, "Corridors")."""
     typical = typical_area(problem)
     sides = [
         max(r.target_size) if r.target_size else math.sqrt(room_area(r, typical))
