@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from .base import DEFAULT_MAX_ROOMS
+    from .corridors import Corridors, CorridorWeights
     from .layout import (
         OUTSIDE,
         Aisle,
@@ -28,7 +29,9 @@ if TYPE_CHECKING:
         ConflictItem,
         ConflictSet,
         ConstraintCheck,
+        Corridor,
         Door,
+        Egress,
         ExtraRectangles,
         FloorLayout,
         Infeasibility,
@@ -47,18 +50,19 @@ if TYPE_CHECKING:
 _WHERE = {
     ".layout": (
         "OUTSIDE", "Aisle", "Circulation", "ConflictItem", "ConflictSet", "ConstraintCheck",
-        "Door", "ExtraRectangles", "FloorLayout", "Infeasibility", "Layout", "Rect", "Report",
-        "RoomLayout", "Termination", "VariantInfo", "Window",
+        "Corridor", "Door", "Egress", "ExtraRectangles", "FloorLayout", "Infeasibility",
+        "Layout", "Rect", "Report", "RoomLayout", "Termination", "VariantInfo", "Window",
     ),
     ".base": ("DEFAULT_MAX_ROOMS",),
+    ".corridors": ("CorridorWeights", "Corridors"),
     ".options": ("Openings", "Options", "Weights"),
     ".parts": ("Adjacency", "Floor", "Obstacle", "Region", "Room", "VerticalRoom"),
     ".problem": ("Problem",),
 }
 _MODULE_OF = {name: module for module, names in _WHERE.items() for name in names}
 _SUBMODULES = frozenset({
-    "base", "checks", "formats", "jobs", "layout", "options", "parts", "problem", "storeys",
-    "template_rules", "templates",
+    "base", "checks", "corridors", "formats", "jobs", "layout", "options", "parts", "problem",
+    "storeys", "template_rules", "templates",
 })
 
 __all__ = [
@@ -70,7 +74,11 @@ __all__ = [
     "ConflictItem",
     "ConflictSet",
     "ConstraintCheck",
+    "Corridor",
+    "CorridorWeights",
+    "Corridors",
     "Door",
+    "Egress",
     "ExtraRectangles",
     "Floor",
     "FloorLayout",

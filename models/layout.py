@@ -80,6 +80,38 @@ class Aisle(BaseModel):
                                description="the regions this aisle runs along")
 
 
+class Corridor(BaseModel):
+    """A corridor of the floor's circulation (`Problem.corridors`): not a room, covered
+    floor like an aisle; doors onto it name it in `between`."""
+
+    id: str
+    polygon: list[Point] = Field(description="counter-clockwise outline")
+    rectangles: list[Rect] = Field(description="disjoint rectangles whose union is it")
+    area: float
+    width: float = Field(description="the corridors' clear width, metres")
+
+
+class Egress(BaseModel):
+    """How the corridors serve the floor, measured on the final plan: walks along the
+    corridor floor (a raster of the corridor polygons), not the planned network."""
+
+    max_travel: float | None = Field(
+        None, description="the longest walk, metres, from a room's door along the corridors "
+        "to the nearest exit (null when no room has a door onto a corridor)")
+    mean_travel: float | None = Field(None, description="the mean of those walks, metres")
+    travel: dict[str, float] = Field(
+        default_factory=dict, description="per room with a door onto a corridor, its walk")
+    dead_ends: list[float] = Field(
+        default_factory=list, description="the length of every dead end of the corridors, "
+        "metres, longest first")
+    corridor_area: float = Field(0.0, description="m²")
+    corridor_share: float = Field(0.0, description="corridor area over the free floor, 0..1")
+    rooms_without_access: list[str] = Field(
+        default_factory=list, description="rooms with no door onto a corridor")
+    unreached_exits: list[str] = Field(
+        default_factory=list, description="exits no corridor reaches, as 'x,y'")
+
+
 #: The `between` name of the world outside, for the front door.
 OUTSIDE = "outside"
 
@@ -248,6 +280,9 @@ class Report(BaseModel):
         description="every soft constraint the layout violates, with its shortfall (also "
         "among `constraints`); `valid` stays true when these are the only failures",
     )
+    egress: Egress | None = Field(
+        None, description="with `corridors` in the problem: travel distances, dead ends and "
+        "corridor area, measured on the plan")
     total_shortfall: float = Field(
         0.0, description="the sum of the violations' shortfalls, metres")
     variant: VariantInfo | None = Field(
@@ -276,6 +311,9 @@ class Layout(BaseModel):
     aisles: list[Aisle] = Field(
         default_factory=list, description="aisles between regions (large layouts); their "
         "doors name them in `between`")
+    corridors: list[Corridor] = Field(
+        default_factory=list, description="with `corridors` in the problem: the corridor "
+        "polygons (covered floor, like aisles); their doors name them in `between`")
     report: Report
     floors: list[FloorLayout] | None = Field(
         None, description="for a problem with `floors`: one layout per floor, in the "
@@ -286,6 +324,12 @@ class Layout(BaseModel):
         "full layout with its own report (`report.variant` says how distinct), all valid, "
         "pairwise different in topology, ranked by Eq. 12 (report.objective), best first; "
         "the first is this layout itself (without `variants`). Null otherwise")
+
+    @property
+    def circulation_spaces(self) -> list[Aisle]:
+        """The aisles and the corridors, drawn and exported alike as circulation floor."""
+        return [*self.aisles, *(Aisle(id=c.id, polygon=c.polygon, rectangles=c.rectangles,
+                                      area=c.area, width=c.width) for c in self.corridors)]
 
     @property
     def all_rooms(self) -> list[RoomLayout]:

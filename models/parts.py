@@ -37,6 +37,7 @@ from .base import (
     StrictModel,
 )
 from .checks import field_error, open_ring
+from .corridors import Corridors
 from .options import Openings, Options, Weights
 
 #: The most rectangles a room may ask to start from (an L, T or U, or a room with a bay).
@@ -238,6 +239,10 @@ class ProblemFields(StrictModel):
         float, Field(ge=MIN_AISLE_WIDTH, le=MAX_AISLE_WIDTH, allow_inf_nan=False)
     ] = Field(DEFAULT_AISLE_WIDTH, description="clear width of the aisles between regions, "
               "metres")
+    corridors: Corridors | None = Field(
+        None, description="the circulation the floor must provide (exits, width, travel "
+        "distance, dead ends): a corridor network is planned for it and the rooms laid "
+        "out around it, instead of aisles between regions")
 
     @field_validator("boundary", mode="before")
     @classmethod

@@ -39,6 +39,7 @@ from .base import (
     SoftFamily,
 )
 from .checks import boundary_errors, field_error, inside_entrance, open_ring
+from .corridors import Corridors, CorridorWeights, corridor_errors
 from .options import (
     DEFAULT_DOOR_POLICY,
     DEFAULT_NO_PASSAGE,
@@ -88,6 +89,8 @@ __all__ = [
     "Adjacency",
     "Compass",
     "Coordinate",
+    "CorridorWeights",
+    "Corridors",
     "Floor",
     "Length",
     "Obstacle",
@@ -135,6 +138,9 @@ class Problem(PlainFields):
             errors = storey_errors(
                 self, (info.context or {}).get("max_rooms", DEFAULT_MAX_ROOMS))
             errors += _storey_fixed_errors(self)
+            if self.corridors is not None:
+                errors += corridor_errors(self.corridors, self.outline(), self.free_area(),
+                                          [], regions=False, floors=True)
             if self.options.start is not None:
                 errors.append(field_error(("options", "start"),
                                           [room.id for room in self.options.start],
@@ -152,6 +158,11 @@ class Problem(PlainFields):
         if not errors:
             errors += _placement_errors(self)
             errors += _fixed_errors(self)
+            if self.corridors is not None:
+                errors += corridor_errors(
+                    self.corridors, self.outline(), self.free_area(),
+                    [o.to_box() for o in self.obstacles], regions=self.regions is not None,
+                    floors=False)
         errors += _reference_errors(self)
         errors += _start_errors(self)
         if errors:
@@ -167,10 +178,12 @@ class Problem(PlainFields):
 
     @property
     def by_regions(self) -> bool:
-        """Whether the floor is laid out by regions and aisles: it names regions, or has
-        more rooms than `options.regions_above` (0: never)."""
+        """Whether the floor is laid out by regions and aisles (or corridors): it names
+        regions, asks for corridors, or has more rooms than `options.regions_above` (0:
+        never)."""
         above = self.options.regions_above
-        return self.regions is not None or (above > 0 and len(self.rooms) > above)
+        return (self.regions is not None or self.corridors is not None
+                or (above > 0 and len(self.rooms) > above))
 
     def with_options(self, **changes: Any) -> Problem:
         """This problem with the given options changed, as the solver derives its own

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import shutil
 import subprocess
+import sys
+from pathlib import Path
 from typing import Any
 
 import grimp
@@ -69,7 +71,9 @@ def test_every_layer_contract_holds(options: dict[str, Any], graph: grimp.Import
 
 
 def test_the_command_line_linter_agrees() -> None:
-    lint = shutil.which("lint-imports")
+    # The venv's own script when its bin folder is not on PATH (a venv used unactivated).
+    beside = Path(sys.executable).parent / "lint-imports"
+    lint = shutil.which("lint-imports") or (str(beside) if beside.exists() else None)
     assert lint is not None
     done = subprocess.run([lint], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stdout + done.stderr

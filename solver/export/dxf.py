@@ -124,7 +124,7 @@ def _draw_floor(space: BaseLayout, problem: Problem, layout: Layout) -> None:
                              dxfattribs={"layer": "A-COLS" if column else "A-FLOR-OBST"})
     # A room the solve left without floor (an empty polygon) has nothing to draw.
     shapes = {room.id: Polygon(room.polygon) for room in layout.rooms if room.polygon}
-    shapes |= {aisle.id: Polygon(aisle.polygon) for aisle in layout.aisles}
+    shapes |= {aisle.id: Polygon(aisle.polygon) for aisle in layout.circulation_spaces}
     for room in layout.rooms:
         if room.id not in shapes:
             continue
@@ -133,9 +133,10 @@ def _draw_floor(space: BaseLayout, problem: Problem, layout: Layout) -> None:
             "layer": "A-AREA-IDEN", "char_height": ROOM_TEXT})
         label.set_location(_label_point(shapes[room.id]),
                            attachment_point=MTextEntityAlignment.MIDDLE_CENTER)
-    for aisle in layout.aisles:
+    for aisle in layout.circulation_spaces:
         space.add_lwpolyline(aisle.polygon, close=True, dxfattribs={"layer": "A-AREA"})
-    walls = wall_segments(shapes, problem.outline(), circulation={a.id for a in layout.aisles},
+    walls = wall_segments(shapes, problem.outline(),
+                          circulation={a.id for a in layout.circulation_spaces},
                           obstacles=[o.to_box() for o in problem.obstacles])
     cuts: dict[int, list[Polygon]] = {}
     for door, wall in zip(layout.doors, walls_of(walls, [d.segment for d in layout.doors]),
@@ -264,7 +265,7 @@ def _draw_types(doc: Any, problem: Problem, layout: Layout, prefix: str = "") ->
     msp = doc.modelspace()
     for name, colour in (("OUTLINE", colors.BLACK), ("OBSTACLES", colors.GRAY),
                          ("DOORS", colors.RED), ("WINDOWS", colors.BLUE),
-                         *((("AISLES", colors.GRAY),) if layout.aisles else ())):
+                         *((("AISLES", colors.GRAY),) if layout.circulation_spaces else ())):
         if prefix + name not in doc.layers:  # two floor ids may clean to one name
             doc.layers.add(prefix + name, color=colour, **(
                 {"lineweight": 50} if name == "OUTLINE" else {}))
@@ -282,7 +283,7 @@ def _draw_types(doc: Any, problem: Problem, layout: Layout, prefix: str = "") ->
                              dxfattribs={"layer": layer})
         label.set_placement((largest.x + largest.width / 2, largest.y + largest.depth / 2),
                             align=TextEntityAlignment.MIDDLE_CENTER)
-    for aisle in layout.aisles:
+    for aisle in layout.circulation_spaces:
         msp.add_lwpolyline(aisle.polygon, close=True, dxfattribs={"layer": prefix + "AISLES"})
     for door in layout.doors:
         msp.add_line(*door.segment, dxfattribs={"layer": prefix + "DOORS"})

@@ -14,8 +14,9 @@ from floorplan.solver.export.floors import floor_layout
 
 def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
     """One Feature per room (Polygon, counter-clockwise) with its id, type, area and
-    size error (and region); aisles as Polygon features of kind "aisle"; doors and
-    windows as LineString features; the outline and obstacles as features of their own.
+    size error (and region); aisles as Polygon features of kind "aisle", corridors of
+    kind "corridor"; doors and windows as LineString features; the outline and
+    obstacles as features of their own.
     In a building of several storeys, every feature of a floor has that floor's id as
     its `floor` property."""
     if layout.floors is not None and problem.floors is not None:
@@ -46,6 +47,10 @@ def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
         features.append(_feature("Polygon", [_ring(aisle.polygon)] if aisle.polygon else [],
                                  kind="aisle", id=aisle.id,
                                  area=aisle.area, width=aisle.width, regions=aisle.regions))
+    for corridor in layout.corridors:
+        features.append(_feature("Polygon", [_ring(corridor.polygon)] if corridor.polygon else [],
+                                 kind="corridor", id=corridor.id,
+                                 area=corridor.area, width=corridor.width))
     for door in layout.doors:
         features.append(_feature("LineString", [list(p) for p in door.segment], kind="door",
                                  between=list(door.between), opens_into=door.opens_into,

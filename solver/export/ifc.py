@@ -155,7 +155,7 @@ class _Model:
                         self.height * spans.get(room.id, 1)))
             if room.id in spans:
                 self.shared_spaces[room.id] = spaces[room.id]
-        for aisle in layout.aisles:
+        for aisle in layout.circulation_spaces:
             shapes[aisle.id] = Polygon(aisle.polygon)
             spaces[aisle.id] = self.rooted("IfcSpace", aisle.id, "INTERNAL",
                                            LongName=CIRCULATION, ObjectType=CIRCULATION)
@@ -176,7 +176,7 @@ class _Model:
 
         walls = wall_segments({k: p for k, p in shapes.items() if not p.is_empty},
                               problem.outline(),
-                              circulation={a.id for a in layout.aisles},
+                              circulation={a.id for a in layout.circulation_spaces},
                               obstacles=[o.to_box() for o in problem.obstacles])
         elements = [self.rooted(
             "IfcWall", f"{_kind(w)}: {' / '.join(w.spaces)}",

@@ -108,8 +108,8 @@ def render_svg(problem: Problem, layout: Layout, *, scale: float = 40.0) -> str:
     ET.SubElement(svg, "title").text = _clean(problem.name)
     _add_hatch_pattern(svg)
     ET.SubElement(svg, "rect", {"width": "100%", "height": "100%", "fill": "white"})
-    _add_gaps(svg, frame, problem.free_area(), layout.rooms, layout.aisles)
-    for aisle in layout.aisles:
+    _add_gaps(svg, frame, problem.free_area(), layout.rooms, layout.circulation_spaces)
+    for aisle in layout.circulation_spaces:
         _add_aisle(svg, frame, aisle)
     for room in layout.rooms:
         _add_room(svg, frame, room)

@@ -451,7 +451,8 @@ def check_aisles(
                                       detail=f"aisles meet the facade over {facade:.2f} m"))
     door = problem.openings.door_width
     for region_id, members in regions.items():
-        shapes = [rooms[r] for r in members if r in rooms]
+        # A room left without floor (an empty polygon) has no wall to share.
+        shapes = [rooms[r] for r in members if r in rooms and not rooms[r].is_empty]
         if not shapes:
             continue
         wall = shared_wall_length(shapely.union_all(shapes), network) if names else 0.0

@@ -376,3 +376,8 @@ def _clean(geometry: BaseGeometry) -> BaseGeometry:
         return Polygon()
     merged = shapely.union_all(polygons)
     return shapely.simplify(merged, 0)
+
+
+def clean_shape(geometry: BaseGeometry) -> BaseGeometry:
+    """`geometry` snapped to the grid, without the lines and points set operations leave."""
+    return _clean(geometry)

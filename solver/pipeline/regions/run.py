@@ -9,6 +9,7 @@ from dataclasses import dataclass, field, replace
 
 import shapely
 from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
 
 from floorplan.models import (
     Aisle,
@@ -37,6 +38,12 @@ from floorplan.solver.openings import (
 )
 from floorplan.solver.pipeline.regions.aisles import AisleNetwork, aisle_network, aisle_pieces
 from floorplan.solver.pipeline.regions.bands import band_regions
+from floorplan.solver.pipeline.regions.corridor_rooms import (
+    no_corridors,
+    onto_corridors,
+    with_corridors,
+)
+from floorplan.solver.pipeline.regions.corridors import CorridorPlan, plan_corridors
 from floorplan.solver.pipeline.regions.doors import (
     aisle_doors,
     entrance_door,
@@ -125,32 +132,46 @@ def solve_regions(
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
     deadline = started + limit - min(limit * 0.1, FINISH_SECONDS_PER_ROOM * len(problem.rooms))
     progress = _Progress(on_event, started)
-    bands = band_regions(problem) if problem.regions is None else None
+    plan: CorridorPlan | None = None
     terminations: list[Termination] = []
     levels = 1
-    if bands is not None:
-        # An automatic partition: bars of rooms along aisles, planned.
-        shapes: dict[str, Polygon] = dict(bands)
-        given: Sequence[Region] = ()
-        progress.say(f"regions: {len(shapes)} bars of rooms along aisles")
+    given: Sequence[Region] = ()
+    if problem.corridors is not None:
+        # Corridors from what they must do: the network IP's corridors, blocks between.
+        plan = plan_corridors(problem, limit, problem.options.seed or 0)
+        if plan is None:
+            return no_corridors(problem, time.monotonic() - started)
+        progress.say(f"corridors: {len(plan.result.edges)} network edges "
+                     f"({plan.result.status}), {plan.shape.area:.1f} m², "
+                     f"{len(plan.blocks)} blocks")
+        shapes: dict[str, Polygon] = dict(plan.blocks)
+        network = plan.network
     else:
-        given = partition(problem)
-        progress.say(f"regions: {len(given)} regions of "
-                     f"{', '.join(str(len(g.rooms)) for g in given)} rooms")
-        laid = _region_layout(problem, given, limit, deadline, solve, progress, should_stop)
-        if not laid.rooms:
-            if problem.regions is None and not (should_stop and should_stop()):
-                # An automatic partition is only a means: solve flat instead.
-                progress.say("regions: no region layout, solving without regions")
-                return solve(flat.with_options(time_limit=max(1.0, deadline - time.monotonic())),
-                             on_event=on_event, should_stop=should_stop)
-            report = laid.report.model_copy(
-                update={"solve_time": time.monotonic() - started})
-            return Layout(name=problem.name, report=report)
-        shapes = {r.id: Polygon(r.polygon) for r in laid.rooms}
-        terminations.append(laid.report.termination)
-        levels = laid.report.levels
-    network = _aisles(problem, given, shapes, progress)
+        bands = band_regions(problem) if problem.regions is None else None
+        if bands is not None:
+            # An automatic partition: bars of rooms along aisles, planned.
+            shapes = dict(bands)
+            progress.say(f"regions: {len(shapes)} bars of rooms along aisles")
+        else:
+            given = partition(problem)
+            progress.say(f"regions: {len(given)} regions of "
+                         f"{', '.join(str(len(g.rooms)) for g in given)} rooms")
+            laid = _region_layout(problem, given, limit, deadline, solve, progress,
+                                  should_stop)
+            if not laid.rooms:
+                if problem.regions is None and not (should_stop and should_stop()):
+                    # An automatic partition is only a means: solve flat instead.
+                    progress.say("regions: no region layout, solving without regions")
+                    return solve(flat.with_options(
+                        time_limit=max(1.0, deadline - time.monotonic())),
+                        on_event=on_event, should_stop=should_stop)
+                report = laid.report.model_copy(
+                    update={"solve_time": time.monotonic() - started})
+                return Layout(name=problem.name, report=report)
+            shapes = {r.id: Polygon(r.polygon) for r in laid.rooms}
+            terminations.append(laid.report.termination)
+            levels = laid.report.levels
+        network = _aisles(problem, given, shapes, progress)
     jobs = region_jobs(problem, list(shapes), given, network)
     placed: dict[str, list[Box]] = {}
     owner: dict[str, str] = {}
@@ -163,7 +184,8 @@ def solve_regions(
         stage = f"region {region_id} {k + 1}/{len(jobs)}"
         progress.say(stage, subdomain=k + 1, subdomains=len(jobs))
         inner = _solve_part(problem, part, rooms, share, deadline, left_rooms, stage, solve,
-                            progress, should_stop)
+                            progress, should_stop,
+                            facing=plan.shape if plan is not None else None)
         terminations.append(inner.report.termination)
         levels = max(levels, inner.report.levels)
         for room in inner.rooms:
@@ -171,9 +193,10 @@ def solve_regions(
             owner[room.id] = region_id
         progress.placed = dict(placed)
     stopped = should_stop is not None and should_stop()
-    return _merge(problem, list(shapes), network, placed, owner,
-                  Termination.of_parts(terminations, interrupted=stopped), levels, started,
-                  progress)
+    merged = _merge(problem, list(shapes), network, placed, owner,
+                    Termination.of_parts(terminations, interrupted=stopped), levels, started,
+                    progress)
+    return merged if plan is None else with_corridors(problem, merged, plan)
 
 
 def _aisles(problem: Problem, given: Sequence[Region], shapes: dict[str, Polygon],
@@ -214,12 +237,18 @@ def _region_layout(problem: Problem, given: Sequence[Region], limit: float, dead
 def _solve_part(
     problem: Problem, part: Polygon, rooms: list[Room], share: float, deadline: float,
     left_rooms: int, stage: str, solve: Solve, progress: _Progress,
-    should_stop: Callable[[], bool] | None,
+    should_stop: Callable[[], bool] | None, *, facing: BaseGeometry | None = None,
 ) -> Layout:
     """One region part's rooms (step 4) in its `share` of the time; retried with the
     part's whole share when the time ran out, then without what cannot hold there.
-    `left_rooms` counts the rooms of the parts after this one."""
+    `left_rooms` counts the rooms of the parts after this one. `facing`: the corridors,
+    which each room must touch when the problem asks (given up last)."""
     sub = room_problem(problem, part, rooms, share)
+    relaxations = RELAXATIONS
+    corridors = problem.corridors
+    if facing is not None and corridors is not None and corridors.rooms_open_onto_corridor:
+        sub = onto_corridors(sub, facing)
+        relaxations = (*RELAXATIONS, ("boundary",))
     if not slicing_has_demands(sub):
         # Sizes alone: slicing lays the rows out at once and the search after it
         # does not pay for its time (measured: no step improved in most parts of a
@@ -239,14 +268,15 @@ def _solve_part(
         sub = sub.with_options(time_limit=longer)
         inner = solve(sub, on_event=progress.sink(stage, incumbents=True),
                       should_stop=should_stop)
-    for relax in RELAXATIONS:
+    for relax in relaxations:
         if inner.rooms or (should_stop is not None and should_stop()):
             break
         # A part the region layout made awkward: keep the rooms, give up what
         # cannot hold there; the final check reports it against the user's problem.
         progress.say(f"{stage}: no layout, retrying without {', '.join(relax)}")
         sub = sub.model_copy(update={"rooms": [
-            r.model_copy(update=dict.fromkeys(relax)) for r in sub.rooms]})
+            r.model_copy(update={k: [] if k == "boundary" else None for k in relax})
+            for r in sub.rooms]})
         sub = sub.with_options(time_limit=max(MIN_PART_SECONDS, share / 2))
         inner = solve(sub, should_stop=should_stop)
     return inner

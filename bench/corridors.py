@@ -1,0 +1,187 @@
+"""Corridors from functional specifications against today's band aisles, and the network
+IP against the stochastic edge-deletion search at equal time (Peng et al. Sec. 5.4).
+`python -m bench.corridors [--out DIR]`; see bench/NOTES.md, "Corridors"."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import time
+from pathlib import Path
+
+import shapely
+from shapely.geometry import Polygon
+
+from floorplan.models import Corridors, Layout, Problem
+from floorplan.solver.network.measure import judge
+from floorplan.solver.network.solve import solve_network
+from floorplan.solver.network.start import greedy_network
+from floorplan.solver.network.stochastic import stochastic_search
+from floorplan.solver.pipeline.dispatch import solve
+from floorplan.solver.pipeline.regions.corridors import network_spec, room_depth
+from floorplan.solver.verify.egress import door_travel
+
+CASES = Path(__file__).parent / "data" / "cases"
+#: The office floor's brief: exits at both ends of its long axis.
+OFFICE = {"exits": [[0, 15], [66, 15]], "width": 1.8, "max_travel": 45, "dead_ends": 6}
+#: A smaller office floor (32 x 18 m) with one exit at the middle of its south side.
+OFFICE_40 = {"exits": [[16, 0]], "width": 1.8, "max_travel": 30, "dead_ends": 6}
+
+
+def _measure(problem: Problem, layout: Layout, exits: list[list[float]]) -> dict[str, object]:
+    """Share, travel (door to nearest exit on a raster of the circulation, the same
+    measure for aisles and corridors), rooms without a door onto it, size error, time."""
+    shapes = [Polygon(a.polygon) for a in layout.aisles] + [
+        Polygon(c.polygon) for c in layout.corridors
+    ]
+    names = {a.id for a in layout.aisles} | {c.id for c in layout.corridors}
+    union = shapely.union_all(shapes)
+    onto: dict[str, list] = {}
+    for door in layout.doors:
+        if door.between[0] in names:
+            onto.setdefault(door.between[1], []).append(door.segment)
+    travel = door_travel(union, [tuple(e) for e in exits], onto)
+    finite = [t for t in travel.values() if math.isfinite(t)]
+    # Where the circulation meets the facade: its own exits (today's aisles do not reach
+    # the brief's exits, so they are also walked to these).
+    contact = union.boundary.intersection(problem.outline().exterior)
+    ends = [
+        tuple(line.interpolate(0.5, normalized=True).coords[0])
+        for line in getattr(contact, "geoms", [contact])
+        if line.length > 0.5
+    ]
+    own = door_travel(union, ends, onto) if ends else {}
+    own_finite = [t for t in own.values() if math.isfinite(t)]
+    errors = list(layout.report.size_error.values())
+    egress = layout.report.egress
+    return {
+        "valid": layout.report.valid,
+        "rooms": len(layout.rooms),
+        "share": round(float(union.area) / float(problem.free_area().area), 4),
+        "max_travel": round(max(finite), 2) if finite else None,
+        "mean_travel": round(statistics.fmean(finite), 2) if finite else None,
+        "unreached_rooms": sum(1 for t in travel.values() if not math.isfinite(t)),
+        "facade_ends": len(ends),
+        "max_travel_to_facade_ends": round(max(own_finite), 2) if own_finite else None,
+        "without_access": sum(1 for r in layout.rooms if r.id not in onto),
+        "dead_ends": egress.dead_ends[:3] if egress else None,
+        "median_size_error": round(statistics.median(errors), 3) if errors else None,
+        "seconds": round(layout.report.solve_time, 1),
+        "failed": [c.detail for c in layout.report.constraints if not c.satisfied][:4],
+    }
+
+
+def aisles_against_corridors(case: str, brief: dict[str, object]) -> dict[str, object]:
+    data = json.loads((CASES / f"{case}.json").read_text())
+    today = Problem.model_validate(data)
+    started = time.monotonic()
+    base = solve(today)
+    base_seconds = time.monotonic() - started
+    ours = Problem.model_validate({**data, "corridors": brief})
+    started = time.monotonic()
+    laid = solve(ours)
+    seconds = time.monotonic() - started
+    exits = list(brief["exits"])  # type: ignore[arg-type]
+    return {
+        "case": case,
+        "aisles": {**_measure(today, base, exits), "wall_seconds": round(base_seconds, 1)},
+        "corridors": {**_measure(ours, laid, exits), "wall_seconds": round(seconds, 1)},
+    }
+
+
+def ip_against_search(
+    case: str, brief: dict[str, object], seconds: float, pitch: float | None = None
+) -> dict[str, object]:
+    """The network IP and the stochastic search on the same spec, the same time; both
+    judged by `measure.judge` (validity, Eq. 14's length and distance terms)."""
+    data = json.loads((CASES / f"{case}.json").read_text())
+    problem = Problem.model_validate({**data, "corridors": brief})
+    corridors = problem.corridors
+    assert isinstance(corridors, Corridors)
+    spec = network_spec(problem, corridors, pitch or room_depth(problem) + corridors.width / 2)
+    out: dict[str, object] = {
+        "case": case,
+        "edges": len(spec.mesh.edges),
+        "pitch": [round(p, 2) for p in spec.mesh.pitch],
+        "seconds": seconds,
+    }
+
+    def verdict(edges: list[int]) -> dict[str, object]:
+        j = judge(
+            spec.mesh,
+            edges,
+            spec.sinks,
+            reach=spec.coverage,
+            max_distance=spec.max_distance,
+            dead_end=spec.dead_end,
+            lambda_length=spec.lambda_length,
+            lambda_distance=spec.lambda_distance,
+            faces=spec.faces_covered,
+            join=spec.join_sinks,
+        )
+        return {
+            "valid": j.valid,
+            "value": round(j.value, 2),
+            "length": round(j.length, 1),
+            "max_walk": round(j.max_distance, 1),
+            "edges": len(edges),
+        }
+
+    for name, start in (("ip", True), ("ip_cold", False)):
+        result = solve_network(spec, time_limit=seconds, start=start)
+        out[name] = (
+            {
+                **verdict(result.edges),
+                "status": str(result.status),
+                "bound": None if result.bound is None else round(result.bound, 2),
+                "took": round(result.seconds, 1),
+            }
+            if result.edges
+            else {"status": str(result.status), "took": round(result.seconds, 1)}
+        )
+    found = stochastic_search(spec, time_limit=seconds, seed=0)
+    out["stochastic"] = {
+        **verdict(found.edges),
+        "steps": found.steps,
+        "took": round(found.seconds, 1),
+    }
+    # The same search from the IP's own start (its time included), for a like start.
+    began = time.monotonic()
+    first = greedy_network(spec)
+    if first is not None:
+        left = seconds - (time.monotonic() - began)
+        found = stochastic_search(spec, time_limit=left, seed=0, start=first)
+        out["stochastic_from_start"] = {
+            **verdict(found.edges),
+            "steps": found.steps,
+            "start": verdict(first)["value"],
+            "took": round(time.monotonic() - began, 1),
+        }
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--out", type=Path, default=Path("bench/results/corridors"))
+    parser.add_argument("--seconds", type=float, default=20.0)
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows = [aisles_against_corridors("office-154", OFFICE)]
+    print(json.dumps(rows[-1], indent=1), flush=True)
+    networks = []
+    for case, brief, pitch in (
+        ("office-154", OFFICE, None),
+        ("office-154", OFFICE, 3.3),
+        ("office-40", OFFICE_40, None),
+    ):
+        networks.append(ip_against_search(case, brief, args.seconds, pitch))
+        print(json.dumps(networks[-1], indent=1), flush=True)
+    (args.out / "corridors.json").write_text(
+        json.dumps({"layouts": rows, "networks": networks}, indent=1) + "\n"
+    )
+
+
+if __name__ == "__main__":
+    main()

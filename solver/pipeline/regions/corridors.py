@@ -1,0 +1,181 @@
+"""Corridors from what they must do (`Problem.corridors`; Peng et al., SIGGRAPH 2016,
+Sec. 5.2): a corridor network planned by the network IP (`solver.network`) on a grid of
+the floor, made into corridor polygons of the asked width and carved out of the floor;
+the blocks left are the parts the rooms are laid out in by the large-layout pipeline
+(`run.py`, in place of its band aisles), each block cut into strips one cell deep along
+its corridors. Then the plan is measured (`corridor_rooms.py`): travel from each door to
+the nearest exit along the corridors, dead ends, corridor area.
+
+The grid's pitch is a room's depth plus half a corridor, so that a block between two
+corridors a cell apart holds two rows of rooms, each on a corridor. Coverage is by cells
+(every cell has a network edge on a side: `face_coverage`), two corridors one cell apart
+are refused (Eq. 12, "too close"), so inner blocks are two rows deep; the exits are joined
+into one network (`joined_sinks`), so that every exit is reachable from every door.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import statistics
+from dataclasses import dataclass
+
+import shapely
+from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
+
+from floorplan.models import Corridors, Problem
+from floorplan.solver.network import Feature, Mesh, NetworkSpec, grid_mesh, solve_network
+from floorplan.solver.network.measure import dead_ends, distances
+from floorplan.solver.network.mesh import cell_polygon
+from floorplan.solver.network.solve import NetworkResult
+from floorplan.solver.pipeline.regions.aisles import (
+    NARROWEST_PART,
+    SLIVER_AREA,
+    AisleNetwork,
+    aisle_pieces,
+    clean_shape,
+)
+from floorplan.solver.pipeline.regions.partition import room_area, typical_area
+from floorplan.solver.pipeline.regions.parts import polygon_pieces
+
+#: Share of the time limit the network may take, and at most this many seconds.
+NETWORK_SHARE = 0.35
+NETWORK_SECONDS = 20.0
+#: The grid's pitch stays within these (metres): finer grids grow the IP fast.
+MIN_PITCH, MAX_PITCH = 2.5, 8.0
+
+
+@dataclass(frozen=True)
+class CorridorPlan:
+    """The planned network and what the rooms get: blocks by id and the corridors as
+    the aisle network the large-layout pipeline lays rooms out around."""
+
+    mesh: Mesh
+    sinks: tuple[int, ...]
+    result: NetworkResult
+    shape: BaseGeometry
+    blocks: dict[str, Polygon]
+    network: AisleNetwork
+
+
+def room_depth(problem: Problem) -> float:
+    """The depth a row of rooms is planned at: the median of the rooms' longer target
+    side (else the side of a square of a room's area). The longer side, not the depth:
+    fewer corridors, rooms deeper than asked; the depth gave office-154 a third of its
+    floor in corridors (bench/NOTES.md, "Corridors")."""
+    typical = typical_area(problem)
+    sides = [
+        max(r.target_size) if r.target_size else math.sqrt(room_area(r, typical))
+        for r in problem.rooms
+    ]
+    return statistics.median(sides)
+
+
+def network_spec(problem: Problem, corridors: Corridors, pitch: float) -> NetworkSpec:
+    """The IP for this floor: exits as sinks joined into one network, every cell along
+    the network (a room in it opens onto a corridor), no corridors a cell
+    apart, the travel cap less half a corridor (a door is on the corridor's side), the
+    dead-end cap less half a corridor (the corridor runs on past its last vertex)."""
+    free = problem.free_area()
+    mesh = grid_mesh(free, pitch, anchors=corridors.exits)
+    sinks = tuple(dict.fromkeys(mesh.nearest(e) for e in corridors.exits))
+    half = corridors.width / 2
+    return NetworkSpec(
+        mesh,
+        sinks,
+        coverage=None,
+        faces_covered=True,
+        join_sinks=True,
+        max_distance=None if corridors.max_travel is None else corridors.max_travel - half,
+        dead_end=None if corridors.dead_ends is None else max(0.0, corridors.dead_ends - half),
+        too_close=Feature.FORBID,
+        lambda_length=corridors.weights.length,
+        # Per mesh edge: equal weights then trade a metre of corridor against a metre of
+        # mean walk, whatever the floor's size.
+        lambda_distance=corridors.weights.travel / max(1, len(mesh.edges)),
+    )
+
+
+def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> CorridorPlan | None:
+    """The corridor network of the floor and the blocks it leaves, or None when the IP
+    found no network in its time (or proved there is none)."""
+    corridors = problem.corridors
+    assert corridors is not None
+    pitch = min(MAX_PITCH, max(MIN_PITCH, room_depth(problem) + corridors.width / 2))
+    spec = network_spec(problem, corridors, pitch)
+    seconds = min(NETWORK_SECONDS, time_limit * NETWORK_SHARE)
+    result = solve_network(spec, time_limit=seconds, seed=seed)
+    if not result.found:
+        return None
+    free = problem.free_area()
+    shape = clean_shape(cell_polygon(spec.mesh, result.edges, corridors.width, free))
+    blocks: dict[str, Polygon] = {}
+    narrow: list[BaseGeometry] = []
+    for piece in polygon_pieces(clean_shape(free.difference(shape))):
+        if piece.area <= SLIVER_AREA:
+            continue
+        if piece.buffer(-NARROWEST_PART / 2 + 1e-6, join_style="mitre").is_empty:
+            narrow.append(piece)  # too thin for a room: corridor floor
+        else:
+            for strip in _strips(piece, spec.mesh, shape):
+                blocks[f"block-{len(blocks) + 1}"] = strip
+    shape = clean_shape(shapely.union_all([shape, *narrow]))
+    pieces = aisle_pieces([shape], free, blocks)
+    network = AisleNetwork(pieces, {b: [p] for b, p in blocks.items()})
+    return CorridorPlan(spec.mesh, spec.sinks, result, shape, blocks, network)
+
+
+def _strips(block: Polygon, mesh: Mesh, corridors: BaseGeometry) -> list[Polygon]:
+    """A block cut along its length by the grid lines inside it into strips one cell
+    deep: each lies along a corridor (every cell has a network edge on a side), so one
+    row of rooms laid out in it opens onto that corridor. Strips that would touch no
+    corridor stay joined to their neighbour."""
+    x0, y0, x1, y1 = block.bounds
+    px, py = mesh.pitch
+    gx0 = min(p[0] for p in mesh.points)
+    gy0 = min(p[1] for p in mesh.points)
+    lengthwise = x1 - x0 >= y1 - y0
+    if lengthwise:
+        lines = [gy0 + k * py for k in range(math.ceil((y0 - gy0) / py), int((y1 - gy0) / py) + 1)]
+        lines = [y for y in lines if y0 + 1e-6 < y < y1 - 1e-6]
+        cuts = [y0, *lines, y1]
+        boxes = [shapely.box(x0, a, x1, b) for a, b in itertools.pairwise(cuts)]
+    else:
+        lines = [gx0 + k * px for k in range(math.ceil((x0 - gx0) / px), int((x1 - gx0) / px) + 1)]
+        lines = [x for x in lines if x0 + 1e-6 < x < x1 - 1e-6]
+        cuts = [x0, *lines, x1]
+        boxes = [shapely.box(a, y0, b, y1) for a, b in itertools.pairwise(cuts)]
+    grown = corridors.buffer(1e-4, join_style="mitre")
+    out: list[Polygon] = []
+    pending: BaseGeometry | None = None
+    for b in boxes:
+        piece = (
+            block.intersection(b)
+            if pending is None
+            else shapely.union_all([pending, block.intersection(b)])
+        )
+        if piece.area <= SLIVER_AREA:
+            continue
+        if piece.intersection(grown).area <= SLIVER_AREA and b is not boxes[-1]:
+            pending = piece
+            continue
+        pending = None
+        if out and piece.intersection(grown).area <= SLIVER_AREA:
+            piece = shapely.union_all([out.pop(), piece])
+        out += [p for p in polygon_pieces(clean_shape(piece)) if p.area > SLIVER_AREA]
+    return out or [block]
+
+
+def planned_dead_ends(plan: CorridorPlan, width: float) -> list[float]:
+    """Dead ends of the planned network, metres, the corridor's run past its last
+    vertex (half its width) included."""
+    return sorted(
+        (d + width / 2 for d in dead_ends(plan.mesh, plan.result.edges, plan.sinks)), reverse=True
+    )
+
+
+def planned_travel(plan: CorridorPlan) -> float:
+    """The longest walk along the planned network from a vertex to an exit."""
+    reached = distances(plan.mesh, plan.result.edges, plan.sinks)
+    return max(reached.values(), default=0.0)

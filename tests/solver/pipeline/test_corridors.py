@@ -1,0 +1,98 @@
+"""A floor with `corridors`, end to end with the real SCIP: the corridors reach both
+exits as one network, no room overlaps them, and the report's walks agree with a walk
+over a raster of the corridor polygons computed here (four neighbours, so never
+shorter than a real walk along straight corridors)."""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+import pytest
+import shapely
+from shapely.geometry import Point, Polygon
+
+from floorplan.models import Layout, Problem
+from floorplan.solver.pipeline.dispatch import solve
+
+EXITS = [(0.0, 6.0), (30.0, 6.0)]
+CELL = 0.1
+
+
+def _problem() -> Problem:
+    return Problem.model_validate(
+        {
+            "name": "corridor-floor",
+            "boundary": [[0, 0], [30, 0], [30, 12], [0, 12]],
+            "rooms": [
+                {"id": f"r{k}", "type": "office", "target_size": [3.6, 3.2], "min_size": [2.0, 2.0]}
+                for k in range(14)
+            ],
+            "corridors": {"exits": EXITS, "width": 1.8, "max_travel": 30, "dead_ends": 6},
+            "options": {"time_limit": 30, "seed": 0},
+        }
+    )
+
+
+def _walks(corridors: Polygon, doors: dict[str, tuple[float, float]]) -> dict[str, float]:
+    """Breadth-first over 4-neighbour raster cells from the exits' cells."""
+    x0, y0, x1, y1 = corridors.bounds
+    nx, ny = math.ceil((x1 - x0) / CELL), math.ceil((y1 - y0) / CELL)
+    gx, gy = np.meshgrid(
+        x0 + (np.arange(nx) + 0.5) * CELL, y0 + (np.arange(ny) + 0.5) * CELL, indexing="ij"
+    )
+    inside = shapely.contains_xy(corridors, gx, gy)
+
+    def cell(p: tuple[float, float]) -> tuple[int, int]:
+        cells = np.argwhere(inside)
+        d = np.hypot(gx[inside] - p[0], gy[inside] - p[1])
+        i, j = cells[int(np.argmin(d))]
+        return int(i), int(j)
+
+    steps = np.full((nx, ny), -1)
+    queue = deque()
+    for e in EXITS:
+        i, j = cell(e)
+        steps[i, j] = 0
+        queue.append((i, j))
+    while queue:
+        i, j = queue.popleft()
+        for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
+            if 0 <= a < nx and 0 <= b < ny and inside[a, b] and steps[a, b] < 0:
+                steps[a, b] = steps[i, j] + 1
+                queue.append((a, b))
+    return {room: float(steps[cell(p)]) * CELL for room, p in doors.items()}
+
+
+@pytest.mark.slow
+def test_corridors_from_their_specification() -> None:
+    layout: Layout = solve(_problem())
+    assert layout.corridors and not layout.aisles
+    egress = layout.report.egress
+    assert egress is not None
+    union = shapely.union_all([Polygon(c.polygon) for c in layout.corridors])
+    rooms = shapely.union_all([Polygon(r.polygon) for r in layout.rooms])
+    assert union.intersection(rooms).area < 1e-3
+    assert all(union.distance(Point(e)) < 1e-3 for e in EXITS)
+    assert len(getattr(union.buffer(1e-4), "geoms", [union])) == 1  # one network
+    assert abs(egress.corridor_area - union.area) < 1e-2
+    names = {c.id for c in layout.corridors}
+    doors = {
+        d.between[1]: (
+            (d.segment[0][0] + d.segment[1][0]) / 2,
+            (d.segment[0][1] + d.segment[1][1]) / 2,
+        )
+        for d in layout.doors
+        if d.between[0] in names
+    }
+    assert set(doors) | set(egress.rooms_without_access) == {r.id for r in layout.rooms}
+    mine = _walks(union, doors)
+    for room, walk in mine.items():
+        # Four-neighbour steps never undercut the report's eight-neighbour walk by more
+        # than the rasters' cells; along straight corridors they agree within a metre.
+        assert egress.travel[room] <= walk + 0.5, (room, egress.travel[room], walk)
+        assert walk <= egress.travel[room] * math.sqrt(2) + 1.0
+    check = {c.kind: c for c in layout.report.constraints}
+    assert check["max_travel"].satisfied == (max(egress.travel.values()) <= 30.2)
+    assert check["dead_ends"].satisfied == all(d <= 6.2 for d in egress.dead_ends)
