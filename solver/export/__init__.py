@@ -25,8 +25,8 @@ WRITERS: dict[str, Writer] = {
     "svg": lambda problem, layout, _: render_svg(problem, layout).encode(),
     "dxf": lambda problem, layout, options: to_dxf(
         problem, layout, layers=options.dxf_layers, storey_height=options.storey_height),
-    "geojson": lambda problem, layout, _: json.dumps(to_geojson(problem, layout),
-                                                     indent=1).encode(),
+    "geojson": lambda problem, layout, options: json.dumps(
+        to_geojson(problem, layout, options.origin), indent=1).encode(),
     "ifc": lambda problem, layout, options: to_ifc(problem, layout,
                                                    storey_height=options.storey_height),
 }
