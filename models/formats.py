@@ -218,6 +218,25 @@ def in_words() -> str:
 STDIO = "-"
 
 
+def why_unwritable(target: str) -> str | None:
+    """Why `write_file` could not write `target` (a file, not a folder of files), as the
+    message of a refusal before any work is done; None when it can. A device or FIFO
+    is written in place, so it is its own permission that counts; a file is written
+    beside its name and renamed, so it is its folder's."""
+    if target == STDIO:
+        return None
+    path = Path(os.path.realpath(target))
+    if path.is_dir():
+        return f"{target}: is a directory"
+    if path.exists() and not path.is_file():
+        return None if os.access(path, os.W_OK) else f"{target}: not writable"
+    if not path.parent.is_dir():
+        return f"{target}: directory {path.parent} does not exist"
+    if not os.access(path.parent, os.W_OK):
+        return f"{target}: directory {path.parent} is not writable"
+    return None
+
+
 def write_text_file(target: str, text: str) -> None:
     """`write_file` of UTF-8 text."""
     if target == STDIO:
