@@ -10,7 +10,7 @@ from contextlib import asynccontextmanager
 import anyio
 from fastapi import FastAPI
 
-from floorplan.service.api import web
+from floorplan.service.api import docs, web
 from floorplan.service.api.errors import TrustedHosts, install
 from floorplan.service.api.limits import Limits
 from floorplan.service.api.openapi import TITLE, openapi, operation_id
@@ -40,6 +40,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app = FastAPI(
         title=TITLE, version="0.1.0", lifespan=lifespan,
         generate_unique_id_function=operation_id,
+        docs_url=None, redoc_url=None,  # docs.py serves them, offline
         description="Interior layouts as asynchronous jobs: post a problem, follow the job, "
         "fetch the layout. Errors are RFC 9457 problem documents.",
     )
@@ -51,5 +52,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(validate.router)
     app.include_router(health.router)
     web.install(app)  # the page at /, its static files, the examples
+    docs.install(app)  # /docs, /redoc and the problem pages
     app.openapi = lambda: openapi(app)  # type: ignore[method-assign]
     return app
