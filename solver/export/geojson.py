@@ -17,8 +17,8 @@ from floorplan.solver.export.floors import floor_layout
 #: The WGS84 ellipsoid: semi-major axis (m) and first eccentricity squared.
 WGS84_A = 6378137.0
 WGS84_E2 = 6.69437999014e-3
-#: Decimal places of a degree kept: 1e-7 degrees is about a centimetre.
-DEGREE_DIGITS = 7
+#: Decimal places of a degree kept: 1e-8 degrees is about a millimetre.
+DEGREE_DIGITS = 8
 
 
 def to_geojson(problem: Problem, layout: Layout,

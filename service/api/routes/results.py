@@ -24,6 +24,7 @@ from floorplan.models.formats import (
     FormatName,
     origin_of,
 )
+from floorplan.models.jobs import FieldError
 from floorplan.models.options import MAX_VARIANTS
 from floorplan.service.api.deps import JobDep
 from floorplan.service.api.errors import ApiError
@@ -122,7 +123,9 @@ def _origin(text: str | None) -> tuple[float, float] | None:
     try:
         return origin_of(text)
     except ValueError as err:
-        raise ApiError(422, str(err), kind="invalid-request") from None
+        raise ApiError(422, str(err), kind="invalid-request", errors=[FieldError(
+            field="origin", loc=["query", "origin"], message=str(err), type="value_error",
+        )]) from None
 
 
 def _answer(job: Job, fmt: FormatName, variant: int | None, options: ExportOptions) -> Response:
