@@ -38,6 +38,15 @@ def test_an_extension_no_format_has_is_refused_before_solving(tmp_path: Path) ->
     assert "<svg" in (tmp_path / "plan.pdf").read_text()
 
 
+def test_submit_refuses_an_unknown_extension_before_sending_anything(tmp_path: Path) -> None:
+    problem = write_problem(tmp_path, TINY)
+    # Nothing listens there: the refusal must come first.
+    done = floorplan("submit", problem, "-o", "plan.pdf", "--server", "http://127.0.0.1:9",
+                     cwd=tmp_path)
+    assert done.returncode == EXIT_INVALID
+    assert "no format has the extension .pdf" in done.stderr
+
+
 def test_an_output_folder_that_does_not_exist_is_invalid_input(tmp_path: Path) -> None:
     problem = write_problem(tmp_path, TINY)
     done = floorplan("solve", problem, "-o", "missing/layout.json", cwd=tmp_path)
