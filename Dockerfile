@@ -10,6 +10,12 @@ ENV PYTHONDONTWRITEBYTECODE=1 \
 
 WORKDIR /app
 COPY pyproject.toml README.md alembic.ini ./
+# The dependencies first, in a layer of their own that only pyproject.toml changes: a
+# change to the code alone then rebuilds in seconds, not minutes.
+RUN python -c "import tomllib; p = tomllib.load(open('pyproject.toml', 'rb'))['project']; \
+print('\n'.join(p['dependencies'] + p['optional-dependencies']['distributed']))" \
+      > /tmp/requirements.txt \
+ && pip install -r /tmp/requirements.txt && rm /tmp/requirements.txt
 COPY models ./models
 COPY solver ./solver
 COPY service ./service
@@ -22,9 +28,11 @@ RUN useradd --create-home --uid 10001 floorplan && mkdir /data && chown floorpla
 USER floorplan
 ENV FLOORPLAN_DATA_DIR=/data \
     FLOORPLAN_HOST=0.0.0.0
-VOLUME ["/data"]
+# No VOLUME: the Celery-mode containers never write /data, and a declared volume would
+# give each of them an anonymous one that outlives `docker compose down -v`. The embedded
+# mode keeps its jobs across containers with a named volume: -v floorplan-data:/data.
 EXPOSE 8000
 
-# The embedded mode by default (`docker run -p 8000:8000 floorplan`); compose sets
-# FLOORPLAN_BACKEND=celery and runs workers from the same image.
+# The embedded mode by default (`docker run -p 127.0.0.1:8000:8000 -v floorplan-data:/data
+# floorplan`); compose sets FLOORPLAN_BACKEND=celery and runs workers from the same image.
 CMD ["floorplan", "serve", "--host", "0.0.0.0", "--port", "8000"]

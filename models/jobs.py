@@ -114,7 +114,10 @@ class JobPublic(WireModel):
     progress: Progress | None = None
     error: JobError | None = None
     attempts: int
-    time_limit: float
+    time_limit: float = Field(description="the longest the job may run (s): the brief's "
+                              "options.time_limit, else its default (twice one floor's "
+                              "default, the late allowance for a first layout), at most "
+                              "FLOORPLAN_MAX_TIME_LIMIT")
     created_at: datetime
     started_at: datetime | None = None
     finished_at: datetime | None = None

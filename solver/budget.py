@@ -14,7 +14,9 @@ it, a floor's stages get named shares (`FloorBudget`, one table):
 |                   |               | from the reshaping's share                         |
 | last gaps, report | the limit     | 10 ms a room, at most 10 % of the limit            |
 
-A stage that stalls ends early and leaves its time to the next.
+A stage that stalls ends early and leaves its time to the next. Under the default limit
+a search with no first layout may go on until twice the limit (`LATE_FIRST_FACTOR`), the
+later stages then keeping their shares (`FloorBudget.shifted`).
 """
 
 from __future__ import annotations
@@ -35,6 +37,16 @@ BASE_ROOMS = 20
 MID_ROOMS = 8
 PER_MID_ROOM = 1.2
 MID_TOP = 14
+
+
+#: With no `options.time_limit` given, a solve that has no layout yet when the limit's
+#: share for the search ends goes on looking for its first one until this many times
+#: the limit, and the stages after it keep their shares from then on
+#: (`FloorBudget.shifted`). A busy machine then slows the answer instead of losing it: with
+#: another process on one of two cores, house-13 through `floorplan solve` ended
+#: `no_solution` at 2 of 6 seeds at its 12.2 s default (bench/NOTES.md, "A busy machine:
+#: a late first layout instead of none"). A limit the user gives is never passed.
+LATE_FIRST_FACTOR = 2.0
 
 
 def default_time_limit(rooms: int) -> float:
@@ -116,10 +128,15 @@ class FloorBudget:
     short_end: float
     end: float
     judge_end: float
+    #: A search that has no first layout yet may go on until here (`LATE_FIRST_FACTOR`;
+    #: `judge_end` when the user gave the limit).
+    late_by: float
 
     @classmethod
-    def of(cls, started: float, limit: float, rooms: int) -> FloorBudget:
-        """The shares of a floor of `rooms` rooms solved from `started` within `limit`."""
+    def of(cls, started: float, limit: float, rooms: int, *, late: bool = False
+           ) -> FloorBudget:
+        """The shares of a floor of `rooms` rooms solved from `started` within `limit`;
+        with `late` (the limit is the default), the first layout's late allowance."""
         finish = min(FINISH_SHARE * limit, FINISH_SECONDS_PER_ROOM * rooms)
         judge_end = started + limit - finish
         reshaping = min(RESHAPE_SHARE * (judge_end - started),
@@ -128,8 +145,19 @@ class FloorBudget:
         # SCIP's check comes out of the reshaping's share, never the search's: a first
         # layout matters more than its polish.
         end = max(judge_end - judge_seconds(limit, rooms), search_end)
+        late_by = judge_end + (LATE_FIRST_FACTOR - 1) * limit if late else judge_end
         return cls(started, limit, started + (search_end - started) * LEVEL_ONE_SHARE,
-                   search_end, judge_end - SHORT_RESHAPE_SHARE * reshaping, end, judge_end)
+                   search_end, judge_end - SHORT_RESHAPE_SHARE * reshaping, end, judge_end,
+                   late_by)
+
+    def shifted(self, now: float) -> FloorBudget:
+        """After a first layout found at `now`, past level 1's share: every later stage
+        ends as much later as the layout came, so that each keeps its share, but never
+        past `late_by`."""
+        by = max(0.0, min(now - self.level_one_end, self.late_by - self.judge_end))
+        return FloorBudget(self.started, self.limit + by, self.level_one_end + by,
+                           self.search_end + by, self.short_end + by, self.end + by,
+                           self.judge_end + by, self.late_by)
 
     def table(self) -> str:
         """The shares as seconds from the start, one line each (for logs and docs)."""

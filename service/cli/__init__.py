@@ -9,6 +9,11 @@ from typing import Any
 
 from floorplan.service.cli import solve as solver_cli
 
+#: What to do when the distributed mode's packages are missing (the project's name on
+#: PyPI is floorplan-miqp; "floorplan" is another project).
+DISTRIBUTED_HINT = ("floorplan worker needs the distributed extra "
+                    "(pip install 'floorplan-miqp[distributed]'): {}")
+
 
 def add_serve(commands: Any) -> None:
     p = commands.add_parser(
@@ -50,15 +55,18 @@ def add_worker(commands: Any) -> None:
 def cmd_worker(args: argparse.Namespace) -> int:
     from floorplan.service.settings import Settings
 
-    try:
-        from floorplan.service.jobs.celery.worker import run_worker, worker_alive
-    except ModuleNotFoundError as err:
-        raise SystemExit(f"floorplan worker needs the distributed extra "
-                         f"(pip install 'floorplan[distributed]'): {err}") from err
     overrides = {"workers": args.workers} if args.workers is not None else {}
+    if args.health:  # the containers' light check (standard library only)
+        from floorplan.service.jobs.broker.health import worker_alive
+
+        settings = Settings(**overrides)
+        alive = worker_alive(settings.redis_url, settings.namespace, subdomains=args.subdomains)
+        return 0 if alive else 1
+    try:
+        from floorplan.service.jobs.celery.worker import run_worker
+    except ModuleNotFoundError as err:
+        raise SystemExit(DISTRIBUTED_HINT.format(err)) from err
     settings = Settings(**overrides)
-    if args.health:
-        return 0 if worker_alive(settings, subdomains=args.subdomains) else 1
     return run_worker(settings, hostname=args.hostname, loglevel=args.log_level.upper(),
                       subdomains=args.subdomains)
 

@@ -23,6 +23,7 @@ from floorplan.solver.heuristics.level_one import (
     wing_order,
     wings_wanted,
 )
+from floorplan.solver.heuristics.neighbourhood import NEIGHBOURHOOD_SIZE
 from floorplan.solver.heuristics.slicing import (
     note_slicing,
     slicing_applies,
@@ -56,6 +57,9 @@ CONSTRUCT_ABOVE = 20
 #: Share of level 1's time a row plan honouring adjacency and boundary demands may take
 #: (solver/heuristics/row_search.py): found in tens of milliseconds when rows can hold them.
 SLICE_DEMANDS_SHARE = 0.06
+#: Share of level 1's time the improvement of a late first layout gets
+#: (`solver.budget.LATE_FIRST_FACTOR`).
+LATE_IMPROVE_SHARE = 0.25
 #: With soft constraints, the share of level 1's time the search for a layout meeting
 #: every constraint may use before the soft model takes over.
 STRICT_FIRST_SHARE = 0.5
@@ -70,8 +74,17 @@ def first_level(
     if not has_soft(problem):
         # Nothing else needs the time when there is no first layout: the search for
         # one may go on until the solve's end (SCIP's check of the answer included).
-        return _level_one(run, domain, deadline,
-                          first_by=max(deadline, run.judge_end or run.end))
+        first_by = max(deadline, run.judge_end or run.end)
+        pieces, failure = _level_one(run, domain, deadline, first_by=first_by)
+        if (pieces is None and failure is not None and run.late_by - time.monotonic() > 0.1
+                and failure.report.termination is Termination.NO_SOLUTION):
+            # The late allowance (`solver.budget.LATE_FIRST_FACTOR`): the schedule again,
+            # each attempt with its share of the longer time, where a search that was
+            # near its layout goes on to it.
+            run.emit(Phase.RELAXATION, detail="no first layout within the time limit: "
+                     "searching on (the default limit's late allowance)")
+            pieces, failure = _level_one(run, domain, deadline, first_by=run.late_by)
+        return pieces, failure
     # A layout meeting every constraint, soft ones too, is looked for first (no price
     # per metre makes a violating layout reliably lose to it); the soft model takes
     # over when there is none, or none found in its share of the time (docs/method.md,
@@ -118,7 +131,12 @@ def _level_one(
     single_by = deadline
     refuted = 0
     fallback: LevelResult | None = None  # a layout of the user's bounds, found by the probe
-    if slicing_applies(problem) and not run.wings and not slicing_known_to_fail(problem):
+    # Up to NEIGHBOURHOOD_SIZE rooms the improvement solves the whole MIQP outright from
+    # any first layout, and the window model finds one in tens of milliseconds: rows
+    # would only cost time (apartment-5: 0.3 s of a 0.6 s solve, finding none).
+    small = len(problem.rooms) <= NEIGHBOURHOOD_SIZE
+    if (slicing_applies(problem) and not small and not run.wings
+            and not slicing_known_to_fail(problem)):
         # Rows always exist for sizes alone; with demands they may not, so the MIQP
         # keeps most of the time.
         share = SLICE_DEMANDS_SHARE if slicing_has_demands(problem) else 0.5
@@ -184,6 +202,11 @@ def _level_one(
                                       explain)
     assert first.rects is not None
     run.incumbent(domain, run.by_room(domain, first.rects))
+    if (late := time.monotonic() - improve_by) > 0 and run.late_by:
+        # A late first layout (`FloorBudget.late_by`): its improvement gets a share of
+        # level 1's time, as the later stages keep theirs.
+        improve_by = min(run.late_by,
+                         improve_by + late + LATE_IMPROVE_SHARE * (improve_by - run.started))
     boxes = improve_level_one(run, domain, first.rects, improve_by)
     return run.pieces(domain, boxes), None
 

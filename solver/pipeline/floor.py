@@ -76,9 +76,10 @@ def solve_floor(
         good = GoodEnough(problem, math.inf)
         on_event, should_stop = _stop_when_good(good, on_event, should_stop)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
-    budget = FloorBudget.of(started, limit, len(problem.rooms))
+    budget = FloorBudget.of(started, limit, len(problem.rooms),
+                            late=problem.options.time_limit is None)
     run = Run(problem, budget.search_end, started, on_event, should_stop, asked=asked,
-              end=budget.end, judge_end=budget.judge_end)
+              end=budget.end, judge_end=budget.judge_end, late_by=budget.late_by)
     domain = make_domain(problem)
     findings = find_impossibilities(problem, domain)  # soft constraints never refuse
     if findings:
@@ -117,6 +118,10 @@ def solve_floor(
     if pieces is None:
         assert failure is not None
         return failure
+    if time.monotonic() > budget.level_one_end:
+        # A late first layout: the later stages keep their shares from now.
+        budget = budget.shifted(time.monotonic())
+        run.deadline, run.end, run.judge_end = budget.search_end, budget.end, budget.judge_end
     if good is not None and good.rooms is not None:
         # Stopped when good: that layout, not whatever SCIP reported after it.
         pieces = as_pieces(good.rooms)

@@ -128,11 +128,14 @@ def test_a_cancel_reaches_the_worker_holding_the_job_and_keeps_its_incumbent(
             assert result["report"]["valid"] and len(result["rooms"]) == 12
             # The worker carries on with the next job.
             assert wait(client, submit(client, SMALL)["id"])["status"] == "succeeded"
-        # The container health check of a worker: one of this host is alive.
-        health = [sys.executable, "-m", "floorplan.service", "worker", "--health"]
+        # The container health check of a worker (the light module compose runs, and the
+        # command's option): one of this host is alive.
         env = {**os.environ, **cluster.env}
-        assert subprocess.run(health, env=env).returncode == 0
-        assert subprocess.run(health, env={**env, "FLOORPLAN_NAMESPACE": "none"}).returncode == 1
+        for health in ([sys.executable, "-m", "floorplan.service.jobs.broker.health"],
+                       [sys.executable, "-m", "floorplan.service", "worker", "--health"]):
+            assert subprocess.run(health, env=env).returncode == 0
+            elsewhere = {**env, "FLOORPLAN_NAMESPACE": "none"}
+            assert subprocess.run(health, env=elsewhere).returncode == 1
     finally:
         cluster.stop()
 

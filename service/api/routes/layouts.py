@@ -31,7 +31,7 @@ from floorplan.service.api.schemas import JobPage, JobPublic, job_public
 from floorplan.service.jobs.backend import JobBackend
 from floorplan.service.records import Job
 from floorplan.service.store import IdempotencyConflict
-from floorplan.solver.pipeline.storeys import job_time_limit
+from floorplan.solver.pipeline.storeys import job_ceiling, job_time_limit
 from floorplan.solver.pipeline.variants import variant_time_factor
 
 #: Longest wait between two looks at the store while streaming events (the backend
@@ -116,6 +116,9 @@ def effective_time_limit(problem: LayoutProblem, ceiling: float) -> tuple[Layout
     `ceiling`."""
     factor = variant_time_factor(problem)
     time_limit = job_time_limit(problem)
+    if factor == 1 and time_limit <= ceiling:
+        # One layout under the default limit may take its late allowance.
+        return problem, min(job_ceiling(problem), ceiling)
     if time_limit * factor <= ceiling:
         return problem, time_limit * factor
     return problem.with_options(time_limit=ceiling / factor), ceiling

@@ -2,124 +2,44 @@
 // redrawing the incumbent; then show the report and the downloads. Every call goes to
 // the public API, relative to the page, so the page also works behind a path prefix.
 
+import { api, ApiProblem, askForKey, authHeaders, clearMessage, problemOf, showMessage,
+         showProblem, withHints } from "./api.js";
+import { loadBrief, setupBrief, showFieldErrors, STARTERS } from "./brief.js";
 import { followEvents } from "./events.js";
 import { exploreResult, setupExplore } from "./explore.js";
-import { drawPlan } from "./plan.js";
+import { allRooms, drawPlan, oneFloor } from "./plan.js";
+import { progressFromReport, showVerdict } from "./verdict.js";
+import { prettyJson, showJsonError } from "./jsonview.js";
+import { listSaved, saveBrief, savedBrief } from "./saved.js";
+import { phaseWords, STATUS_WORDS } from "./words.js";
 
 const $ = (id) => document.getElementById(id);
 const TERMINAL = new Set(["succeeded", "failed", "canceled"]);
 const KEY_STORAGE = "floorplan.api-key";
 const JOB_STORAGE = "floorplan.job"; // the job on screen, followed again after a reload
 const CLOCK_MS = 200;
-// The solver's phases (solver/pipeline/solve.py Phase) in words.
-const PHASES = {
-  relaxation: "size window tried", level: "level started", subdomain: "sub-domain solved",
-  incumbent: "better layout found", done: "done",
-};
+const CHECK_DELAY_MS = 600; // validation as you type, once typing pauses
 
 const state = {
   job: null,          // {id, problem}: the job on screen
   status: null,       // its last known status
   abort: null,        // AbortController of the event stream
   elapsed: null,      // {seconds, at}: the solver's last elapsed time and when it came
+  checkTimer: null,   // the pending validation as you type
+  checks: 0,          // validations sent: only the newest answer is shown
 };
-
-// Calling the API.
-
-class ApiProblem extends Error {
-  /** An RFC 9457 problem document, or one made up for a failure without one. */
-  constructor(doc) {
-    super(doc.detail || doc.title);
-    this.doc = doc;
-  }
-}
-
-function authHeaders() {
-  const key = $("api-key").value.trim();
-  return key ? { Authorization: `Bearer ${key}` } : {};
-}
-
-async function problemOf(response) {
-  const type = response.headers.get("content-type") || "";
-  if (type.includes("json")) {
-    try {
-      return await response.json();
-    } catch { /* not JSON after all: fall through */ }
-  }
-  return { title: response.statusText || "Error", status: response.status,
-           detail: (await response.text().catch(() => "")).slice(0, 300) };
-}
-
-async function api(path, { method = "GET", body } = {}) {
-  const headers = { ...authHeaders() };
-  if (body !== undefined) headers["Content-Type"] = "application/json";
-  let response;
-  try {
-    response = await fetch(path, { method, headers, body, cache: "no-store" });
-  } catch (err) {
-    throw new ApiProblem({ title: "The server did not answer", detail: String(err) });
-  }
-  if (!response.ok) throw new ApiProblem(await problemOf(response));
-  return response.json();
-}
-
-// Messages: errors as problem documents, with every field path listed.
-
-function showMessage({ title, detail = "", items = [], ok = false }) {
-  const box = $("messages");
-  box.replaceChildren();
-  box.classList.toggle("ok", ok);
-  const heading = document.createElement("h3");
-  heading.textContent = title;
-  box.append(heading);
-  if (detail) {
-    const p = document.createElement("p");
-    p.textContent = detail;
-    box.append(p);
-  }
-  if (items.length) {
-    const list = document.createElement("ul");
-    for (const [code, text] of items) {
-      const li = document.createElement("li");
-      if (code) {
-        const c = document.createElement("code");
-        c.textContent = code;
-        li.append(c, ": ");
-      }
-      li.append(text);
-      list.append(li);
-    }
-    box.append(list);
-  }
-  box.hidden = false;
-}
-
-function clearMessage() {
-  $("messages").hidden = true;
-}
-
-function showProblem(err) {
-  const doc = err instanceof ApiProblem ? err.doc : { title: "Error", detail: String(err) };
-  const status = doc.status ? ` (${doc.status})` : "";
-  showMessage({ title: `${doc.title}${status}`, detail: doc.detail,
-                items: (doc.errors || []).map((e) => [e.field, e.message]) });
-  if (doc.status === 401) askForKey();
-}
-
-function askForKey() {
-  const note = $("key-note");
-  note.textContent = "This server requires an API key.";
-  note.classList.add("required");
-  $("key-box").open = true;
-  $("api-key").focus();
-}
 
 // The problem: examples, files, the text box.
 
 async function loadExamples() {
   try {
-    const { data } = await api("v1/examples");
     const select = $("example");
+    const templates = document.createElement("optgroup");
+    templates.label = "Residential template";
+    for (const [value, { title }] of Object.entries(STARTERS)) templates.append(new Option(title, value));
+    select.append(templates);
+    listSaved(select);
+    const { data } = await api("v1/examples");
     for (const example of data) {
       const option = new Option(`${example.name} (${example.rooms} rooms)`, example.name);
       select.append(option);
@@ -129,39 +49,14 @@ async function loadExamples() {
   }
 }
 
-/** JSON on as few lines as stay readable: short arrays and objects (points, sizes,
- * whole rooms) on one line, longer ones broken over lines. */
-const TEXT_WIDTH = 60; // about the text box's width
-
-function inline(value) {
-  if (Array.isArray(value)) return `[${value.map(inline).join(", ")}]`;
-  if (value && typeof value === "object") {
-    const members = Object.entries(value).map(([k, v]) => `${JSON.stringify(k)}: ${inline(v)}`);
-    return `{${members.join(", ")}}`;
-  }
-  return JSON.stringify(value);
-}
-
-function prettyJson(value, indent = "") {
-  const line = inline(value);
-  if (value === null || typeof value !== "object" || indent.length + line.length <= TEXT_WIDTH) {
-    return line;
-  }
-  const inner = `${indent}  `;
-  const parts = Array.isArray(value)
-    ? value.map((v) => inner + prettyJson(v, inner))
-    : Object.entries(value).map(([k, v]) => `${inner}${JSON.stringify(k)}: ${prettyJson(v, inner)}`);
-  const [open, close] = Array.isArray(value) ? ["[", "]"] : ["{", "}"];
-  return `${open}\n${parts.join(",\n")}\n${indent}${close}`;
-}
-
 async function pickExample() {
   const name = $("example").value;
   if (!name) return;
   try {
-    $("problem").value = prettyJson(await api(`v1/examples/${encodeURIComponent(name)}`));
+    const brief = name in STARTERS ? structuredClone(STARTERS[name].brief)
+      : savedBrief(name) ?? await api(`v1/examples/${encodeURIComponent(name)}`);
     clearMessage();
-    previewProblem();
+    loadBrief(brief);
   } catch (err) {
     showProblem(err);
   }
@@ -172,7 +67,58 @@ async function readFile(file) {
   $("problem").value = await file.text();
   $("example").value = "";
   clearMessage();
+  jsonEdited();
+}
+
+/** The brief changed in the form (or was loaded): the JSON view follows. */
+function briefChanged(brief, origin) {
+  if (origin !== "json") {
+    $("problem").value = prettyJson(brief);
+    $("json-error").hidden = true;
+  }
   previewProblem();
+  scheduleCheck();
+}
+
+/** The JSON view edited: the form follows when it parses, else the line is shown. */
+function jsonEdited() {
+  try {
+    const brief = JSON.parse($("problem").value);
+    $("json-error").hidden = true;
+    loadBrief(brief, true);
+    briefChanged(brief, "json");
+  } catch (err) {
+    showJsonError(err);
+  }
+}
+
+/** Validation as you type: the refused fields on their inputs, findings below. */
+function scheduleCheck() {
+  clearTimeout(state.checkTimer);
+  state.checkTimer = setTimeout(checkAsYouType, CHECK_DELAY_MS);
+}
+
+async function checkAsYouType() {
+  let problem;
+  try {
+    problem = problemFromForm();
+  } catch {
+    return;
+  }
+  const mine = ++state.checks;
+  try {
+    const result = await api("v1/validate", { method: "POST", body: JSON.stringify(problem) });
+    if (mine !== state.checks) return;
+    const rest = showFieldErrors(result.errors);
+    const box = $("brief-findings");
+    box.replaceChildren();
+    const items = [...withHints(rest).map(([f, m]) => `${f}: ${m}`), ...result.findings];
+    if (items.length) {
+      const list = document.createElement("ul");
+      for (const item of items) list.append(Object.assign(document.createElement("li"), { textContent: item }));
+      box.append(list);
+    }
+  } catch { /* the server says why on Solve or Check only */ }
 }
 
 /** The text box as a problem, with the form's time limit and seed applied. */
@@ -184,7 +130,9 @@ function problemFromForm() {
   try {
     problem = JSON.parse(text);
   } catch (err) {
-    throw new ApiProblem({ title: "The problem is not valid JSON", detail: err.message });
+    const line = showJsonError(err);
+    throw new ApiProblem({ title: "The problem is not valid JSON",
+                           detail: `${line ? `line ${line}: ` : ""}${err.message}` });
   }
   if (problem === null || typeof problem !== "object" || Array.isArray(problem)) {
     return problem; // the server names what is wrong with it
@@ -217,6 +165,8 @@ function previewProblem() {
 function setStatus(status) {
   state.status = status;
   $("status").textContent = status;
+  $("status").dataset.job = state.job?.id ?? ""; // which job the status is of
+  $("status-words").textContent = STATUS_WORDS[status] ?? "";
   const active = !TERMINAL.has(status);
   $("submit").disabled = active;
   $("cancel").disabled = !active;
@@ -240,7 +190,7 @@ function showProgress(p) {
     state.elapsed = { seconds: p.elapsed, at: performance.now() };
     showElapsed();
   }
-  $("phase").textContent = [PHASES[p.phase] ?? p.phase, p.detail].filter(Boolean).join(": ");
+  $("phase").textContent = phaseWords(p);
 }
 
 /** The solver's elapsed time, running on between events while the job runs. */
@@ -312,81 +262,52 @@ async function finish(job) {
   } catch (err) {
     if (!(err instanceof ApiProblem && err.doc.status === 404)) showProblem(err);
   }
+  progressFromReport(layout?.report);
   if (layout && allRooms(layout).length) {
     drawPlan($("plan"), ...oneFloor(job.problem, layout), "result");
   }
-  if (info) showSummary(job, info, layout);
-  exploreResult(job.problem, layout);
+  if (!info) return;
+  const problem = await expanded(job.problem);
+  const explored = exploreResult(job, info, layout, problem);
+  if (explored === "retry") return; // a wider edit is on its way: it reports
+  if (!explored) {
+    showVerdict({ job, info, layout, problem });
+    setDownloads(job, Boolean(layout && allRooms(layout).length));
+  }
+  explainFailure(info, layout);
 }
 
-/** Every room of a layout: its rooms, or those of every floor of a building. */
-function allRooms(layout) {
-  return layout.floors ? layout.floors.flatMap((f) => f.rooms) : layout.rooms;
+/** The brief as the server solves it: a templated one expanded (by the service's own
+ * validation), a plain one as it is. */
+async function expanded(problem) {
+  if (!problem?.template) return problem;
+  try {
+    const result = await api("v1/validate", { method: "POST", body: JSON.stringify(problem) });
+    return result.problem ?? problem;
+  } catch {
+    return problem;
+  }
 }
 
-/** What the plan shows: the problem and layout as they are, or for a building of
- * several storeys its first floor (an incumbent's: the floor being solved), with that
- * floor's outline, obstacles and entrance. */
-function oneFloor(problem, layout) {
-  if (!layout?.floors?.length || !problem?.floors) return [problem, layout];
-  const shown = layout.floors[0];
-  const index = Math.max(0, problem.floors.findIndex((f) => f.id === shown.id));
-  const floor = problem.floors[index] ?? {};
-  const view = {
-    boundary: floor.boundary ?? problem.boundary,
-    obstacles: floor.obstacles ?? problem.obstacles,
-    entrance: floor.entrance ?? (index === 0 ? problem.entrance : null),
-  };
-  return [view, shown];
+/** A view of the explore panel on screen: its report, downloads and brief. */
+function showView(view) {
+  const layout = view.layouts[view.picked];
+  const variant = view.layouts.length > 1 ? view.picked : null;
+  state.job = view.job;
+  showVerdict({ job: view.job, info: view.info, layout, problem: view.problem, variant });
+  progressFromReport(layout.report);
+  setStatus(view.info.status);
+  setDownloads(view.job, true, variant);
+  if (view.briefText != null && $("problem").value !== view.briefText) {
+    $("problem").value = view.briefText;
+    try {
+      loadBrief(JSON.parse(view.briefText), true);
+    } catch { /* kept as text */ }
+  }
 }
 
-function row(list, term, value, verdict = null) {
-  const dt = document.createElement("dt");
-  dt.textContent = term;
-  const dd = document.createElement("dd");
-  dd.textContent = value;
-  if (verdict !== null) dd.className = verdict ? "yes" : "no";
-  dd.dataset.term = term;
-  list.append(dt, dd);
-}
-
-function showSummary(job, info, layout) {
-  const list = $("summary-list");
-  list.replaceChildren();
-  row(list, "status", info.status, info.status === "succeeded");
-  row(list, "termination", info.termination ?? "–");
+function explainFailure(info, layout) {
   const report = layout?.report;
-  const placed = layout ? allRooms(layout) : [];
-  if (report && placed.length) {
-    const floors = job.problem.floors ?? [];
-    const total = (job.problem.rooms?.length ?? 0) +
-      floors.reduce((n, f) => n + (f.rooms?.length ?? 0) +
-        (job.problem.vertical ?? []).filter((v) => !v.floors || v.floors.includes(f.id)).length,
-      0) || placed.length;
-    row(list, "coverage", `${(100 * report.coverage).toFixed(1)} %`, report.coverage >= 0.99);
-    row(list, "valid", report.valid ? "yes" : "no", report.valid);
-    row(list, "rooms placed", `${placed.length} of ${total}`);
-    if (layout.floors) {
-      row(list, "floors", layout.floors.map((f) => `${f.name}${f.report.valid ? "" : " (invalid)"}`)
-        .join(", ") + " (the plan shows the first)");
-    }
-    row(list, "objective", fmt(report.objective));
-    row(list, "solve time", `${fmt(report.solve_time, 1)} s`);
-    row(list, "levels", String(report.levels));
-    if (report.circulation) {
-      const c = report.circulation;
-      row(list, "reachable", c.reachable ? "every room" : `not: ${c.unreachable.join(", ")}`,
-          c.reachable);
-    }
-  }
-  const failed = $("failed-checks");
-  failed.replaceChildren();
-  for (const check of (report?.constraints ?? []).filter((c) => !c.satisfied)) {
-    const li = document.createElement("li");
-    const where = check.floor ? ` on floor ${check.floor}` : "";
-    li.textContent = `${check.kind} (${check.rooms.join(", ")})${where}${check.detail ? ": " + check.detail : ""}`;
-    failed.append(li);
-  }
   if (info.error) {
     showMessage({ title: `No layout: ${info.error.code}`, detail: info.error.message,
                   items: (info.error.findings ?? []).map((f) => ["", f]) });
@@ -394,20 +315,20 @@ function showSummary(job, info, layout) {
     showMessage({ title: "No layout", detail: report.infeasibility.reason,
                   items: report.infeasibility.findings.map((f) => ["", f]) });
   }
-  setDownloads(job, placed.length > 0);
-  $("summary").hidden = false;
 }
 
 // Downloads: real links (to copy or open), but a click fetches the file itself, with
 // the API key when there is one, and saves it under the problem's name: the server
 // names its files after the job id, and a plain link could not send the key.
 
-function setDownloads(job, available) {
-  const base = (job.problem.name || "layout").replace(/[^\w.-]+/g, "_");
+function setDownloads(job, available, variant = null) {
+  const base = (job.problem.name || "layout").replace(/[^\w.-]+/g, "_")
+    + (variant == null ? "" : `-variant-${variant + 1}`);
   for (const link of document.querySelectorAll("#downloads a")) {
     const format = link.dataset.format;
     if (available) {
-      link.href = `v1/layouts/${job.id}/result?format=${format}`;
+      link.href = `v1/layouts/${job.id}/result?format=${format}`
+        + (variant == null ? "" : `&variant=${variant}`);
       link.download = `${base}.${format === "json" ? "layout.json" : format}`;
     } else {
       link.removeAttribute("href");
@@ -462,12 +383,12 @@ async function send(problem) {
 /** An edit of the explore panel: shown in the text box, then sent as a job. */
 async function resubmit(problem) {
   clearMessage();
-  $("problem").value = prettyJson(problem);
+  loadBrief(problem);
   try {
     await send(problem);
   } catch (err) {
     showProblem(err);
-    exploreResult(problem, null);
+    exploreResult(null, null, null, problem);
   }
 }
 
@@ -477,20 +398,29 @@ async function validate() {
     const result = await api("v1/validate", {
       method: "POST", body: JSON.stringify(problemFromForm()),
     });
+    showFieldErrors(result.errors);
     if (result.valid) {
       showMessage({ title: "No problem found", ok: true,
-                    detail: "The problem is well formed and no cheap impossibility was found." });
+                    detail: "The brief is well formed and no cheap impossibility was found."
+                      + (result.problem ? " Below: the brief as it will be solved." : "") });
     } else {
       showMessage({
         title: result.errors.length ? `${result.errors.length} invalid field(s)`
                                     : "No layout can exist",
-        items: [...result.errors.map((e) => [e.field, e.message]),
-                ...result.findings.map((f) => ["", f])],
+        items: [...withHints(result.errors), ...result.findings.map((f) => ["", f])],
       });
     }
+    showExpanded(result.problem);
   } catch (err) {
     showProblem(err);
   }
+}
+
+/** The brief the server sent back (a template filled in), kept on the page to edit. */
+function showExpanded(problem) {
+  state.expanded = problem ?? null;
+  $("expanded").hidden = !problem;
+  $("expanded-json").textContent = problem ? prettyJson(problem) : "";
 }
 
 async function cancel() {
@@ -520,8 +450,12 @@ function start() {
   });
   $("example").addEventListener("change", pickExample);
   $("file").addEventListener("change", (e) => readFile(e.target.files[0]));
+  setupBrief(briefChanged);
+  $("use-expanded").addEventListener("click", () => {
+    if (state.expanded) loadBrief(structuredClone(state.expanded));
+  });
   const box = $("problem");
-  box.addEventListener("input", previewProblem);
+  box.addEventListener("input", jsonEdited);
   box.addEventListener("dragover", (e) => { e.preventDefault(); box.classList.add("dragging"); });
   box.addEventListener("dragleave", () => box.classList.remove("dragging"));
   box.addEventListener("drop", (e) => {
@@ -531,17 +465,28 @@ function start() {
   });
   $("problem-form").addEventListener("submit", submit);
   $("validate").addEventListener("click", validate);
+  $("save-brief").addEventListener("click", () => {
+    try {
+      const name = saveBrief(JSON.parse($("problem").value));
+      listSaved($("example"));
+      showMessage({ title: `Saved as "${name}"`, ok: true,
+                    detail: "Open it again from Start from, in this browser." });
+    } catch (err) {
+      showProblem(err);
+    }
+  });
   $("cancel").addEventListener("click", cancel);
   $("downloads").addEventListener("click", downloadFile);
   setInterval(showElapsed, CLOCK_MS);
-  setupExplore(resubmit);
+  setupExplore({ resubmit, show: showView,
+                 briefText: (problem) => (problem ? prettyJson(problem) : $("problem").value) });
 
   loadExamples();
   probeKey();
   const saved = sessionStorage.getItem(JOB_STORAGE);
   if (saved) {
     const job = JSON.parse(saved);
-    $("problem").value = prettyJson(job.problem);
+    loadBrief(job.problem);
     follow(job); // replays its events from the start, or shows how it ended
   }
 }

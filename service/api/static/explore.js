@@ -1,131 +1,177 @@
-// Exploring a design: the variants of a result as thumbnails side by side,
-// one picked onto the plan; rooms clicked there are fixed (drawn locked) and a room's
-// target size is changed in place; "Re-solve" sends the edit (the locked rooms'
-// polygons as `fixed`, the shown layout as `options.start`); the previous plan stays
-// beside the new one, with what changed; "Undo" goes back one edit. The page's own
-// submit path runs the job (`resubmit`), so an edit is followed like any job.
+// Exploring a design: the variants of a result side by side, one picked onto the plan
+// (the report and every download then describe it); rooms clicked there, or reached by
+// Tab and Enter, are fixed; a room's target size is changed in place; "Re-solve" sends
+// the edit through the service's edit API as it is (the kept rooms' polygons as `fixed`,
+// the shown layout as `options.start`). With "keep" on, every room that does not touch
+// a changed room is sent fixed too, so an edit stays local. Each view on screen (job,
+// report, plan, brief, downloads) is one state, and Undo / Redo step between them.
 
 import { drawPlan } from "./plan.js";
+import { meanAreaError } from "./verdict.js";
 
 const $ = (id) => document.getElementById(id);
+/** Walls closer than this (m) are one wall; a shared stretch shorter is a corner. */
+const TOUCH_M = 0.01;
+const MIN_CONTACT_M = 0.05;
 
 const state = {
-  problem: null,   // the problem of the plan on screen, as sent (without start)
-  layouts: [],     // the variants of the last result (one when none were asked)
-  picked: 0,       // the variant on the plan
-  locked: new Set(),
-  previous: null,  // {problem, layout}: the plan before the last re-solve
-  history: [],     // [{problem, layouts, picked, locked, previous}] for undo
-  editing: false,  // a re-solve is under way: its result is compared with `previous`
-  resubmit: null,  // (problem) => void, from the page
+  view: null,      // {job, info, problem, layouts, picked, locked, edited, previous, briefText}
+  history: [],     // views before, for Undo
+  future: [],      // views undone, for Redo
+  editing: false,  // a re-solve is under way: its result is compared with the view before
+  hooks: null,     // {resubmit(problem), show(view), briefText(problem)} from the page
 };
 
 const clone = (value) => JSON.parse(JSON.stringify(value));
-const shown = () => state.layouts[state.picked] ?? null;
+const shown = (view = state.view) => view?.layouts[view.picked] ?? null;
+const copyView = (v) => ({ ...v, problem: clone(v.problem), locked: new Set(v.locked),
+                           edited: new Set(v.edited) });
 
-/** Wires the panel; `resubmit(problem)` sends a problem as the Solve button does. */
-export function setupExplore(resubmit) {
-  state.resubmit = resubmit;
-  $("plan").addEventListener("click", (event) => {
+/** Wires the panel to the page's hooks. */
+export function setupExplore(hooks) {
+  state.hooks = hooks;
+  const plan = $("plan");
+  plan.addEventListener("click", (event) => {
     const room = event.target.closest?.(".room");
-    if (!room || !shown()) return;
+    if (room && shown()) toggleLock(room.dataset.room);
+  });
+  plan.addEventListener("keydown", (event) => {
+    const room = event.target.closest?.(".room");
+    if (!room || !shown() || (event.key !== "Enter" && event.key !== " ")) return;
+    event.preventDefault();
     toggleLock(room.dataset.room);
+    $("plan").querySelector(`.room[data-room='${CSS.escape(room.dataset.room)}']`)?.focus();
   });
   $("edit-room").addEventListener("change", showTarget);
   $("apply-target").addEventListener("click", applyTarget);
   $("resolve").addEventListener("click", resolve);
   $("undo").addEventListener("click", undo);
+  $("redo").addEventListener("click", redo);
 }
 
-/** A job ended with `layout` (of `problem`): offer its variants for exploring. A
- * building of several floors is not explored (fixed rooms are for one floor). */
-export function exploreResult(problem, layout) {
-  const panel = $("explore");
+/** The view on screen (for the page's downloads and reloads). */
+export const currentView = () => state.view;
+
+/** A job ended: `layout` of `problem` (the brief as solved, templates expanded), record
+ * `info`. Returns false when the result is not one to explore (no rooms, or floors). */
+export function exploreResult(job, info, layout, problem) {
   if (!layout?.rooms?.length || problem?.floors) {
+    if (state.editing && retryWider()) return "retry";
     if (state.editing) { // an edit without a layout: the plan before stays, to undo to
       state.editing = false;
-      $("edit-note").textContent = "This edit has no layout (see above); Undo goes back.";
-      render();
+      const kept = state.kept?.size ?? 0;
+      $("edit-note").textContent = "This edit found no layout (see the result)"
+        + (kept ? ` with ${kept} room(s) kept in place: let more rooms move (untick "keep`
+          + ' every room …" or free fixed rooms) and re-solve, or Undo.' : "; Undo goes back.");
+      $("undo").disabled = state.history.length === 0;
     } else {
-      panel.hidden = true;
+      $("explore").hidden = true;
     }
-    return;
+    return false;
   }
   const sent = clone(problem);
   if (sent.options) delete sent.options.start;
-  if (state.editing && state.problem) {
-    state.previous = { problem: state.problem, layout: shown() };
-    $("edit-note").textContent = "Re-solved: the previous plan is beside the new one; "
-      + "Undo goes back.";
+  const view = {
+    job, info, problem: sent, layouts: layout.variants?.length ? layout.variants : [layout],
+    picked: 0, locked: new Set((sent.rooms ?? []).filter((r) => r.fixed).map((r) => r.id)),
+    edited: new Set(), previous: null, briefText: state.hooks.briefText(null),
+  };
+  if (state.editing && state.view) {
+    const before = state.history[state.history.length - 1];
+    view.previous = { problem: before.problem, layout: shown(before), kept: state.kept,
+                      retried: state.ring === 2 ? state.retryNote : null };
+    view.locked = new Set(before.locked);
   } else {
-    state.previous = null;
     state.history = [];
-    state.locked = new Set((sent.rooms ?? []).filter((r) => r.fixed).map((r) => r.id));
   }
+  state.future = [];
   state.editing = false;
-  state.problem = sent;
-  state.layouts = layout.variants?.length ? layout.variants : [layout];
-  state.picked = 0;
-  panel.hidden = false;
+  state.view = view;
+  $("explore").hidden = false;
   render("result");
+  if (view.previous) $("edit-note").textContent = changeNote();
+  return true;
 }
 
-/** Draws the panel and the plan; `source` goes on the plan's data-source ("result"
- * as a job ended, "explore" once a variant is picked or an edit undone). */
 function render(source = "explore") {
   drawThumbnails();
   drawShown(source);
   fillRoomList();
   drawComparison();
   $("undo").disabled = state.history.length === 0;
+  $("redo").disabled = state.future.length === 0;
+  state.hooks.show(state.view);
+}
+
+/** A variant's caption: how far its rooms are from their target areas, and coverage. */
+function caption(layout, k) {
+  const error = meanAreaError(state.view.problem, layout);
+  const report = layout.report ?? {};
+  const parts = [`#${k + 1}`];
+  if (error != null) parts.push(`areas off ${(100 * error).toFixed(0)} % on average`);
+  if (report.coverage != null) parts.push(`${(100 * report.coverage).toFixed(1)} % covered`);
+  if (report.valid === false) parts.push("invalid");
+  return parts.join(" · ");
 }
 
 function drawThumbnails() {
   const strip = $("variants-strip");
   strip.replaceChildren();
-  strip.hidden = state.layouts.length < 2;
-  state.layouts.forEach((layout, k) => {
+  const { layouts, picked, problem } = state.view;
+  strip.hidden = layouts.length < 2;
+  layouts.forEach((layout, k) => {
     const button = document.createElement("button");
     button.type = "button";
     button.className = "variant-thumb";
+    button.dataset.testid = "variant-thumb";
     button.dataset.index = String(k);
-    button.setAttribute("aria-pressed", String(k === state.picked));
+    button.setAttribute("aria-pressed", String(k === picked));
     const svg = document.createElementNS("http://www.w3.org/2000/svg", "svg");
     svg.setAttribute("class", "thumb");
-    drawPlan(svg, state.problem, layout, "variant");
-    const caption = document.createElement("span");
-    const objective = layout.report?.objective;
-    caption.textContent = `#${k + 1}` + (objective == null ? "" : ` · ${objective.toFixed(1)}`);
-    button.append(svg, caption);
+    svg.setAttribute("aria-hidden", "true");
+    drawPlan(svg, problem, layout, "variant");
+    const text = document.createElement("span");
+    text.textContent = caption(layout, k);
+    button.append(svg, text);
     button.addEventListener("click", () => pick(k));
     strip.append(button);
   });
 }
 
 function pick(k) {
-  state.picked = k;
+  state.view.picked = k;
   render();
 }
 
-/** The picked layout on the main plan, its locked rooms marked. */
 function drawShown(source) {
-  drawPlan($("plan"), state.problem, shown(), source);
-  markLocks($("plan"));
+  drawPlan($("plan"), state.view.problem, shown(), source);
+  markLocks();
 }
 
-function markLocks(svg) {
-  for (const g of svg.querySelectorAll(".room")) {
-    const locked = state.locked.has(g.dataset.room);
-    g.classList.toggle("locked", locked);
-    g.setAttribute("aria-label", `${g.dataset.room}${locked ? " (fixed)" : ""}`);
+/** Fixed rooms drawn as fixed; every room a keyboard stop that says what it is. */
+function markLocks() {
+  const { locked, previous } = state.view;
+  const changed = new Set(previous ? changedRooms().map((c) => c.id) : []);
+  for (const g of $("plan").querySelectorAll(".room")) {
+    const id = g.dataset.room;
+    const fixed = locked.has(id);
+    g.classList.toggle("locked", fixed);
+    g.classList.toggle("changed", changed.has(id));
+    g.setAttribute("tabindex", "0");
+    g.setAttribute("role", "button");
+    g.setAttribute("aria-pressed", String(fixed));
+    const room = shown().rooms.find((r) => r.id === id);
+    g.setAttribute("aria-label", `${id}, ${room ? Number(room.area).toFixed(1) : "?"} m², `
+      + (fixed ? "fixed: Enter frees it" : "Enter fixes it where it is"));
   }
-  $("locked-count").textContent = String(state.locked.size);
+  $("locked-count").textContent = String(locked.size);
 }
 
 function toggleLock(roomId) {
-  if (state.locked.has(roomId)) state.locked.delete(roomId);
-  else state.locked.add(roomId);
-  markLocks($("plan"));
+  const { locked } = state.view;
+  if (locked.has(roomId)) locked.delete(roomId);
+  else locked.add(roomId);
+  markLocks();
   $("edit-room").value = roomId;
   showTarget();
 }
@@ -134,53 +180,94 @@ function fillRoomList() {
   const select = $("edit-room");
   const chosen = select.value;
   select.replaceChildren();
-  for (const room of state.problem?.rooms ?? []) select.append(new Option(room.id, room.id));
+  for (const room of state.view.problem.rooms ?? []) select.append(new Option(room.id, room.id));
   if (chosen && [...select.options].some((o) => o.value === chosen)) select.value = chosen;
   showTarget();
 }
 
-function roomOf(id) {
-  return (state.problem?.rooms ?? []).find((r) => r.id === id);
-}
+const roomOf = (id) => (state.view?.problem.rooms ?? []).find((r) => r.id === id);
 
-/** The chosen room's target size in the two boxes (empty without one). */
+/** The chosen room's width and depth on the plan now (its bounding box), else its target. */
 function showTarget() {
-  const room = roomOf($("edit-room").value);
-  const [w, d] = room?.target_size ?? ["", ""];
+  const id = $("edit-room").value;
+  const placed = shown()?.rooms.find((r) => r.id === id);
+  const xs = placed?.polygon.map((p) => p[0]) ?? [];
+  const ys = placed?.polygon.map((p) => p[1]) ?? [];
+  const now = placed ? [Math.max(...xs) - Math.min(...xs), Math.max(...ys) - Math.min(...ys)] : null;
+  const [w, d] = now ?? roomOf(id)?.target_size ?? ["", ""];
   $("target-width").value = w === "" ? "" : Number(w).toFixed(2);
   $("target-depth").value = d === "" ? "" : Number(d).toFixed(2);
 }
 
-/** The boxes' target size into the problem (kept for the re-solve; undo restores). */
+/** The boxes' size into the brief as the room's target and, held, its minimum (its
+ * maximum raised to it where below): an undo step of its own. */
 function applyTarget() {
-  const room = roomOf($("edit-room").value);
+  const id = $("edit-room").value;
   const w = Number($("target-width").value);
   const d = Number($("target-depth").value);
-  if (!room || !(w > 0) || !(d > 0)) {
+  if (!roomOf(id) || !(w > 0) || !(d > 0)) {
     $("edit-note").textContent = "A target needs a positive width and depth.";
     return;
   }
   snapshot();
+  const view = copyView(state.view);
+  const room = view.problem.rooms.find((r) => r.id === id);
   room.target_size = [w, d];
-  $("edit-note").textContent = `${room.id}: target ${w} × ${d} m, re-solve to see it.`;
-  $("undo").disabled = false;
+  const held = $("hold-size").checked;
+  if (held) {
+    room.min_size = [w, d];
+    if (room.max_size) room.max_size = room.max_size.map((m, k) => Math.max(m, room.min_size[k]));
+  }
+  view.edited.add(id);
+  view.locked.delete(id); // a room whose size changes cannot stay where it is
+  view.briefText = state.hooks.briefText(view.problem);
+  state.view = view;
+  render();
+  $("edit-note").textContent = `${id}: ${held ? "at least" : "target"} ${w} × ${d} m; `
+    + "Re-solve to see it.";
 }
 
 function snapshot() {
-  state.history.push({
-    problem: clone(state.problem), layouts: state.layouts, picked: state.picked,
-    locked: new Set(state.locked), previous: state.previous,
-  });
+  state.history.push(copyView(state.view));
+  state.future = [];
 }
 
-/** The edit as a problem: the locked rooms fixed at their polygons on the plan, the
- * others free, the plan's layout as the start; one variant. */
-function editedProblem() {
-  const problem = clone(state.problem);
+function touches(a, b) {
+  for (const p of a.rectangles) {
+    for (const q of b.rectangles) {
+      const overlapX = Math.min(p.x + p.width, q.x + q.width) - Math.max(p.x, q.x);
+      const overlapY = Math.min(p.y + p.depth, q.y + q.depth) - Math.max(p.y, q.y);
+      if (overlapY > MIN_CONTACT_M && overlapX > -TOUCH_M) return true;
+      if (overlapX > MIN_CONTACT_M && overlapY > -TOUCH_M) return true;
+    }
+  }
+  return false;
+}
+
+/** The rooms kept in place: those fixed by hand, and with "keep" every room not touching
+ * a room whose target changed. */
+function keptRooms(ring = 1) {
+  const { locked, edited } = state.view;
+  const kept = new Set(locked);
+  if ($("keep-others").checked && edited.size) {
+    const rooms = shown().rooms;
+    let free = rooms.filter((r) => edited.has(r.id));
+    for (let k = 0; k < ring; k++) { // the changed rooms, their neighbours, theirs ...
+      const ids = new Set(free.map((r) => r.id));
+      free = rooms.filter((r) => ids.has(r.id) || free.some((f) => touches(f, r)));
+    }
+    const ids = new Set(free.map((r) => r.id));
+    for (const room of rooms) if (!ids.has(room.id)) kept.add(room.id);
+  }
+  return kept;
+}
+
+function editedProblem(kept) {
+  const problem = clone(state.view.problem);
   const layout = shown();
   const polygons = Object.fromEntries(layout.rooms.map((r) => [r.id, r.polygon]));
   for (const room of problem.rooms) {
-    if (state.locked.has(room.id) && polygons[room.id]) room.fixed = polygons[room.id];
+    if (kept.has(room.id) && polygons[room.id]) room.fixed = polygons[room.id];
     else delete room.fixed;
   }
   const options = { ...(problem.options ?? {}) };
@@ -192,42 +279,90 @@ function editedProblem() {
 
 function resolve() {
   if (!shown()) return;
-  const problem = editedProblem();
+  const kept = keptRooms();
+  const problem = editedProblem(kept);
   snapshot();
+  state.kept = kept;
+  state.ring = 1;
   state.editing = true;
-  $("edit-note").textContent = `Re-solving with ${state.locked.size} room(s) fixed …`;
-  state.resubmit(problem);
+  const free = state.view.problem.rooms.length - kept.size;
+  $("edit-note").textContent = `Re-solving ${free} room(s) around ${kept.size} kept in place …`;
+  state.hooks.resubmit(problem);
+}
+
+/** A local edit found no layout: once, the neighbours of the freed rooms are freed too,
+ * and the note says which. Returns whether it was sent. */
+function retryWider() {
+  if (state.ring !== 1 || !$("keep-others").checked || !state.view.edited.size) return false;
+  const kept = keptRooms(2);
+  const freed = [...state.kept].filter((id) => !kept.has(id));
+  if (!freed.length) return false;
+  state.ring = 2;
+  state.kept = kept;
+  state.retryNote = `No layout with only the changed room's neighbours free, so their `
+    + `neighbours were freed too: ${freed.join(", ")}.`;
+  $("edit-note").textContent = `${state.retryNote} Re-solving …`;
+  state.hooks.resubmit(editedProblem(kept));
+  return true;
 }
 
 function undo() {
   const last = state.history.pop();
   if (!last) return;
-  Object.assign(state, last);
+  state.future.push(copyView(state.view));
+  state.view = last;
   state.editing = false;
-  $("edit-note").textContent = "Undone.";
   render();
+  $("edit-note").textContent = "Undone: plan, report, downloads and brief as before.";
 }
 
-/** The plan before the last re-solve, beside the new one, and the rooms that changed. */
+function redo() {
+  const next = state.future.pop();
+  if (!next) return;
+  state.history.push(copyView(state.view));
+  state.view = next;
+  render();
+  $("edit-note").textContent = "Redone.";
+}
+
+/** Rooms whose polygon differs from the plan before the last re-solve. */
+function changedRooms() {
+  const { previous } = state.view;
+  if (!previous?.layout) return [];
+  const before = Object.fromEntries(previous.layout.rooms.map((r) => [r.id, r]));
+  return shown().rooms.filter((r) => JSON.stringify(before[r.id]?.polygon) !== JSON.stringify(r.polygon))
+    .map((r) => ({ id: r.id, before: before[r.id], after: r }));
+}
+
+function changeNote() {
+  const changed = changedRooms();
+  const total = shown().rooms.length;
+  const kept = state.view.previous?.kept?.size ?? 0;
+  let note = `Re-solved: ${changed.length} of ${total} rooms changed`;
+  note += kept ? `, ${kept} kept in place.` : ".";
+  if (!changed.length) note += " The plan before still meets the brief and scores as well, so it was kept.";
+  if (state.view.previous?.retried) note = `${state.view.previous.retried} ${note}`;
+  if (changed.length > total / 2) note += " Many rooms moved: fix the ones you want kept and re-solve, or Undo.";
+  return `${note} The previous plan is beside the new one; Undo goes back.`;
+}
+
 function drawComparison() {
   const box = $("compare");
   const list = $("changes");
   list.replaceChildren();
-  if (!state.previous?.layout) {
+  const { previous } = state.view;
+  if (!previous?.layout) {
     box.hidden = true;
     return;
   }
   box.hidden = false;
-  drawPlan($("previous-plan"), state.previous.problem, state.previous.layout, "previous");
-  const before = Object.fromEntries(state.previous.layout.rooms.map((r) => [r.id, r]));
-  for (const room of shown().rooms) {
-    const old = before[room.id];
-    if (old && JSON.stringify(old.polygon) === JSON.stringify(room.polygon)) continue;
+  drawPlan($("previous-plan"), previous.problem, previous.layout, "previous");
+  for (const { id, before, after } of changedRooms()) {
     const li = document.createElement("li");
-    li.dataset.room = room.id;
-    li.textContent = old
-      ? `${room.id}: ${Number(old.area).toFixed(1)} → ${Number(room.area).toFixed(1)} m²`
-      : `${room.id}: new, ${Number(room.area).toFixed(1)} m²`;
+    li.dataset.room = id;
+    li.textContent = before
+      ? `${id}: ${Number(before.area).toFixed(1)} → ${Number(after.area).toFixed(1)} m²`
+      : `${id}: new, ${Number(after.area).toFixed(1)} m²`;
     list.append(li);
   }
   if (!list.children.length) {

@@ -125,3 +125,24 @@ export function drawPlan(svg, problem, layout = null, source = "problem") {
   svg.dataset.source = source;
   svg.dataset.drawn = String(Number(svg.dataset.drawn ?? 0) + 1);
 }
+
+/** Every room of a layout: its rooms, or those of every floor of a building. */
+export function allRooms(layout) {
+  return layout.floors ? layout.floors.flatMap((f) => f.rooms) : layout.rooms;
+}
+
+/** What the plan shows: the problem and layout as they are, or for a building of
+ * several storeys its first floor (an incumbent's: the floor being solved), with that
+ * floor's outline, obstacles and entrance. */
+export function oneFloor(problem, layout) {
+  if (!layout?.floors?.length || !problem?.floors) return [problem, layout];
+  const shown = layout.floors[0];
+  const index = Math.max(0, problem.floors.findIndex((f) => f.id === shown.id));
+  const floor = problem.floors[index] ?? {};
+  const view = {
+    boundary: floor.boundary ?? problem.boundary,
+    obstacles: floor.obstacles ?? problem.obstacles,
+    entrance: floor.entrance ?? (index === 0 ? problem.entrance : null),
+  };
+  return [view, shown];
+}

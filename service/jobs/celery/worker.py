@@ -1,14 +1,13 @@
 """The Celery application that `celery -A floorplan.service.jobs.celery.worker worker` and
 `floorplan worker` run: its two tasks, the signals that start and stop a worker's
-runtime, and for the command line `run_worker` and `worker_alive`. Settings come from
+runtime, and for the command line `run_worker` (the health check is broker/health.py,
+which does not import Celery). Settings come from
 the environment, or from `configure`."""
 
 from __future__ import annotations
 
-import socket
 from typing import Any
 
-import redis
 from celery import signals
 
 from floorplan.service.jobs.broker.config import (
@@ -17,7 +16,6 @@ from floorplan.service.jobs.broker.config import (
     Keys,
     celery_config,
     make_celery,
-    redis_client,
 )
 from floorplan.service.jobs.celery.runtime import SubdomainWorkerRuntime, WorkerRuntime
 from floorplan.service.settings import Settings, get_settings
@@ -79,22 +77,6 @@ def _on_worker_shutting_down(**_: Any) -> None:
         _runtime.shutdown()
     if _subdomain_runtime is not None:
         _subdomain_runtime.shutdown()
-
-
-def worker_alive(settings: Settings, host: str | None = None, *,
-                 subdomains: bool = False) -> bool:
-    """Whether a worker process (a sub-domain worker with `subdomains`) of `host` (this
-    one by default) said lately that it is alive: the key it renews exists."""
-    keys = Keys(settings.namespace)
-    client = redis_client(settings)
-    try:
-        prefix = keys.subdomain_workers if subdomains else keys.workers
-        pattern = f"{prefix}{host or socket.gethostname()}:*"
-        return next(iter(client.scan_iter(pattern, count=500)), None) is not None
-    except redis.RedisError:
-        return False
-    finally:
-        client.close()
 
 
 def run_worker(settings: Settings, *, hostname: str | None = None,

@@ -188,3 +188,41 @@ def test_the_floor_budget_hands_out_the_limit_in_order(rooms: int, limit: float)
     # SCIP's check comes out of the reshaping's share: the search keeps what it had.
     assert budget.judge_end - budget.end <= judge_seconds(limit, rooms) + 1e-9
     assert len(budget.table().splitlines()) == 5
+    # A limit the user gave is a ceiling: no late allowance, and nothing shifts.
+    assert budget.late_by == budget.judge_end
+    assert budget.shifted(100.0 + 2 * limit) == budget
+
+
+def test_a_late_first_layout_keeps_the_later_stages_their_shares_within_the_allowance(
+) -> None:
+    budget = FloorBudget.of(100.0, 10.0, 13, late=True)
+    assert budget.late_by == pytest.approx(budget.judge_end + 10.0)
+    later = budget.shifted(budget.level_one_end + 3.0)
+    assert later.search_end - later.level_one_end == pytest.approx(
+        budget.search_end - budget.level_one_end)
+    assert later.judge_end == pytest.approx(budget.judge_end + 3.0)
+    # Never past the allowance, however late the layout came.
+    assert budget.shifted(budget.level_one_end + 60.0).judge_end == pytest.approx(
+        budget.late_by)
+
+
+@pytest.mark.slow
+def test_under_the_default_limit_a_slow_first_layout_comes_late_instead_of_never(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # A machine too busy for the default limit, played by a default of 0.3 s: house-13
+    # has no first layout that soon, so the search goes on into the late allowance and
+    # a layout comes late rather than none. (The later stages keep their shares of the
+    # 0.3 s, too little to close every gap, so coverage is not asked here.)
+    from floorplan.solver import budget
+    from floorplan.solver.pipeline import floor
+    monkeypatch.setattr(floor, "default_time_limit", lambda rooms: 0.3)
+    monkeypatch.setattr(budget, "LATE_FIRST_FACTOR", 400.0)
+    problem = Problem.model_validate_json((EXAMPLES / "house-13.json").read_text())
+    events: list[SolveEvent] = []
+    layout = solve(problem.with_options(time_limit=None), on_event=events.append)
+    first = next(e for e in events if e.phase is Phase.INCUMBENT)
+    assert first.elapsed > 0.3
+    assert layout.report.termination is not Termination.NO_SOLUTION
+    assert len(layout.rooms) == len(problem.rooms)
+    assert not [c for c in layout.report.constraints
+                if not c.satisfied and c.kind != "coverage"]

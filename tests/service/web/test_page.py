@@ -1,21 +1,15 @@
 """The web page at `/`, in real headless Chromium (Debian's /usr/bin/chromium, driven by
-Playwright) against a real `floorplan serve` process on loopback. Screenshots go to
-build/screenshots/.
-
-Without the browser the tests skip, saying why; under CI (the CI variable set) they
-fail instead, so that a missing install cannot pass for a green run.
-"""
+Playwright) against a real `floorplan serve` process on loopback (conftest.py here):
+examples solved live, bad input, a dropped stream, API keys, variants and edits. The
+brief form, the verdict, variants, edits and the phone width are in test_brief.py."""
 
 from __future__ import annotations
 
 import contextlib
-import importlib.util
 import json
-import os
 import re
 import socket
 import threading
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -23,14 +17,16 @@ import httpx2 as httpx
 import pytest
 
 from floorplan.models import Problem
-from tests.paths import EXAMPLES, ROOT
+from tests.paths import EXAMPLES
 from tests.servers import Server
+from tests.service.web.conftest import (
+    JOB_TIMEOUT_MS,
+    download,
+    expect,
+    pick_example,
+    screenshot,
+)
 
-CHROMIUM = Path("/usr/bin/chromium")
-SCREENSHOTS = ROOT / "build" / "screenshots"
-VIEWPORT = {"width": 1280, "height": 860}
-#: Milliseconds to wait for a job to end; apartment-5 takes about a second.
-JOB_TIMEOUT_MS = 30_000
 APARTMENT_ROOMS = ["foyer", "living", "kitchen", "bedroom", "bathroom"]
 API_KEY = "web-test-key"
 
@@ -43,79 +39,6 @@ RECORD_DRAWINGS = """() => {
       [plan.dataset.source, plan.querySelectorAll(".room").length]))
     .observe(plan, { attributes: true, attributeFilter: ["data-drawn"] });
 }"""
-
-
-def _browser_missing() -> str | None:
-    if importlib.util.find_spec("playwright") is None:
-        return "the playwright package is not installed (it is in the dev extra)"
-    if not CHROMIUM.exists():
-        return f"{CHROMIUM} is missing: apt-get install -y chromium chromium-driver"
-    return None
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    missing = _browser_missing()
-    if missing:
-        if os.environ.get("CI"):
-            pytest.fail(f"the browser tests must run in CI: {missing}")
-        pytest.skip(missing)
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as playwright:
-        # Debian's Chromium, never a downloaded build.
-        chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), headless=True)
-        yield chromium
-        chromium.close()
-
-
-@pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    s = Server(tmp_path_factory.mktemp("web"), WORKERS="1").start()
-    yield s
-    s.stop()
-
-
-@pytest.fixture
-def page(browser: Any) -> Iterator[Any]:
-    """A fresh browser context (no stored key or job); fails the test on any script
-    error or Content-Security-Policy violation the page logs."""
-    context = browser.new_context(viewport=VIEWPORT, accept_downloads=True)
-    tab = context.new_page()
-    errors: list[str] = []
-    tab.on("pageerror", lambda err: errors.append(f"uncaught: {err}"))
-    # Answers of 4xx are part of the tests; the browser logs each as a failed load.
-    tab.on("console", lambda msg: errors.append(msg.text) if msg.type == "error"
-           and "Failed to load resource" not in msg.text else None)
-    yield tab
-    context.close()
-    assert not errors, errors
-
-
-def expect(locator: Any) -> Any:
-    from playwright.sync_api import expect as playwright_expect
-
-    return playwright_expect(locator)
-
-
-def screenshot(tab: Any, name: str) -> None:
-    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
-    tab.screenshot(path=str(SCREENSHOTS / name), full_page=True)
-
-
-def pick_example(tab: Any, name: str, *, time_limit: str) -> None:
-    expect(tab.locator(f"#example option[value='{name}']")).to_be_attached()
-    tab.select_option("#example", name)
-    expect(tab.locator("#problem")).to_have_value(re.compile(f'"name": "{name}"'))
-    tab.fill("#time-limit", time_limit)
-
-
-def download(tab: Any, link: str) -> tuple[str, str]:
-    """Clicks a download link; returns the file's suggested name and its text."""
-    with tab.expect_download() as started:
-        tab.click(link)
-    saved = started.value
-    return saved.suggested_filename, Path(saved.path()).read_text(encoding="utf-8")
 
 
 def test_the_examples_are_listed_smallest_first_and_served_as_written(server: Server) -> None:
@@ -174,7 +97,8 @@ def test_an_example_redraws_live_then_reports_and_downloads(page: Any, server: S
     term = page.locator("#summary-list dd")
     expect(term.and_(page.locator("[data-term='coverage']"))).to_have_text(
         re.compile(r"^\d+\.\d %$"))
-    expect(term.and_(page.locator("[data-term='valid']"))).to_have_text("yes")
+    # "yes" by the rules, then any goal missed (coverage below 99 %)
+    expect(term.and_(page.locator("[data-term='valid']"))).to_have_text(re.compile(r"^yes"))
     expect(term.and_(page.locator("[data-term='termination']"))).to_have_text(
         re.compile("^(optimal|timelimit)$"))
     expect(term.and_(page.locator("[data-term='rooms placed']"))).to_have_text("5 of 5")
@@ -198,6 +122,7 @@ def test_an_example_redraws_live_then_reports_and_downloads(page: Any, server: S
 @pytest.mark.slow
 def test_bad_input_shows_every_field_path_and_the_findings(page: Any, server: Server) -> None:
     page.goto(server.url)
+    page.click("#json-view summary")  # the brief as JSON, behind "Advanced"
     page.fill("#problem", '{"boundary": [[0, 0], [6, 0], [6, 4]')
     page.click("#submit")
     expect(page.locator("#messages")).to_contain_text("not valid JSON")
@@ -339,7 +264,8 @@ def test_a_server_with_keys_asks_for_one_and_works_with_it(
         # A reload follows the same job again, with the key kept for the tab.
         page.reload()
         expect(page.locator("#status")).to_have_text("succeeded", timeout=JOB_TIMEOUT_MS)
-        expect(page.locator("#summary-list [data-term='valid']")).to_have_text("yes")
+        # "yes" by the rules, then any goal missed (coverage below 99 %)
+        expect(page.locator("#summary-list [data-term='valid']")).to_have_text(re.compile(r"^yes"))
         expect(page.locator("#plan .room")).to_have_count(5)
     finally:
         keyed.stop()
@@ -368,8 +294,10 @@ def test_variants_pick_fix_rooms_edit_a_target_resolve_compare_and_undo(
         expect(page.locator(f"#plan .room[data-room='{room}']")).to_have_class(
             re.compile("locked"))
     expect(page.locator("#locked-count")).to_have_text("3")
+    page.uncheck("#keep-others")  # only the rooms fixed by hand are sent fixed
     # The kitchen's target, 10 % smaller per side, in place.
     page.select_option("#edit-room", "kitchen")
+    page.uncheck("#hold-size")  # a target only
     width = float(page.input_value("#target-width"))
     page.fill("#target-width", f"{0.9 * width:.2f}")
     page.click("#apply-target")
@@ -386,11 +314,14 @@ def test_variants_pick_fix_rooms_edit_a_target_resolve_compare_and_undo(
     for room, points in before.items():  # kept exactly, and still drawn locked
         plan_room = page.locator(f"#plan .room[data-room='{room}']")
         expect(plan_room).to_have_class(re.compile("locked"))
-        assert plan_room.locator("polygon").get_attribute("points") == points
+        # The same vertices; the service may start the ring at another one.
+        assert sorted(plan_room.locator("polygon").get_attribute("points").split()) == \
+            sorted(points.split())
     expect(page.locator("#previous-plan .room")).to_have_count(5)
     expect(page.locator("#changes li").first).to_be_visible()
     expect(page.locator("#edit-note")).to_contain_text("Re-solved")
-    expect(page.locator("#summary-list dd[data-term='valid']")).to_have_text("yes")
+    # "yes" by the rules, then any goal missed (coverage below 99 %)
+    expect(page.locator("#summary-list dd[data-term='valid']")).to_have_text(re.compile(r"^yes"))
     screenshot(page, "web-explore.png")
 
     page.click("#undo")  # back to the plan before the edit: nothing to compare

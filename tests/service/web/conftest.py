@@ -1,0 +1,101 @@
+"""The web page's browser tests share these: Debian's Chromium (/usr/bin/chromium,
+driven by Playwright) against a real `floorplan serve` process on loopback, a fresh
+context per test that fails it on any script error, and helpers to pick, download and
+take screenshots (build/screenshots/).
+
+Without the browser the tests skip, saying why; under CI (the CI variable set) they
+fail instead, so that a missing install cannot pass for a green run.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import re
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.paths import ROOT
+from tests.servers import Server
+
+CHROMIUM = Path("/usr/bin/chromium")
+SCREENSHOTS = ROOT / "build" / "screenshots"
+VIEWPORT = {"width": 1280, "height": 860}
+#: Milliseconds to wait for a job to end; apartment-5 takes about a second.
+JOB_TIMEOUT_MS = 30_000
+
+
+def _browser_missing() -> str | None:
+    if importlib.util.find_spec("playwright") is None:
+        return "the playwright package is not installed (it is in the dev extra)"
+    if not CHROMIUM.exists():
+        return f"{CHROMIUM} is missing: apt-get install -y chromium chromium-driver"
+    return None
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Any]:
+    missing = _browser_missing()
+    if missing:
+        if os.environ.get("CI"):
+            pytest.fail(f"the browser tests must run in CI: {missing}")
+        pytest.skip(missing)
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        # Debian's Chromium, never a downloaded build.
+        chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), headless=True)
+        yield chromium
+        chromium.close()
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    s = Server(tmp_path_factory.mktemp("web"), WORKERS="1").start()
+    yield s
+    s.stop()
+
+
+@pytest.fixture
+def page(browser: Any) -> Iterator[Any]:
+    """A fresh browser context (no stored key or job); fails the test on any script
+    error or Content-Security-Policy violation the page logs."""
+    context = browser.new_context(viewport=VIEWPORT, accept_downloads=True)
+    tab = context.new_page()
+    errors: list[str] = []
+    tab.on("pageerror", lambda err: errors.append(f"uncaught: {err}"))
+    # Answers of 4xx are part of the tests; the browser logs each as a failed load.
+    tab.on("console", lambda msg: errors.append(msg.text) if msg.type == "error"
+           and "Failed to load resource" not in msg.text else None)
+    yield tab
+    context.close()
+    assert not errors, errors
+
+
+def expect(locator: Any) -> Any:
+    from playwright.sync_api import expect as playwright_expect
+
+    return playwright_expect(locator)
+
+
+def screenshot(tab: Any, name: str) -> None:
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    tab.screenshot(path=str(SCREENSHOTS / name), full_page=True)
+
+
+def pick_example(tab: Any, name: str, *, time_limit: str) -> None:
+    expect(tab.locator(f"#example option[value='{name}']")).to_be_attached()
+    tab.select_option("#example", name)
+    expect(tab.locator("#problem")).to_have_value(re.compile(f'"name": "{name}"'))
+    tab.fill("#time-limit", time_limit)
+
+
+def download(tab: Any, link: str) -> tuple[str, str]:
+    """Clicks a download link; returns the file's suggested name and its text."""
+    with tab.expect_download() as started:
+        tab.click(link)
+    saved = started.value
+    return saved.suggested_filename, Path(saved.path()).read_text(encoding="utf-8")
