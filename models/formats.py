@@ -8,19 +8,21 @@ before anything heavy may load (see `models`).
 
 >>> [f.name for f in FORMATS]
 ['json', 'svg', 'dxf', 'geojson', 'ifc']
->>> format_of("plan.SVG"), format_of("layout.txt"), format_of("-")
+>>> format_of("plan.SVG"), format_of("/dev/null"), format_of("-")
 ('svg', 'json', 'json')
 >>> MEDIA_TYPES["geojson"]
 'application/geo+json'
 >>> in_words()[:60]
 'the layout JSON, an SVG plan, a DXF drawing in metres, GeoJS'
 >>> in_words()[60:]
-'ON in the local frame, or an IFC4 building model'
+'ON (local metres, or WGS84 with an origin), or an IFC4 building model'
 """
 
 from __future__ import annotations
 
+import math
 import os
+import stat
 import sys
 from dataclasses import dataclass
 from pathlib import Path, PurePath
@@ -62,7 +64,7 @@ FORMATS: tuple[OutputFormat, ...] = (
     OutputFormat("dxf", "image/vnd.dxf", ("dxf",), binary=False,
                  description="a DXF drawing in metres"),
     OutputFormat("geojson", "application/geo+json", ("geojson",), binary=False,
-                 description="GeoJSON in the local frame"),
+                 description="GeoJSON (local metres, or WGS84 with an origin)"),
     # IFC's STEP physical file (ISO 10303-21): ASCII text. IANA registers no type for
     # it; application/x-step is what BIM servers and buildingSMART's tools send.
     OutputFormat("ifc", "application/x-step", ("ifc",), binary=False,
@@ -87,6 +89,9 @@ class ExportOptions:
     """IFC: metres from one storey's floor to the next; walls and spaces are as high."""
     dxf_layers: DxfLayers = "ncs"
     """DXF: the layer names (see `DxfLayers`)."""
+    origin: tuple[float, float] | None = None
+    """GeoJSON: where the plan's origin lies on the map, (latitude, longitude) in WGS84
+    degrees, its +y due north; None keeps the plan's local metres."""
 
     def __post_init__(self) -> None:
         if not MIN_STOREY_HEIGHT <= self.storey_height <= MAX_STOREY_HEIGHT:
@@ -94,6 +99,11 @@ class ExportOptions:
                              f"{MAX_STOREY_HEIGHT} m, not {self.storey_height}")
         if self.dxf_layers not in DXF_LAYERS:
             raise ValueError(f"dxf_layers must be one of {DXF_LAYERS}, not {self.dxf_layers!r}")
+        if self.origin is not None:
+            lat, lon = self.origin
+            if not (-85.0 <= lat <= 85.0 and -180.0 <= lon <= 180.0):
+                raise ValueError(f"origin must be a latitude of -85 to 85 and a longitude "
+                                 f"of -180 to 180 degrees, not {lat:g},{lon:g}")
 
 
 #: The formats by name.
@@ -131,13 +141,71 @@ def storey_height_of(text: str) -> float:
     return ExportOptions(storey_height=height).storey_height
 
 
+def origin_of(text: str) -> tuple[float, float]:
+    """An origin written ``LAT,LON`` (decimal degrees, WGS84), checked; ValueError says
+    what is wrong with it.
+
+    >>> origin_of("52.5163, 13.3777")
+    (52.5163, 13.3777)
+    >>> origin_of("91,0")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: origin must be a latitude of -85 to 85 and a longitude of -180 to 180 ...
+    """
+    parts = text.split(",")
+    try:
+        lat, lon = (float(part) for part in parts)
+    except ValueError:
+        raise ValueError(f"origin must be LAT,LON in decimal degrees, not {text!r}") from None
+    if not all(math.isfinite(v) for v in (lat, lon)):
+        raise ValueError(f"origin must be LAT,LON in decimal degrees, not {text!r}")
+    return ExportOptions(origin=(lat, lon)).origin or (lat, lon)
+
+
+def storey_height_arg(text: str) -> float:
+    """``--storey-height``'s metres for argparse (``type=``): `storey_height_of`, its
+    ValueError as argparse's own error, which names the option."""
+    import argparse
+
+    try:
+        return storey_height_of(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def origin_arg(text: str) -> tuple[float, float]:
+    """``--origin``'s LAT,LON for argparse (``type=``), as `storey_height_arg`."""
+    import argparse
+
+    try:
+        return origin_of(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+class UnknownFormat(ValueError):
+    """A file name whose extension names none of the formats."""
+
+
 def format_of(filename: str, default: FormatName = DEFAULT_FORMAT) -> FormatName:
-    """The format a file name asks for by its extension (any case), else `default`."""
+    """The format a file name asks for by its extension (any case): `default` for a name
+    without one (``-``, ``/dev/null``); `UnknownFormat` for an extension no format has,
+    rather than a file whose name says one thing and whose content another.
+
+    >>> try:
+    ...     format_of("plan.pdf")
+    ... except UnknownFormat as err:
+    ...     print(err)
+    plan.pdf: no format has the extension .pdf (json, svg, dxf, geojson, ifc); give --format
+    """
     suffix = PurePath(filename).suffix.lower().lstrip(".")
+    if not suffix or filename == STDIO:
+        return default
     for fmt in FORMATS:
         if suffix in fmt.extensions:
             return fmt.name
-    return default
+    raise UnknownFormat(f"{filename}: no format has the extension .{suffix} "
+                        f"({', '.join(FORMAT_NAMES)}); give --format")
 
 
 def in_words() -> str:
@@ -150,18 +218,61 @@ def in_words() -> str:
 STDIO = "-"
 
 
+def why_unwritable(target: str) -> str | None:
+    """Why `write_file` could not write `target` (a file, not a folder of files), as the
+    message of a refusal before any work is done; None when it can. A device or FIFO
+    is written in place, so it is its own permission that counts; a file is written
+    beside its name and renamed, so it is its folder's."""
+    if target == STDIO:
+        return None
+    path = Path(os.path.realpath(target))
+    if path.is_dir():
+        return f"{target}: is a directory"
+    if path.exists() and not path.is_file():
+        return None if os.access(path, os.W_OK) else f"{target}: not writable"
+    if not path.parent.is_dir():
+        return f"{target}: directory {path.parent} does not exist"
+    if not os.access(path.parent, os.W_OK):
+        return f"{target}: directory {path.parent} is not writable"
+    return None
+
+
 def write_text_file(target: str, text: str) -> None:
-    """Write `text` to the file `target` (`STDIO`: standard output), as `floorplan solve`
-    and `floorplan submit` both do: written then renamed, so that a reader never sees
-    half a file."""
+    """`write_file` of UTF-8 text."""
     if target == STDIO:
         sys.stdout.write(text)
         sys.stdout.flush()
         return
-    path = Path(target)
+    write_file(target, text.encode("utf-8"))
+
+
+def write_file(target: str, data: bytes) -> None:
+    """Write `data` to `target`, as `floorplan solve` and `floorplan submit` both do,
+    never clobbering what the name stands for: `STDIO` is standard output; a symbolic
+    link is followed (the link stays, its target is written); a regular file, or a new
+    one, is written beside its final name and renamed over it, so that a reader never
+    sees half a file (the file's permissions kept); anything else (a device such as
+    /dev/null, a FIFO, a socket) is opened and written in place, as a shell's ``>``
+    would."""
+    if target == STDIO:
+        sys.stdout.flush()
+        sys.stdout.buffer.write(data)
+        sys.stdout.buffer.flush()
+        return
+    path = Path(os.path.realpath(target))
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        mode = None
+    if mode is not None and not stat.S_ISREG(mode):
+        with open(path, "wb") as stream:
+            stream.write(data)
+        return
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        tmp.write_text(text, encoding="utf-8")
+        tmp.write_bytes(data)
+        if mode is not None:
+            os.chmod(tmp, stat.S_IMODE(mode))
         tmp.replace(path)
     finally:
         tmp.unlink(missing_ok=True)

@@ -8,7 +8,8 @@ import hmac
 from typing import Annotated
 from uuid import UUID
 
-from fastapi import Depends, Header, Request
+from fastapi import Depends, Path, Request
+from fastapi.security import APIKeyHeader, HTTPAuthorizationCredentials, HTTPBearer
 
 from floorplan.service.api.errors import ApiError
 from floorplan.service.api.limits import Limits
@@ -40,10 +41,21 @@ StoreDep = Annotated[JobStore, Depends(store_dep)]
 BackendDep = Annotated[JobBackend, Depends(backend_dep)]
 
 
-def _given_key(authorization: str | None, x_api_key: str | None) -> str | None:
+#: The two ways of giving a key, as OpenAPI security schemes: neither refuses a request
+#: by itself (keys may be off); `owner_dep` does.
+bearer = HTTPBearer(auto_error=False, scheme_name="bearerAuth",
+                    description="Authorization: Bearer KEY (FLOORPLAN_API_KEYS)")
+api_key_header = APIKeyHeader(name="X-API-Key", auto_error=False, scheme_name="apiKeyAuth",
+                              description="X-API-Key: KEY, the same keys")
+BearerDep = Annotated[HTTPAuthorizationCredentials | None, Depends(bearer)]
+ApiKeyDep = Annotated[str | None, Depends(api_key_header)]
+
+
+def _given_key(authorization: HTTPAuthorizationCredentials | None,
+               x_api_key: str | None) -> str | None:
     """The key a request carries: `Authorization: Bearer KEY`, else `X-API-Key`."""
-    if authorization and authorization.lower().startswith("bearer "):
-        return authorization[7:].strip()
+    if authorization is not None and authorization.credentials.strip():
+        return authorization.credentials.strip()
     return x_api_key
 
 
@@ -52,11 +64,7 @@ def _valid(settings: Settings, key: str | None) -> bool:
                              for known in settings.api_keys)
 
 
-def owner_dep(
-    settings: SettingsDep,
-    authorization: Annotated[str | None, Header()] = None,
-    x_api_key: Annotated[str | None, Header()] = None,
-) -> str:
+def owner_dep(settings: SettingsDep, authorization: BearerDep, x_api_key: ApiKeyDep) -> str:
     """The caller's identity: a digest of its API key ("" when keys are off)."""
     if not settings.api_keys:
         return ""
@@ -70,11 +78,7 @@ def owner_dep(
 OwnerDep = Annotated[str, Depends(owner_dep)]
 
 
-def trusted_dep(
-    settings: SettingsDep,
-    authorization: Annotated[str | None, Header()] = None,
-    x_api_key: Annotated[str | None, Header()] = None,
-) -> bool:
+def trusted_dep(settings: SettingsDep, authorization: BearerDep, x_api_key: ApiKeyDep) -> bool:
     """Whether the caller may see the service's figures (/readyz): always when keys are
     off, else only with a valid key. Never refuses: readiness itself stays public."""
     return not settings.api_keys or _valid(settings, _given_key(authorization, x_api_key))
@@ -83,9 +87,19 @@ def trusted_dep(
 TrustedDep = Annotated[bool, Depends(trusted_dep)]
 
 
-def job_dep(job_id: UUID, store: StoreDep, owner: OwnerDep) -> Job:
-    """The caller's job, or 404 (also for another key's job: ids do not leak)."""
-    job = store.get(str(job_id), owner)
+JobId = Annotated[str, Path(max_length=100, description="the job's id (a UUID)",
+                            examples=["0b5c3f5e-8a8e-4d0e-9c55-3f1f0a3f2d11"])]
+
+
+def job_dep(job_id: JobId, store: StoreDep, owner: OwnerDep) -> Job:
+    """The caller's job, or 404: also for another key's job (ids do not leak), and for
+    an id that is no UUID, which no job has (not a 422: the resource is what is
+    missing, as clients expect of a GET by id)."""
+    try:
+        canonical = str(UUID(job_id))
+    except ValueError:
+        canonical = None
+    job = None if canonical is None else store.get(canonical, owner)
     if job is None:
         raise ApiError(404, f"job {job_id} not found", kind="job-not-found")
     return job

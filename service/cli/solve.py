@@ -38,9 +38,14 @@ from floorplan.models.formats import (
     DXF_LAYERS,
     FORMAT_NAMES,
     STDIO,
+    FormatName,
+    UnknownFormat,
     format_of,
     in_words,
-    storey_height_of,
+    origin_arg,
+    storey_height_arg,
+    why_unwritable,
+    write_file,
     write_text_file,
 )
 from floorplan.service.cli.exits import (
@@ -85,8 +90,10 @@ def build_parser(extra: Sequence[CommandAdder] = ()) -> argparse.ArgumentParser:
         prog=PROG,
         description="Interior layouts from building outlines and room constraints "
         "(MIQP on SCIP, after Wu et al.).",
+        epilog=f"'{PROG} COMMAND --help' tells more of each.",
     )
-    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
     _add_solve(commands)
     for add in extra:
         add(commands)
@@ -110,13 +117,17 @@ def _add_solve(commands: Any) -> None:
     p.add_argument("--svg", metavar="PLAN.svg", help="also draw the layout as SVG here")
     p.add_argument("--format", choices=FORMAT_NAMES,
                    help=f"what -o holds (default: from its extension, else json): {in_words()}")
-    p.add_argument("--storey-height", type=_storey_height, metavar="M",
+    p.add_argument("--storey-height", type=storey_height_arg, metavar="M",
                    default=DEFAULT_STOREY_HEIGHT,
                    help="ifc: metres from one storey's floor to the next (default "
                    f"{DEFAULT_STOREY_HEIGHT:g}; also the DXF storeys' elevations)")
     p.add_argument("--dxf-layers", choices=DXF_LAYERS, default="ncs",
                    help="dxf: 'ncs' the AIA / US National CAD Standard layers (A-WALL, "
                    "A-AREA, ...; default), 'room-type' the older layer per room type")
+    p.add_argument("--origin", type=origin_arg, metavar="LAT,LON",
+                   help="geojson: put the plan's origin at this latitude and longitude "
+                   "(WGS84 degrees), +y due north, and write longitude and latitude "
+                   "(default: the plan's local metres)")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds for the whole solve (overrides options.time_limit)")
     p.add_argument("--seed", type=int, metavar="K", help="random seed (overrides options.seed)")
@@ -140,11 +151,27 @@ def _add_solve(commands: Any) -> None:
     p.set_defaults(func=cmd_solve)
 
 
-def _storey_height(text: str) -> float:
+def _version() -> str:
+    """The installed distribution's version (standard library only: see the module)."""
+    from importlib.metadata import PackageNotFoundError, version
+
     try:
-        return storey_height_of(text)
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
+        return version("floorplan-miqp")
+    except PackageNotFoundError:  # run from a checkout that is not installed
+        return "unknown"
+
+
+def output_format(target: str | None, given: FormatName | None) -> FormatName:
+    """What `target` is to hold: `given` (--format), else by its extension; an extension
+    no format has is refused (`UsageError`) rather than written as JSON."""
+    if given is not None:
+        return given
+    if target is None or is_directory_target(target):
+        return "json"
+    try:
+        return format_of(target)
+    except UnknownFormat as err:
+        raise UsageError(str(err)) from None
 
 
 def _process_count(text: str) -> int:
@@ -161,6 +188,9 @@ def main(argv: list[str] | None = None, extra: Sequence[CommandAdder] = ()) -> i
     """Entry point of the `floorplan` console script; returns the exit code."""
     parser = build_parser(extra)
     args = parser.parse_args(argv)  # exits with 2 on a usage error, as argparse does
+    if args.command is None:  # a bare `floorplan`: what it can do, and a usage error
+        parser.print_help(sys.stderr)
+        return EXIT_INVALID
     if getattr(args, "own_signals", False):
         return int(args.func(args))  # a server handles its own SIGINT and SIGTERM
     try:
@@ -192,6 +222,7 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
 
     for target in (args.output, args.svg):
         _check_writable(target)
+    args.format = output_format(args.output, args.format)
     progress = None if args.quiet else ProgressPrinter(sys.stderr)
     # The pool's processes ignore Ctrl-C; a second one, which ends this process at once,
     # leaves the pool to end itself (solver.pipeline.pool.pool_process_init).
@@ -226,7 +257,7 @@ def cmd_solve(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
 def write_expanded(args: argparse.Namespace, problem: Problem) -> int:
     """``--expand``: the validated problem as JSON, only the fields that were given or
     that a template filled in (the defaults stay implicit, as in a hand-written file)."""
-    if args.svg or (args.format or format_of(args.output)) != "json":
+    if args.svg or output_format(args.output, args.format) != "json":
         raise UsageError("--expand writes the problem as JSON: drop --svg and --format, "
                          "and give -o a .json name")
     _check_writable(args.output)
@@ -337,44 +368,39 @@ def _check_writable(target: str | None) -> None:
         if path.is_dir() and not os.access(path, os.W_OK):
             raise UsageError(f"{target}: directory is not writable")
         return
-    parent = Path(target).resolve().parent
-    if not parent.is_dir():
-        raise UsageError(f"{target}: directory {parent} does not exist")
-    if Path(target).is_dir():
-        raise UsageError(f"{target}: is a directory")
-    if not os.access(parent, os.W_OK):
-        raise UsageError(f"{target}: directory {parent} is not writable")
+    reason = why_unwritable(target)
+    if reason is not None:
+        raise UsageError(reason)
 
 
 def _write_outputs(args: argparse.Namespace, problem: Problem, layout: Layout) -> bool:
-    """Write the layout JSON and the SVG; False (with a message) when one failed."""
+    """Write the layout (in --format, settled before the solve) and the SVG; False
+    (with a message) when one failed."""
     from floorplan.models.formats import BY_NAME, ExportOptions
     from floorplan.solver.export import render
     from floorplan.solver.export.svg import render_svg
 
     ok = True
-    if is_directory_target(args.output):
-        fmt = args.format or "json"
-    else:
-        fmt = args.format or format_of(args.output)
+    fmt = args.format
+    options = ExportOptions(storey_height=args.storey_height, dxf_layers=args.dxf_layers,
+                            origin=args.origin)
+
+    def encoded(one: Layout) -> bytes:
+        if fmt == "json":
+            return (one.model_dump_json(indent=2) + "\n").encode()
+        return render(problem, one, fmt, options)
+
     variants = layout.variants or [layout]
     try:
         if is_directory_target(args.output):
             Path(args.output).mkdir(exist_ok=True)
             for i, variant in enumerate(variants, start=1):
                 target = str(Path(args.output) / f"variant-{i}.{BY_NAME[fmt].extension}")
-                if fmt == "json":
-                    write_text_file(target, variant.model_dump_json(indent=2) + "\n")
-                else:
-                    options = ExportOptions(storey_height=args.storey_height,
-                                            dxf_layers=args.dxf_layers)
-                    write_text_file(target, render(problem, variant, fmt, options).decode())
-        elif fmt == "json":
-            write_text_file(args.output, layout.model_dump_json(indent=2) + "\n")
+                write_file(target, encoded(variant))
+        elif args.output == STDIO and fmt == "json":
+            write_text_file(STDIO, encoded(layout).decode())
         else:
-            options = ExportOptions(storey_height=args.storey_height,
-                                    dxf_layers=args.dxf_layers)
-            write_text_file(args.output, render(problem, layout, fmt, options).decode())
+            write_file(args.output, encoded(layout))
     except OSError as err:
         print(f"{PROG}: error: cannot write {args.output}: {err}", file=sys.stderr)
         ok = False

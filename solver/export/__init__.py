@@ -13,22 +13,44 @@ from collections.abc import Callable
 
 from floorplan.models import Layout, Problem
 from floorplan.models.formats import ExportOptions, FormatName
-from floorplan.solver.export.dxf import to_dxf
-from floorplan.solver.export.geojson import to_geojson
-from floorplan.solver.export.ifc import to_ifc
-from floorplan.solver.export.svg import render_svg
 
 Writer = Callable[[Problem, Layout, ExportOptions], bytes]
+
+
+# Each writer imports its module when first used: ezdxf and ifcopenshell take about a
+# second to import, which `floorplan solve` writing JSON and SVG need not wait for.
+def _svg(problem: Problem, layout: Layout, options: ExportOptions) -> bytes:
+    from floorplan.solver.export.svg import render_svg
+
+    return render_svg(problem, layout).encode()
+
+
+def _dxf(problem: Problem, layout: Layout, options: ExportOptions) -> bytes:
+    from floorplan.solver.export.dxf import to_dxf
+
+    return to_dxf(problem, layout, layers=options.dxf_layers,
+                  storey_height=options.storey_height)
+
+
+def _geojson(problem: Problem, layout: Layout, options: ExportOptions) -> bytes:
+    from floorplan.solver.export.geojson import to_geojson
+
+    return json.dumps(to_geojson(problem, layout, options.origin), indent=1).encode()
+
+
+def _ifc(problem: Problem, layout: Layout, options: ExportOptions) -> bytes:
+    from floorplan.solver.export.ifc import to_ifc
+
+    return to_ifc(problem, layout, storey_height=options.storey_height)
+
+
 #: The writer of each format of `models.formats`: the bytes of the file.
 WRITERS: dict[str, Writer] = {
     "json": lambda problem, layout, _: layout.model_dump_json(indent=2).encode(),
-    "svg": lambda problem, layout, _: render_svg(problem, layout).encode(),
-    "dxf": lambda problem, layout, options: to_dxf(
-        problem, layout, layers=options.dxf_layers, storey_height=options.storey_height),
-    "geojson": lambda problem, layout, _: json.dumps(to_geojson(problem, layout),
-                                                     indent=1).encode(),
-    "ifc": lambda problem, layout, options: to_ifc(problem, layout,
-                                                   storey_height=options.storey_height),
+    "svg": _svg,
+    "dxf": _dxf,
+    "geojson": _geojson,
+    "ifc": _ifc,
 }
 
 

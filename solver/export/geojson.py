@@ -1,18 +1,64 @@
-"""Layouts as GeoJSON (RFC 7946) for GIS and web maps, in the problem's own frame: metres,
-x east, y north, origin wherever the user put it. GeoJSON expects longitude/latitude,
-so the FeatureCollection says its coordinates are a local metric frame (`"crs"` member,
-as RFC 7946 section 4 allows for prior arrangement between parties)."""
+"""Layouts as GeoJSON (RFC 7946) for GIS and web maps. Without an origin the coordinates
+are the problem's own frame (metres, x east, y north: the "local" profile of
+docs/exports.md, which RFC 7946 section 4 leaves to an arrangement between the parties);
+no `crs` member, which RFC 7946 removed. With an origin (latitude, longitude) the plan's
+(0, 0) is put there, +y due north, and every coordinate becomes WGS84 longitude and
+latitude."""
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from floorplan.models import OUTSIDE, Layout, Problem
 from floorplan.models.storeys import floor_view
 from floorplan.solver.export.floors import floor_layout
 
+#: The WGS84 ellipsoid: semi-major axis (m) and first eccentricity squared.
+WGS84_A = 6378137.0
+WGS84_E2 = 6.69437999014e-3
+#: Decimal places of a degree kept: 1e-8 degrees is about a millimetre.
+DEGREE_DIGITS = 8
 
-def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
+
+def to_geojson(problem: Problem, layout: Layout,
+               origin: tuple[float, float] | None = None) -> dict[str, Any]:
+    """`_local_geojson`, its coordinates in WGS84 longitude and latitude when `origin`
+    (latitude, longitude of the plan's (0, 0)) is given."""
+    collection = _local_geojson(problem, layout)
+    if origin is not None:
+        to_degrees = _degrees_from(*origin)
+        for feature in collection["features"]:
+            geometry = feature["geometry"]
+            geometry["coordinates"] = _mapped(geometry["coordinates"], to_degrees)
+    return collection
+
+
+def _degrees_from(lat0: float, lon0: float) -> Any:
+    """Local metres (x east, y north) to (longitude, latitude) about the point (lat0,
+    lon0): the ellipsoid's radii of curvature there (meridian M, prime vertical N), which
+    are exact to a millimetre over the few hundred metres of a building."""
+    phi = math.radians(lat0)
+    w = 1.0 - WGS84_E2 * math.sin(phi) ** 2
+    meridian = WGS84_A * (1.0 - WGS84_E2) / w ** 1.5
+    prime = WGS84_A / math.sqrt(w)
+
+    def to_degrees(x: float, y: float) -> list[float]:
+        lon = lon0 + math.degrees(x / (prime * math.cos(phi)))
+        lat = lat0 + math.degrees(y / meridian)
+        return [round(lon, DEGREE_DIGITS), round(lat, DEGREE_DIGITS)]
+
+    return to_degrees
+
+
+def _mapped(coordinates: Any, to_degrees: Any) -> Any:
+    """`coordinates` (a position, or lists of them nested) with each position mapped."""
+    if coordinates and isinstance(coordinates[0], int | float):
+        return to_degrees(*coordinates)
+    return [_mapped(c, to_degrees) for c in coordinates]
+
+
+def _local_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
     """One Feature per room (Polygon, counter-clockwise) with its id, type, area and
     size error (and region); aisles as Polygon features of kind "aisle", corridors of
     kind "corridor"; doors and windows as LineString features; the outline and
@@ -23,10 +69,10 @@ def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
         features: list[dict[str, Any]] = []
         for floor in layout.floors:
             single = floor_layout(layout, floor.id)
-            for feature in to_geojson(floor_view(problem, floor.id), single)["features"]:
+            for feature in _local_geojson(floor_view(problem, floor.id), single)["features"]:
                 feature["properties"]["floor"] = floor.id
                 features.append(feature)
-        collection = to_geojson(problem, Layout(name=layout.name, report=layout.report))
+        collection = _local_geojson(problem, Layout(name=layout.name, report=layout.report))
         collection["features"] = features
         return collection
     features = [
@@ -61,8 +107,6 @@ def to_geojson(problem: Problem, layout: Layout) -> dict[str, Any]:
     return {
         "type": "FeatureCollection",
         "name": problem.name,
-        "crs": {"type": "name", "properties": {"name": "local metric frame: metres, x east, "
-                                                        "y north"}},
         "features": features,
         "properties": {"coverage": layout.report.coverage, "valid": layout.report.valid},
     }

@@ -227,6 +227,14 @@ def test_an_invalid_problem_names_its_bad_fields(fp: Client) -> None:
     assert "adjacency.0.b: unknown room id 'ghost'" in str(err)
 
 
+def test_an_id_that_is_no_uuid_is_not_found_rather_than_an_invalid_problem(
+        fp: Client) -> None:
+    for job_id in ("nope", "0000", "x" * 100):
+        with pytest.raises(NotFound) as caught:
+            fp.get(job_id)
+        assert caught.value.problem.kind == "job-not-found"
+
+
 @pytest.mark.slow
 def test_unknown_jobs_and_other_keys_jobs_are_not_found(fp: Client, server: AnyServer) -> None:
     with pytest.raises(NotFound) as caught:

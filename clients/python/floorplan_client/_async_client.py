@@ -248,6 +248,7 @@ class AsyncJob(BaseJob):
     async def result(self, format: Literal["json"] = "json", *,
                      storey_height: float | NotGiven = NOT_GIVEN,
                      dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
+                     origin: tuple[float, float] | None = None,
                      variant: int | NotGiven = NOT_GIVEN,
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout: ...
 
@@ -255,18 +256,21 @@ class AsyncJob(BaseJob):
     async def result(self, format: RenderedFormat, *,
                      storey_height: float | NotGiven = NOT_GIVEN,
                      dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
+                     origin: tuple[float, float] | None = None,
                      variant: int | NotGiven = NOT_GIVEN,
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> str: ...
 
     async def result(self, format: ResultFormat = "json", *,
                      storey_height: float | NotGiven = NOT_GIVEN,
                      dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
+                     origin: tuple[float, float] | None = None,
                      variant: int | NotGiven = NOT_GIVEN,
                      timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout | str:
         """The job's layout, or as text its SVG plan, DXF drawing, GeoJSON or IFC model:
         see `Job.result`."""
         options = RequestOptions("GET", f"/v1/layouts/{self.id}/result",
-                                 params=result_params(format, storey_height, dxf_layers, variant),
+                                 params=result_params(format, storey_height, dxf_layers, variant,
+                                                      origin),
                                  timeout=timeout)
         response = await self._client._send(options)
         if format != "json":

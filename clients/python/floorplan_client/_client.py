@@ -282,6 +282,7 @@ class Job(BaseJob):
     def result(self, format: Literal["json"] = "json", *,
                storey_height: float | NotGiven = NOT_GIVEN,
                dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
+               origin: tuple[float, float] | None = None,
                variant: int | NotGiven = NOT_GIVEN,
                timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout: ...
 
@@ -289,25 +290,30 @@ class Job(BaseJob):
     def result(self, format: RenderedFormat, *,
                storey_height: float | NotGiven = NOT_GIVEN,
                dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
+               origin: tuple[float, float] | None = None,
                variant: int | NotGiven = NOT_GIVEN,
                timeout: Timeout | NotGiven = NOT_GIVEN) -> str: ...
 
     def result(self, format: ResultFormat = "json", *,
                storey_height: float | NotGiven = NOT_GIVEN,
                dxf_layers: DxfLayerNames | NotGiven = NOT_GIVEN,
+               origin: tuple[float, float] | None = None,
                variant: int | NotGiven = NOT_GIVEN,
                timeout: Timeout | NotGiven = NOT_GIVEN) -> Layout | str:
         """The job's layout as a `models.Layout`; with ``format="svg"`` its plan as SVG
         text, with ``"dxf"`` a DXF drawing (metres; `dxf_layers` "ncs", the AIA / NCS
-        layers, by default, or "room-type"), with ``"geojson"`` GeoJSON text in the
-        problem's metric frame, with ``"ifc"`` an IFC4 building model (STEP text, storeys
-        `storey_height` metres apart, 3 by default). While the job runs this is the best
+        layers, by default, or "room-type"), with ``"geojson"`` GeoJSON text (RFC 7946) in the
+        problem's local metres, or with `origin` (latitude, longitude of the plan's
+        origin, +y due north) in WGS84 longitude and latitude, with ``"ifc"`` an IFC4
+        building model (STEP text, storeys `storey_height` metres apart, 3 by default).
+        While the job runs this is the best
         layout so far (``report.termination`` ``in_progress``); `NoResultYet` before
         there is one. With `variant` (a problem with ``options.variants``), that design
         variant of the final layout, 0 the best (`Layout.variants` holds them all); a
         `NotFound` when the job found fewer."""
         options = RequestOptions("GET", f"/v1/layouts/{self.id}/result",
-                                 params=result_params(format, storey_height, dxf_layers, variant),
+                                 params=result_params(format, storey_height, dxf_layers, variant,
+                                                      origin),
                                  timeout=timeout)
         response = self._client._send(options)
         if format != "json":

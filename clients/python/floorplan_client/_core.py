@@ -97,7 +97,8 @@ DxfLayerNames = DxfLayers
 
 def result_params(format: ResultFormat, storey_height: float | NotGiven,
                   dxf_layers: DxfLayerNames | NotGiven,
-                  variant: int | NotGiven = NOT_GIVEN) -> dict[str, Any]:
+                  variant: int | NotGiven = NOT_GIVEN,
+                  origin: tuple[float, float] | None = None) -> dict[str, Any]:
     """The query of GET /v1/layouts/{id}/result: the format, and the options given
     (the service's defaults stand for the others)."""
     params: dict[str, Any] = {"format": format}
@@ -107,6 +108,8 @@ def result_params(format: ResultFormat, storey_height: float | NotGiven,
         params["storey_height"] = storey_height
     if not isinstance(dxf_layers, NotGiven):
         params["dxf_layers"] = dxf_layers
+    if origin is not None:
+        params["origin"] = f"{origin[0]!r},{origin[1]!r}"
     return params
 
 #: Failures in sending or receiving that another attempt may well not meet.

@@ -98,7 +98,8 @@ def submit_batch(
     return batch_public(store, batch)
 
 
-@router.get("/{batch_id}", response_model=BatchPublic, responses={404: {"description": "unknown"}})
+@router.get("/{batch_id}", response_model=BatchPublic,
+            responses={404: {"description": "unknown batch"}})
 def get_batch(
     batch_id: str, store: StoreDep, owner: OwnerDep,
     summary: Annotated[bool, Query(description="also count valid layouts and distinct "
@@ -109,45 +110,75 @@ def get_batch(
     return batch_public(store, batch_or_404(batch_id, store, owner), summary=summary)
 
 
-@router.get("/{batch_id}/results", responses={
-    200: {"content": {NDJSON: {}, ZIP: {}},
-          "description": "one BatchLayoutLine per line (NDJSON), or with ?format=zip or "
-                         "Accept: application/zip a zip of the page's layouts (one "
-                         "NAME-SEED.json each) and its lines without layouts "
-                         "(results.ndjson); a `Link: <...>; rel=\"next\"` header while more "
-                         "finished layouts follow"},
-    404: {"description": "unknown"}})
-def get_results(
+#: The `after` and `limit` of a page of results.
+After = Annotated[int, Query(ge=-1, lt=MAX_BATCH_COUNT, description="the last index "
+                             "already read (a batch has at most 10,000 layouts)")]
+Limit = Annotated[int, Query(ge=1, le=MAX_PAGE)]
+_NEXT = ("a `Link: <...>; rel=\"next\"` header while more finished layouts may follow")
+
+
+class Ndjson(StreamingResponse):
+    media_type = NDJSON
+
+
+class Zip(Response):
+    media_type = ZIP
+
+
+@router.get("/{batch_id}/results", response_class=Ndjson, responses={
+    200: {"content": {NDJSON: {"schema": {"type": "string"}}},
+          "description": "NDJSON (application/x-ndjson): one BatchLayoutLine per line; "
+                         + _NEXT},
+    404: {"description": "unknown batch"}})
+def get_batch_results(
     batch_id: str, request: Request, store: StoreDep, owner: OwnerDep,
-    after: Annotated[int, Query(ge=-1, lt=MAX_BATCH_COUNT, description="the last index "
-                                "already read (a batch has at most 10,000 layouts)")] = -1,
-    limit: Annotated[int, Query(ge=1, le=MAX_PAGE)] = DEFAULT_PAGE,
-    layouts: Annotated[bool, Query(description="false: the lines without their layouts "
-                                   "(NDJSON only)")] = True,
+    after: After = -1, limit: Limit = DEFAULT_PAGE,
+    layouts: Annotated[bool, Query(description="false: the lines without their "
+                                   "layouts")] = True,
+    # The older spelling of getBatchResultsZip, with `Accept: application/zip`.
     fmt: Annotated[Literal["ndjson", "zip"] | None, Query(
-        alias="format", description="ndjson or zip; without it, zip when the Accept "
-        "header asks for application/zip")] = None,
+        alias="format", include_in_schema=False)] = None,
 ) -> Response:
-    """The finished layouts, in index order, a page at a time: NDJSON lines, or a zip."""
-    batch = batch_or_404(batch_id, store, owner)
-    found = store.batch_layouts(batch.id, after=after, limit=limit)
-    headers = {}
-    if len(found) == limit:
-        url = request.url.include_query_params(after=found[-1].index, limit=limit)
-        headers["Link"] = f'<{url}>; rel="next"'
+    """The finished layouts, in index order, a page at a time, as NDJSON lines."""
     if fmt is None:
         fmt = "zip" if _accepts_zip(request.headers.get("accept", "")) else "ndjson"
     if fmt == "zip":
-        name = f"batch-{batch.id}-after-{after}.zip"
-        headers["Content-Disposition"] = f'attachment; filename="{name}"'
-        return Response(_zip_page(batch, found), media_type=ZIP, headers=headers)
+        return get_batch_results_zip(batch_id, request, store, owner, after, limit)
+    batch = batch_or_404(batch_id, store, owner)
+    found = store.batch_layouts(batch.id, after=after, limit=limit)
 
     def lines() -> Iterator[str]:
         for item in found:
             line = _line(batch, item, with_layout=layouts)
             yield line.model_dump_json(exclude_none=True) + "\n"
 
-    return StreamingResponse(lines(), media_type=NDJSON, headers=headers)
+    return Ndjson(lines(), headers=_next_link(request, found, limit))
+
+
+@router.get("/{batch_id}/results/zip", response_class=Zip, responses={
+    200: {"content": {ZIP: {"schema": {"type": "string", "format": "binary"}}},
+          "description": "a zip of the page's layouts (one NAME-SEED.json each) and its "
+                         "lines without layouts (results.ndjson); " + _NEXT},
+    404: {"description": "unknown batch"}})
+def get_batch_results_zip(
+    batch_id: str, request: Request, store: StoreDep, owner: OwnerDep,
+    after: After = -1, limit: Limit = DEFAULT_PAGE,
+) -> Response:
+    """A page of finished layouts, in index order, as a zip."""
+    batch = batch_or_404(batch_id, store, owner)
+    found = store.batch_layouts(batch.id, after=after, limit=limit)
+    headers = _next_link(request, found, limit)
+    name = f"batch-{batch.id}-after-{after}.zip"
+    headers["Content-Disposition"] = f'attachment; filename="{name}"'
+    return Zip(_zip_page(batch, found), headers=headers)
+
+
+def _next_link(request: Request, found: list[BatchLayout], limit: int) -> dict[str, str]:
+    """The `Link` header to the next page, when this one is full."""
+    if len(found) < limit:
+        return {}
+    url = request.url.include_query_params(after=found[-1].index, limit=limit)
+    return {"Link": f'<{url}>; rel="next"'}
 
 
 def _accepts_zip(accept: str) -> bool:
@@ -187,7 +218,7 @@ def _zip_page(batch: Batch, found: list[BatchLayout]) -> bytes:
 
 
 @router.post("/{batch_id}/cancel", response_model=BatchPublic,
-             responses={404: {"description": "unknown"}})
+             responses={404: {"description": "unknown batch"}})
 def cancel_batch(batch_id: str, store: StoreDep, backend: BackendDep,
                  owner: OwnerDep) -> BatchPublic:
     """Cancel every layout not yet finished (queued ones at once, running ones stop and

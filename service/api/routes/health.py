@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
+from pydantic import BaseModel, Field
 
 from floorplan.service.api.deps import BackendDep, LimitsDep, TrustedDep
 
@@ -14,13 +17,38 @@ router = APIRouter(tags=["service"])
 FIGURES = ("running", "queued", "workers", "store")
 
 
-@router.get("/healthz")
-def healthz() -> dict[str, str]:
+class Health(BaseModel):
     """The process answers."""
-    return {"status": "ok"}
+
+    status: Literal["ok"]
 
 
-@router.get("/readyz")
+class Readiness(BaseModel):
+    """Whether jobs are accepted and dispatched, and (for a caller with a valid key when
+    keys are set) the service's load."""
+
+    status: Literal["ready", "not ready"]
+    backend: str | None = Field(None, description="celery: the distributed mode")
+    broker: str | None = Field(None, description="celery: 'ok' or 'down' (Redis)")
+    store: str | None = Field(None, description="'ok', or why the store cannot take jobs")
+    running: int | None = Field(None, description="jobs being solved")
+    queued: int | None = Field(None, description="jobs waiting")
+    workers: int | None = Field(None, description="celery: live workers")
+    explain: str | None = Field(None, description="'replaced': the explain pool lost a "
+                                "process and was replaced by this check")
+    export: str | None = Field(None, description="'replaced': the export pool lost a "
+                               "process and was replaced by this check")
+
+
+@router.get("/healthz", response_model=Health)
+def healthz() -> Health:
+    """The process answers."""
+    return Health(status="ok")
+
+
+@router.get("/readyz", response_model=Readiness, responses={
+    503: {"description": "not ready (the same body, `status` 'not ready')",
+          "content": {"application/json": {"schema": {"$ref": "#/components/schemas/Readiness"}}}}})
 def readyz(backend: BackendDep, limits: LimitsDep, trusted: TrustedDep) -> JSONResponse:
     """The store answers and takes writes, and jobs are dispatched (with the Celery
     backend, `broker` says whether Redis answers; jobs accepted meanwhile wait in the

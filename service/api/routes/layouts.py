@@ -1,4 +1,5 @@
-"""The layout jobs (/v1/layouts): submit, list, status, result, events, cancel, delete."""
+"""The layout jobs (/v1/layouts): submit, list, status, events, cancel, delete (the
+results are results.py)."""
 
 from __future__ import annotations
 
@@ -8,29 +9,14 @@ import hashlib
 import json
 import time
 from collections.abc import AsyncIterator
-from functools import partial
 from typing import Annotated
 
-from fastapi import APIRouter, Header, Query, Request, Response
+from fastapi import APIRouter, Header, Query, Response
 from fastapi.responses import StreamingResponse
 
-from floorplan.models import Layout
 from floorplan.models import Problem as LayoutProblem
-from floorplan.models.formats import (
-    BY_NAME,
-    DEFAULT_FORMAT,
-    DEFAULT_STOREY_HEIGHT,
-    MAX_STOREY_HEIGHT,
-    MEDIA_TYPES,
-    MIN_STOREY_HEIGHT,
-    RENDERED_FORMAT_NAMES,
-    DxfLayers,
-    ExportOptions,
-    FormatName,
-)
 from floorplan.models.jobs import JobStatus
-from floorplan.models.options import MAX_VARIANTS
-from floorplan.service.api.body import PROBLEM_BODY_DOC, ProblemBody, run_off_loop
+from floorplan.service.api.body import PROBLEM_BODY_DOC, ProblemBody
 from floorplan.service.api.deps import (
     BackendDep,
     JobDep,
@@ -45,7 +31,6 @@ from floorplan.service.api.schemas import JobPage, JobPublic, job_public
 from floorplan.service.jobs.backend import JobBackend
 from floorplan.service.records import Job
 from floorplan.service.store import IdempotencyConflict, QuotaExceeded
-from floorplan.solver.export import render
 from floorplan.solver.pipeline.storeys import job_ceiling, job_time_limit
 from floorplan.solver.pipeline.variants import variant_time_factor
 
@@ -59,8 +44,18 @@ RETRY_AFTER = 5
 #: A Last-Event-ID: the decimal digits of an event's sequence number, which fits a
 #: signed 64-bit integer (or nothing).
 EVENT_ID = r"^[0-9]{0,18}$"
+#: The media type of the event stream.
+EVENT_STREAM = "text/event-stream"
 #: Longest cursor taken: the ones given out are about 80 characters.
 CURSOR_MAX = 256
+
+
+
+class EventStream(StreamingResponse):
+    """A stream of Server-Sent Events."""
+
+    media_type = EVENT_STREAM
+
 
 router = APIRouter(prefix="/v1/layouts", tags=["layouts"])
 
@@ -125,7 +120,8 @@ def effective_time_limit(problem: LayoutProblem, ceiling: float) -> tuple[Layout
     return problem.with_options(time_limit=ceiling / factor), ceiling
 
 
-@router.get("", response_model=JobPage)
+@router.get("", response_model=JobPage,
+            responses={400: {"description": "a cursor this service did not give out"}})
 def list_layouts(
     store: StoreDep, owner: OwnerDep,
     status: JobStatus | None = None,
@@ -141,78 +137,21 @@ def list_layouts(
     return JobPage(data=[job_public(j) for j in page], next_cursor=next_cursor)
 
 
-@router.get("/{job_id}", response_model=JobPublic, responses={404: {"description": "unknown"}})
+@router.get("/{job_id}", response_model=JobPublic, responses={404: {"description": "unknown job"}})
 def get_layout(job: JobDep) -> JobPublic:
     """Status, termination, progress and timestamps of a job."""
     return job_public(job)
 
 
-@router.get("/{job_id}/result", response_model=Layout,
-            responses={200: {"content": {MEDIA_TYPES[f]: {} for f in RENDERED_FORMAT_NAMES}},
-                       404: {"description": "unknown job, or no layout yet"},
-                       503: {"description": "the export process was lost (it is "
-                             "replaced): try again"}})
-async def get_result(
-    job: JobDep, request: Request, limits: LimitsDep, format: FormatName = DEFAULT_FORMAT,
-    storey_height: Annotated[float, Query(
-        ge=MIN_STOREY_HEIGHT, le=MAX_STOREY_HEIGHT,
-        description="ifc (and dxf, for its storeys' elevations): metres from one storey's "
-        "floor to the next")] = DEFAULT_STOREY_HEIGHT,
-    dxf_layers: Annotated[DxfLayers, Query(
-        description="dxf: 'ncs', the AIA / US National CAD Standard layers (A-WALL, "
-        "A-AREA, ...), or 'room-type', the older layer per room type")] = "ncs",
-    variant: Annotated[int | None, Query(
-        ge=0, lt=MAX_VARIANTS, description="with options.variants: the design variant to "
-        "give, 0 the best (the layout itself), in the order of `variants`; a 404 when the "
-        "job found fewer")] = None,
-) -> Response:
-    """The layout: the final one, or the best so far while the job runs; as JSON, an
-    SVG plan, a DXF drawing (metres), GeoJSON (local metric frame) or an IFC4 building
-    model (metres). With `variant`, that design variant of the final layout. Exports
-    are made in the API's export processes (FLOORPLAN_EXPORT_PROCESSES at once): an IFC
-    of a large layout takes seconds that would otherwise hold up every other request."""
-    text = job.result or job.incumbent
-    if text is None:
-        raise ApiError(404, f"job {job.id} has no layout yet (status {job.status})",
-                       kind="no-result-yet", title="No layout yet")
-    if variant is not None:
-        text = await run_off_loop(request, partial(_variant_text, job, variant))
-    if format == "json":
-        return Response(text, media_type=MEDIA_TYPES["json"])
-    options = ExportOptions(storey_height=storey_height, dxf_layers=dxf_layers)
-    body = await limits.run_export(partial(export, job.problem, text, format, options))
-    # A plan shows in the browser; drawings and data download as files.
-    disposition = "inline" if BY_NAME[format].inline else "attachment"
-    headers = {"Content-Disposition":
-               f'{disposition}; filename="{job.id}.{BY_NAME[format].extension}"'}
-    return Response(body, media_type=MEDIA_TYPES[format], headers=headers)
-
-
-def export(problem: str, layout: str, format: FormatName, options: ExportOptions) -> bytes:
-    """A stored job's layout (JSON) in `format`: in an export process."""
-    return render(LayoutProblem.model_validate_json(problem), Layout.model_validate_json(layout),
-                  format, options)
-
-
-def _variant_text(job: Job, index: int) -> str:
-    """Design variant `index` of `job`'s final layout, as JSON; a 404 when the job has
-    not ended yet or found fewer variants."""
-    if job.result is None:
-        raise ApiError(404, f"job {job.id} has no final layout yet (status {job.status}): "
-                       "variants come with it", kind="no-result-yet", title="No layout yet")
-    layout = Layout.model_validate_json(job.result)
-    variants = layout.variants if layout.variants is not None else (
-        [layout] if layout.all_rooms else [])
-    if index >= len(variants):
-        raise ApiError(404, f"job {job.id} has {len(variants)} variant(s); there is no "
-                       f"variant {index}", kind="no-such-variant", title="No such variant")
-    return variants[index].model_dump_json()
-
-
-@router.get("/{job_id}/events", responses={200: {"content": {"text/event-stream": {}}},
-                                           429: {"description": "open streams at their "
-                                                 "limit"}})
-async def stream_events(
+@router.get("/{job_id}/events", response_class=EventStream, responses={
+    200: {"description": "Server-Sent Events (text/event-stream), one `id:`, `event:` "
+          "(status, progress or incumbent) and `data:` (a JSON object) each, and `: "
+          "keep-alive` comments; the stream ends with the job",
+          "content": {EVENT_STREAM: {"schema": {"type": "string"}}}},
+    400: {"description": "Last-Event-ID past this job's last event"},
+    404: {"description": "unknown job"},
+    429: {"description": "open streams at their limit"}})
+async def get_layout_events(
     job: JobDep, backend: BackendDep, store: StoreDep, owner: OwnerDep, limits: LimitsDep,
     last_event_id: Annotated[str | None, Header(
         pattern=EVENT_ID, description="resume after this event: the id of one this job's "
@@ -229,9 +168,8 @@ async def stream_events(
         if after > newest:
             raise ApiError(400, f"Last-Event-ID {after} is past this job's last event "
                            f"({newest})", kind="bad-last-event-id")
-    return StreamingResponse(limits.stream(owner, _events(backend, job.id, after)),
-                             media_type="text/event-stream",
-                             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+    return EventStream(limits.stream(owner, _events(backend, job.id, after)),
+                       headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
 
 
 async def _events(backend: JobBackend, job_id: str, after: int) -> AsyncIterator[str]:
@@ -253,7 +191,8 @@ async def _events(backend: JobBackend, job_id: str, after: int) -> AsyncIterator
         await backend.wait_for_events(job_id, STREAM_POLL)
 
 
-@router.post("/{job_id}/cancel", response_model=JobPublic)
+@router.post("/{job_id}/cancel", response_model=JobPublic,
+             responses={404: {"description": "unknown job"}})
 def cancel_layout(job: JobDep, backend: BackendDep, store: StoreDep) -> JobPublic:
     """Stop the solve gracefully; the best layout so far becomes the result. Cancelling
     a finished job changes nothing."""
@@ -264,7 +203,9 @@ def cancel_layout(job: JobDep, backend: BackendDep, store: StoreDep) -> JobPubli
     return job_public(current)
 
 
-@router.delete("/{job_id}", status_code=204, responses={409: {"description": "still running"}})
+@router.delete("/{job_id}", status_code=204,
+               responses={404: {"description": "unknown job"},
+                          409: {"description": "still running"}})
 def delete_layout(job: JobDep, store: StoreDep) -> Response:
     """Remove a finished job and its data."""
     if not job.status.terminal:

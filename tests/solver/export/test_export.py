@@ -45,7 +45,8 @@ def test_geojson_has_a_valid_polygon_per_room_with_its_properties(
         assert feature["properties"]["type"] == room.type
     kinds = {f["properties"]["kind"] for f in collection["features"]}
     assert {"outline", "room"} <= kinds
-    assert "metres" in collection["crs"]["properties"]["name"]
+    # RFC 7946 removed `crs`: without an origin the coordinates are the plan's metres.
+    assert "crs" not in collection
 
 
 def test_geojson_carries_doors_and_windows_as_lines(example: tuple[Problem, Layout]) -> None:

@@ -5,25 +5,24 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from floorplan_client.cli.exits import PROG, UsageError
-from floorplan_client.models.formats import STDIO, format_of, storey_height_of, write_text_file
+from floorplan_client.models.formats import (
+    STDIO,
+    FormatName,
+    UnknownFormat,
+    format_of,
+    why_unwritable,
+    write_file,
+    write_text_file,
+)
 
 if TYPE_CHECKING:
     from floorplan_client import Job
     from floorplan_client.models import Layout
-
-
-def storey_height(text: str) -> float:
-    """``--storey-height``'s metres, or argparse's error saying why they are none."""
-    try:
-        return storey_height_of(text)
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def load_problem(source: str) -> Any:
@@ -45,15 +44,22 @@ def load_problem(source: str) -> Any:
 
 def check_writable(target: str | None) -> None:
     """Refuse before submitting rather than lose the layout afterwards."""
-    if target is None or target == STDIO:
+    if target is None:
         return
-    parent = Path(target).resolve().parent
-    if not parent.is_dir():
-        raise UsageError(f"{target}: directory {parent} does not exist")
-    if Path(target).is_dir():
-        raise UsageError(f"{target}: is a directory")
-    if not os.access(parent, os.W_OK):
-        raise UsageError(f"{target}: directory {parent} is not writable")
+    reason = why_unwritable(target)
+    if reason is not None:
+        raise UsageError(reason)
+
+
+def output_format(target: str | None, given: FormatName | None) -> FormatName:
+    """What -o is to hold: --format, else by its extension; an extension no format has
+    is refused (`UsageError`) rather than written as JSON."""
+    if given is not None:
+        return given
+    try:
+        return format_of(target or STDIO)
+    except UnknownFormat as err:
+        raise UsageError(str(err)) from None
 
 
 def write_outputs(job: Job, layout: Layout, args: argparse.Namespace, *, svg: bool) -> bool:
@@ -61,12 +67,14 @@ def write_outputs(job: Job, layout: Layout, args: argparse.Namespace, *, svg: bo
     after a failure."""
     ok = True
     target = args.output or STDIO
-    fmt = args.format or format_of(target)
+    fmt = output_format(target, args.format)
     try:
-        text = layout.model_dump_json(indent=2) + "\n" if fmt == "json" \
-            else job.result(format=fmt, storey_height=args.storey_height,
-                            dxf_layers=args.dxf_layers)
-        write_text_file(target, text)
+        if fmt == "json":
+            write_text_file(target, layout.model_dump_json(indent=2) + "\n")
+        else:
+            text = job.result(format=fmt, storey_height=args.storey_height,
+                              dxf_layers=args.dxf_layers, origin=args.origin)
+            write_file(target, text.encode())
     except OSError as err:
         print(f"{PROG}: error: cannot write {target}: {err}", file=sys.stderr)
         ok = False

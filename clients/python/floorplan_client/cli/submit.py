@@ -28,7 +28,7 @@ from floorplan_client.cli.files import (
     STDIO,
     check_writable,
     load_problem,
-    storey_height,
+    output_format,
     write_outputs,
 )
 from floorplan_client.models.formats import (
@@ -36,6 +36,8 @@ from floorplan_client.models.formats import (
     DXF_LAYERS,
     FORMAT_NAMES,
     in_words,
+    origin_arg,
+    storey_height_arg,
 )
 
 if TYPE_CHECKING:
@@ -71,13 +73,17 @@ def add_submit(commands: Any) -> None:
                    help=f"where to write the layout JSON (default and '{STDIO}': stdout)")
     p.add_argument("--format", choices=list(FORMATS),
                    help=f"what -o holds (default: from its extension, else json): {in_words()}")
-    p.add_argument("--storey-height", type=storey_height, metavar="M",
+    p.add_argument("--storey-height", type=storey_height_arg, metavar="M",
                    default=DEFAULT_STOREY_HEIGHT,
                    help="ifc: metres from one storey's floor to the next (default "
                    f"{DEFAULT_STOREY_HEIGHT:g}; also the DXF storeys' elevations)")
     p.add_argument("--dxf-layers", choices=DXF_LAYERS, default="ncs",
                    help="dxf: 'ncs' the AIA / US National CAD Standard layers (A-WALL, "
                    "A-AREA, ...; default), 'room-type' the older layer per room type")
+    p.add_argument("--origin", type=origin_arg, metavar="LAT,LON",
+                   help="geojson: put the plan's origin at this latitude and longitude "
+                   "(WGS84 degrees), +y due north, and write longitude and latitude "
+                   "(default: the plan's local metres)")
     p.add_argument("--svg", metavar="PLAN.svg", help="also write the plan as SVG here")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="seconds for the solve (overrides options.time_limit)")
@@ -126,6 +132,7 @@ def _submit(args: argparse.Namespace) -> int:
     follow = args.wait or args.output is not None or args.svg is not None
     for target in (args.output, args.svg):
         check_writable(target)
+    args.format = output_format(args.output, args.format)
 
     say = Say(sys.stderr, quiet=args.quiet)
     api_key = NOT_GIVEN if args.api_key is None else args.api_key
