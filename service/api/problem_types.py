@@ -65,6 +65,10 @@ PROBLEM_TYPES: dict[str, ProblemType] = {
         413, "Problem too large", "An outline, the obstacles or the regions have more "
         "items than this service takes (FLOORPLAN_MAX_VERTICES, FLOORPLAN_MAX_OBSTACLES, "
         "FLOORPLAN_MAX_REGIONS); `errors` names each list."),
+    "batch-too-large": ProblemType(
+        413, "Batch too large", "The batch's layouts would store more than "
+        "FLOORPLAN_MAX_BATCH_BYTES (the brief once per layout). Ask for fewer layouts, or "
+        "send a smaller brief."),
     "unsupported-media-type": ProblemType(
         415, "Unsupported media type", "The body must be sent as `application/json`."),
     "invalid-problem": ProblemType(
@@ -86,6 +90,17 @@ PROBLEM_TYPES: dict[str, ProblemType] = {
     "too-many-explains": ProblemType(
         429, "Too many explanations", "This key's `explain=true` validations are at their "
         "limit (FLOORPLAN_MAX_EXPLAINS_PER_KEY). Wait for one to end."),
+    "storage-quota": ProblemType(
+        429, "Storage quota", "This key's jobs would keep more bytes in the store than "
+        "FLOORPLAN_MAX_STORED_BYTES_PER_KEY (canceled jobs count until deleted). Delete "
+        "finished jobs (DELETE /v1/layouts/{id}) to make room."),
+    "explain-unavailable": ProblemType(
+        503, "Explanation process lost", "The process explaining this validation was lost "
+        "(killed, out of memory); it has been replaced. Try again after `Retry-After` "
+        "seconds."),
+    "export-unavailable": ProblemType(
+        503, "Export process lost", "The process making this export was lost (killed, out "
+        "of memory); it has been replaced. Try again after `Retry-After` seconds."),
     "store-unavailable": ProblemType(
         503, "Store unavailable", "The job store cannot take this request now: its disk "
         "is nearly full (FLOORPLAN_MIN_FREE_BYTES), it is read-only, or it is away. "

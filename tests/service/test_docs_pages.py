@@ -60,7 +60,9 @@ def test_every_problem_type_the_code_answers_with_has_a_page(app_client: TestCli
                        for p in (ROOT / "service").rglob("*.py"))
     used = set(re.findall(r'kind="([a-z-]+)"', source))
     used |= set(re.findall(r'too_many\([^)]*"(too-many-[a-z-]+)"\)', source, re.DOTALL))
-    assert {"job-not-found", "too-many-streams", "untrusted-host"} <= used
+    used |= set(re.findall(r'WorkPool\([^)]*"([a-z-]+-unavailable)"\)', source, re.DOTALL))
+    assert {"job-not-found", "too-many-streams", "untrusted-host",
+            "explain-unavailable", "export-unavailable"} <= used
     assert used <= set(PROBLEM_TYPES), used - set(PROBLEM_TYPES)
     for kind, problem in PROBLEM_TYPES.items():
         page = app_client.get(f"/docs/problems/{kind}")
