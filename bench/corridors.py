@@ -15,10 +15,9 @@ import shapely
 from shapely.geometry import Polygon
 
 from floorplan.models import Corridors, Layout, Problem
-from floorplan.solver.network.measure import judge
 from floorplan.solver.network.solve import solve_network
 from floorplan.solver.network.start import greedy_network
-from floorplan.solver.network.stochastic import stochastic_search
+from floorplan.solver.network.stochastic import judge_spec, stochastic_search
 from floorplan.solver.pipeline.dispatch import solve
 from floorplan.solver.pipeline.regions.corridors import network_spec, room_depth
 from floorplan.solver.verify.egress import door_travel
@@ -109,18 +108,7 @@ def ip_against_search(
     }
 
     def verdict(edges: list[int]) -> dict[str, object]:
-        j = judge(
-            spec.mesh,
-            edges,
-            spec.sinks,
-            reach=spec.coverage,
-            max_distance=spec.max_distance,
-            dead_end=spec.dead_end,
-            lambda_length=spec.lambda_length,
-            lambda_distance=spec.lambda_distance,
-            faces=spec.faces_covered,
-            join=spec.join_sinks,
-        )
+        j = judge_spec(spec, edges)
         return {
             "valid": j.valid,
             "value": round(j.value, 2),

@@ -26,7 +26,9 @@ class SearchResult:
     seconds: float
 
 
-def _judge(spec: NetworkSpec, edges: list[int], covers: list[list[int]] | None = None) -> Judgement:
+def judge_spec(spec: NetworkSpec, edges: list[int],
+               covers: list[list[int]] | None = None) -> Judgement:
+    """`judge` of `edges` against everything `spec` asks of a network."""
     return judge(
         spec.mesh,
         edges,
@@ -70,7 +72,7 @@ def stochastic_search(
     current = set(range(len(mesh.edges))) if start is None else set(start)
     best_edges = sorted(current)
     covers = cover_sets(spec)
-    best = _judge(spec, best_edges, covers)
+    best = judge_spec(spec, best_edges, covers)
     steps = 0
     while time.monotonic() - started < time_limit:
         ranked: list[tuple[float, list[int]]] = []
@@ -81,7 +83,7 @@ def stochastic_search(
             if len(move) > 1 and not move <= current:
                 continue
             trial = sorted(current | move if adding else current - move)
-            verdict = _judge(spec, trial, covers)
+            verdict = judge_spec(spec, trial, covers)
             if verdict.valid:
                 ranked.append((verdict.value, trial))
         if not ranked:
@@ -95,7 +97,7 @@ def stochastic_search(
         )
         current = set(ranked[pick][1])
         steps += 1
-        verdict = _judge(spec, ranked[pick][1], covers)
+        verdict = judge_spec(spec, ranked[pick][1], covers)
         if verdict.value < best.value or not best.valid:
             best, best_edges = verdict, ranked[pick][1]
     return SearchResult(best_edges, best, steps, time.monotonic() - started)

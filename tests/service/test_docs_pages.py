@@ -4,11 +4,8 @@ internet; and a page for every problem type URI the service answers with."""
 
 from __future__ import annotations
 
-import importlib.util
-import os
 import re
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
@@ -18,34 +15,18 @@ from fastapi.testclient import TestClient
 from floorplan.service.api.app import create_app
 from floorplan.service.api.problem_types import PROBLEM_TYPES
 from floorplan.service.settings import Settings
+from tests.browser import headless_chromium
 from tests.paths import ROOT
 from tests.servers import Server
 
 #: Milliseconds for a page to render on a busy machine.
 RENDER_MS = 60_000
-#: Debian's Chromium, never a downloaded build (as the web page's tests use).
-CHROMIUM = Path("/usr/bin/chromium")
 
 
 @pytest.fixture(scope="module")
 def browser() -> Iterator[Any]:
-    """Headless Chromium; without it (or Playwright) the browser tests skip, saying
-    why, except under CI (the CI variable set), where they fail."""
-    missing = None
-    if importlib.util.find_spec("playwright") is None:
-        missing = "the playwright package is not installed (it is in the dev extra)"
-    elif not CHROMIUM.exists():
-        missing = f"{CHROMIUM} is missing: apt-get install -y chromium chromium-driver"
-    if missing:
-        if os.environ.get("CI"):
-            pytest.fail(f"the browser tests must run in CI: {missing}")
-        pytest.skip(missing)
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as playwright:
-        chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), headless=True)
+    with headless_chromium() as chromium:
         yield chromium
-        chromium.close()
 
 
 @pytest.fixture(scope="module")

@@ -9,8 +9,6 @@ fail instead, so that a missing install cannot pass for a green run.
 
 from __future__ import annotations
 
-import importlib.util
-import os
 import re
 from collections.abc import Iterator
 from pathlib import Path
@@ -18,38 +16,20 @@ from typing import Any
 
 import pytest
 
+from tests.browser import headless_chromium
 from tests.paths import ROOT
 from tests.servers import Server
 
-CHROMIUM = Path("/usr/bin/chromium")
 SCREENSHOTS = ROOT / "build" / "screenshots"
 VIEWPORT = {"width": 1280, "height": 860}
 #: Milliseconds to wait for a job to end; apartment-5 takes about a second.
 JOB_TIMEOUT_MS = 30_000
 
 
-def _browser_missing() -> str | None:
-    if importlib.util.find_spec("playwright") is None:
-        return "the playwright package is not installed (it is in the dev extra)"
-    if not CHROMIUM.exists():
-        return f"{CHROMIUM} is missing: apt-get install -y chromium chromium-driver"
-    return None
-
-
 @pytest.fixture(scope="module")
 def browser() -> Iterator[Any]:
-    missing = _browser_missing()
-    if missing:
-        if os.environ.get("CI"):
-            pytest.fail(f"the browser tests must run in CI: {missing}")
-        pytest.skip(missing)
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as playwright:
-        # Debian's Chromium, never a downloaded build.
-        chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), headless=True)
+    with headless_chromium() as chromium:
         yield chromium
-        chromium.close()
 
 
 @pytest.fixture(scope="module")
