@@ -387,8 +387,10 @@ def test_a_sub_domain_worker_refuses_a_pickle_and_runs_no_code(tmp_path: Path) -
         celery.send_task(SUBDOMAIN_TASK, args=[Plant(whole)], queue=keys.subdomains,
                          serializer="pickle")
         # It is refused before anything runs; a valid task sent after it still is.
+        # (A deadline within FLOORPLAN_MAX_TIME_LIMIT of now: the worker refuses later ones.)
         after = celery.send_task(SUBDOMAIN_TASK, args=[encode_task(
-            replace(full_task(), budget=0.0))], queue=keys.subdomains, serializer="json")
+            replace(full_task(), budget=0.0, deadline=time.time() + 30))],
+            queue=keys.subdomains, serializer="json")
         outcome = decode_outcome(after.get(timeout=60))
         assert outcome.status.startswith("not started")
         time.sleep(1)
