@@ -95,6 +95,10 @@ def test_the_probe_of_the_users_bounds_runs_once() -> None:
     # proof: the schedule goes on without probing again, and the wings keep their time.
     problem, _ = draw(6634)
     _, details = solved_with_relaxations(problem.with_options(seed=0))
+    # Within one schedule: on a busy machine the default limit's late allowance may run
+    # the schedule a second time, with a probe of its own.
+    late = [i for i, d in enumerate(details) if "late allowance" in d]
+    details = details[:late[0]] if late else details
     refuted = sum(d.startswith("size bounds target ±") and d.endswith(": infeasible")
                   for d in details)
     probes = sum("feasibility only" in d for d in details)
