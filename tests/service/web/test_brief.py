@@ -261,7 +261,9 @@ def touching(polygons: dict[str, Polygon], ids: set[str]) -> set[str]:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("example", "seconds"), [("apartment-5", "5"), ("house-13", "60")])
+# Limits far above what the solves need (each ends once stalled): on a busy machine the
+# edit around kept rooms may need them to find its layout at all.
+@pytest.mark.parametrize(("example", "seconds"), [("apartment-5", "20"), ("house-13", "120")])
 def test_an_edit_moves_only_rooms_touching_it_and_undo_redo_restore_everything(
         page: Any, server: Server, example: str, seconds: str) -> None:
     page.goto(server.url)
@@ -285,7 +287,7 @@ def test_an_edit_moves_only_rooms_touching_it_and_undo_redo_restore_everything(
     assert brief_edited != brief_before  # the brief shows the new size
     verdict_edited = page.inner_text("[data-testid=verdict]")  # against the new targets
     page.click("#resolve")
-    expect(page.locator("#compare")).to_be_visible(timeout=180_000)
+    expect(page.locator("#compare")).to_be_visible(timeout=400_000)
     expect(page.locator("#status")).to_have_text("succeeded")
     after = layout_json(page)
     # The same polygon, whichever vertex its ring starts at.
@@ -329,8 +331,8 @@ def test_an_edit_moves_only_rooms_touching_it_and_undo_redo_restore_everything(
 @pytest.mark.slow
 def test_a_templated_brief_edits_like_a_plain_one(page: Any, server: Server) -> None:
     page.goto(server.url)
-    pick_example(page, "flat-7-template", time_limit="15")
-    solve(page)
+    pick_example(page, "flat-7-template", time_limit="60")  # ends once stalled
+    solve(page, timeout_ms=180_000)
     options = page.locator("#edit-room option").all_inner_texts()
     assert {"main-bedroom", "bedroom", "living"} <= set(options), options
     before = page.locator("#plan .room[data-room='living'] polygon").get_attribute("points")
@@ -341,7 +343,7 @@ def test_a_templated_brief_edits_like_a_plain_one(page: Any, server: Server) -> 
     page.fill("#target-width", f"{width + 0.3:.2f}")
     page.click("#apply-target")
     page.click("#resolve")
-    expect(page.locator("#compare")).to_be_visible(timeout=120_000)
+    expect(page.locator("#compare")).to_be_visible(timeout=180_000)
     expect(page.locator("#status")).to_have_text("succeeded")
     sent = json.loads(page.input_value("#problem"))
     assert "template" not in sent  # the expanded brief was sent, rooms as objects
