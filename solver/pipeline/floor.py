@@ -76,10 +76,11 @@ def solve_floor(
         good = GoodEnough(problem, math.inf)
         on_event, should_stop = _stop_when_good(good, on_event, should_stop)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
-    budget = FloorBudget.of(started, limit, len(problem.rooms),
-                            late=problem.options.time_limit is None)
+    late = problem.options.time_limit is None  # the default limit: a late allowance
+    budget = FloorBudget.of(started, limit, len(problem.rooms), late=late)
     run = Run(problem, budget.search_end, started, on_event, should_stop, asked=asked,
-              end=budget.end, judge_end=budget.judge_end, late_by=budget.late_by)
+              end=budget.end, judge_end=budget.judge_end,
+              late_by=budget.late_by if late else 0.0)
     domain = make_domain(problem)
     findings = find_impossibilities(problem, domain)  # soft constraints never refuse
     if findings:

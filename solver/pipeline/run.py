@@ -105,8 +105,8 @@ class Run:
     scip_answer: ScipAnswer | None = None
     #: SCIP's check of the answer (solver/pipeline/judge.py) runs until then (0: `end`).
     judge_end: float = 0.0
-    #: A search with no first layout may go on until then (`FloorBudget.late_by`; 0:
-    #: `judge_end`).
+    #: A search with no first layout may go on until then (`FloorBudget.late_by`); 0:
+    #: no late allowance (the user gave the limit, or the search is not the floor's own).
     late_by: float = 0.0
     #: The rooms of the last incumbent announced (gaps absorbed), if any.
     announced: dict[str, list[Box]] | None = None
