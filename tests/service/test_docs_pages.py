@@ -15,18 +15,11 @@ from fastapi.testclient import TestClient
 from floorplan.service.api.app import create_app
 from floorplan.service.api.problem_types import PROBLEM_TYPES
 from floorplan.service.settings import Settings
-from tests.browser import headless_chromium
 from tests.paths import ROOT
 from tests.servers import Server
 
 #: Milliseconds for a page to render on a busy machine.
 RENDER_MS = 60_000
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    with headless_chromium() as chromium:
-        yield chromium
 
 
 @pytest.fixture(scope="module")

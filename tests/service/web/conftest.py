@@ -16,7 +16,6 @@ from typing import Any
 
 import pytest
 
-from tests.browser import headless_chromium
 from tests.paths import ROOT
 from tests.servers import Server
 
@@ -24,12 +23,6 @@ SCREENSHOTS = ROOT / "build" / "screenshots"
 VIEWPORT = {"width": 1280, "height": 860}
 #: Milliseconds to wait for a job to end; apartment-5 takes about a second.
 JOB_TIMEOUT_MS = 30_000
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    with headless_chromium() as chromium:
-        yield chromium
 
 
 @pytest.fixture(scope="module")
