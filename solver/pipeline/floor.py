@@ -29,7 +29,7 @@ from floorplan.solver.pipeline.first_layout import first_level
 from floorplan.solver.pipeline.hierarchy import GAP_AREA, Piece, as_pieces, room_boxes
 from floorplan.solver.pipeline.refine import refine, reshaped
 from floorplan.solver.pipeline.repair import repaired
-from floorplan.solver.pipeline.run import Run, covered, covers
+from floorplan.solver.pipeline.run import Run, covered, covers, exact
 from floorplan.solver.pipeline.second_search import (
     GUILLOTINE,
     awaited,
@@ -94,6 +94,11 @@ def solve_floor(
     candidate: LevelOneOutcome | None = None
     if second is None:
         candidate = tilings_first(run, domain)
+        if _exact(run, domain, candidate):
+            # An exact tiling: Eq. 12 is zero, its least value, so nothing after it can
+            # gain; SCIP's check of the answer still takes it as a start.
+            assert candidate is not None
+            return final_layout(run, domain, better_final(run, domain, [], candidate), 1)
     pieces, failure = first_level(run, domain, level_one_end)
     if second is not None:
         proven = failure is not None and failure.report.termination is Termination.INFEASIBLE
@@ -107,7 +112,7 @@ def solve_floor(
     elif (candidate is None or candidate.pieces is None) and (
             failure is None or failure.report.termination is not Termination.INFEASIBLE
     ) and not (good is not None and problem.options.diverse) and not _settled(
-            run, domain, pieces):
+            run, domain, pieces) and not _whole_stalled(run, domain, pieces):
         # (Not for a batch's layout, which stops when good: when level 1 gave none,
         # another draw of level 1 (`_redrawn`) gives one sooner than this search.)
         candidate = guillotine_here(run, domain)
@@ -127,7 +132,7 @@ def solve_floor(
         # Stopped when good: that layout, not whatever SCIP reported after it.
         pieces = as_pieces(good.rooms)
         return final_layout(run, domain, pieces, 1)
-    if _settled(run, domain, pieces):
+    if _settled(run, domain, pieces) or _whole_stalled(run, domain, pieces):
         # SCIP proved the whole floor's MIQP optimal and its layout covers the floor: the
         # gap is closed, so the solve ends here, as the paper's does.
         return final_layout(run, domain, better_final(run, domain, pieces, candidate), 1)
@@ -218,6 +223,28 @@ def _settled(run: Run, domain: Domain, pieces: list[Piece] | None) -> bool:
     within the model, so none runs."""
     answer = run.scip_answer
     if pieces is None or answer is None or not answer.optimal or (
+            run.problem.options.stop != "stalled"):
+        return False
+    rooms = room_boxes(pieces)
+    return same_layout(answer.rooms, rooms) and covers(domain, rooms)
+
+
+def _exact(run: Run, domain: Domain, candidate: LevelOneOutcome | None) -> bool:
+    """Whether `candidate` (gaps absorbed, as the answer would be) covers the floor,
+    passes the checker and has Eq. 12 of zero, the objective's least value."""
+    if candidate is None or candidate.pieces is None or run.problem.options.diverse:
+        return False
+    return exact(run.problem, domain, room_boxes(absorb_gaps(run.problem, domain,
+                                                             candidate.pieces)))
+
+
+def _whole_stalled(run: Run, domain: Domain, pieces: list[Piece] | None) -> bool:
+    """Whether `pieces` are SCIP's answer to the whole floor's MIQP (a floor small enough
+    to be solved outright), covering the floor, and SCIP's search stalled on it under
+    `options.stop` "stalled": the model's best is what its own search found, and the
+    heuristic stages after it are no longer spent on it."""
+    answer = run.scip_answer
+    if pieces is None or answer is None or not run.stage_stalled or (
             run.problem.options.stop != "stalled"):
         return False
     rooms = room_boxes(pieces)

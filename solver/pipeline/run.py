@@ -277,6 +277,18 @@ def layout_objective(problem: Problem, domain: Domain, rooms: dict[str, list[Box
     return problem.weights.cover * uncovered + problem.weights.size * size + penalty
 
 
+#: Eq. 12 (m²) at or below which a layout counts as exact: its least value, zero, up to
+#: the arithmetic of a tiling's sides.
+EXACT = 1e-6
+
+
+def exact(problem: Problem, domain: Domain, rooms: dict[str, list[Box]]) -> bool:
+    """Whether `rooms` cover the floor, pass the checker and have Eq. 12 of zero, its
+    least value: no search can better them."""
+    return (covers(domain, rooms) and layout_objective(problem, domain, rooms) <= EXACT
+            and check_layout(problem, rooms).valid)
+
+
 def covered(domain: Domain, rooms: Mapping[str, Sequence[Box]]) -> float:
     """The floor of `domain` that `rooms` (room id -> rectangles) cover, m²."""
     boxes = {f"{k}#{i}": b for k, bs in rooms.items() for i, b in enumerate(bs)}

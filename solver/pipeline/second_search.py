@@ -21,7 +21,7 @@ from floorplan.solver.heuristics.level_one import may_start_as_l, started_as_l, 
 from floorplan.solver.pipeline.absorb import absorb_gaps, absorbed
 from floorplan.solver.pipeline.first_layout import first_level
 from floorplan.solver.pipeline.hierarchy import Piece, as_pieces, room_boxes
-from floorplan.solver.pipeline.run import Run, covers, layout_objective
+from floorplan.solver.pipeline.run import Run, covers, exact, layout_objective
 from floorplan.solver.pipeline.subdomains import (
     LATE_SECONDS,
     LevelOneOutcome,
@@ -146,7 +146,8 @@ def guillotine_alone(
     found = guillotine_layout(problem, domain, seed=problem.options.seed,
                               deadline=deadline, should_stop=should_stop,
                               accept=lambda rooms: check_layout(problem, rooms).valid,
-                              tiled=tiled, untiled=untiled)
+                              tiled=tiled, untiled=untiled,
+                              enough=lambda rooms: exact(problem, domain, rooms))
     if found is None and len(problem.rooms) > GUILLOTINE_MAX_ROOMS and then_level_one:
         # Beyond that size only an exact tiling seeds it, and there was none: the rest
         # of the time goes to a second level-1 search, the largest room starting as an

@@ -56,6 +56,8 @@ def anneal(
             state, energy, broken = other, e, b
             if (broken, energy) < (best[2], best[1]):
                 best = (state, energy, broken)
+                if broken == 0 and energy <= EPS:
+                    break  # every room at its target, nothing broken: the least energy
     return best[0], best[1], best[2], step
 
 

@@ -68,12 +68,15 @@ def guillotine_layout(
     should_stop: Callable[[], bool] | None = None, steps: int | None = None,
     accept: Callable[[dict[str, list[Box]]], bool] | None = None,
     tiled: bool = True, untiled: bool = True,
+    enough: Callable[[dict[str, list[Box]]], bool] | None = None,
 ) -> GuillotineResult | None:
     """The best layout of `problem` the annealing over slicing trees finds that breaks
     no hard constraint by its own reckoning and that `accept` (the checker, given by the
     caller) takes, or None. Counts steps, not seconds, so a seed gives one result;
     `deadline` (monotonic) and `should_stop` cut it short. Without `tiled` no exact
-    tiling is sought; without `untiled` the annealing never starts from random trees."""
+    tiling is sought; without `untiled` the annealing never starts from random trees.
+    A layout that breaks nothing and that `enough` takes (one no other can better, as a
+    caller judges it) ends the search at once."""
     if not applies(problem, domain):
         return None
     brief = make_brief(problem, domain)
@@ -99,8 +102,12 @@ def guillotine_layout(
     # Tilings differ in where the doors, walls and guide points land, which the halves
     # of their cuts decide: the annealing starts from those that, so turned, break the
     # least.
-    turned = [(*mirrored(model, from_tiling(model, fit), rng, deadline), model)
-              for model, fit in fits]
+    turned = []
+    for model, fit in fits:
+        key, state = mirrored(model, from_tiling(model, fit), rng, deadline)
+        if key[0] == 0 and enough is not None and enough(rooms := layout_of(model, state)):
+            return GuillotineResult(rooms, key[1], 0)
+        turned.append((key, state, model))
     seeded = sorted(turned, key=lambda start: start[0])[:STARTS]
     starts: list[tuple[Brief, State | None, float | None]] = [
         (model, state, SEEDED_HEAT) for _, state, model in seeded]
@@ -122,6 +129,8 @@ def guillotine_layout(
             if broken == 0:
                 state, energy = polished(model, state, energy, deadline)
                 kept.append((energy, model, state))
+                if enough is not None and enough(rooms := layout_of(model, state)):
+                    return GuillotineResult(rooms, energy, done)
             if used < run_steps:
                 cut_short = True
                 break

@@ -20,7 +20,8 @@ from floorplan.solver.pipeline.assemble import same_layout, termination
 from floorplan.solver.pipeline.judge import final_spec, judged
 from floorplan.solver.pipeline.run import Run, ScipAnswer, layout_objective
 from floorplan.solver.verify.checker import check_layout
-from tests.paths import EXAMPLES
+from bench.planted import draw
+from tests.paths import CASES, EXAMPLES
 
 #: Far above what any solve here needs: the stop rule, not the limit, ends them.
 GENEROUS = 120.0
@@ -226,3 +227,32 @@ def test_under_the_default_limit_a_slow_first_layout_comes_late_instead_of_never
     assert len(layout.rooms) == len(problem.rooms)
     assert not [c for c in layout.report.constraints
                 if not c.satisfied and c.kind != "coverage"]
+
+
+def test_an_exact_tiling_ends_the_solve_before_level_one() -> None:
+    # A planted brief whose plan is a tiling of rectangles at the targets: the exact
+    # tilings find it, Eq. 12 is zero, and no level-1 search or later stage runs.
+    problem, _ = draw(3002, 5)
+    events: list[SolveEvent] = []
+    layout = solve(problem.with_options(time_limit=GENEROUS), on_event=events.append)
+    report = layout.report
+    assert report.valid and report.coverage == pytest.approx(1.0)
+    assert report.objective == pytest.approx(0.0, abs=1e-6)
+    assert report.termination is Termination.OPTIMAL
+    details = [e.detail for e in events if e.detail]
+    assert not [d for d in details if d.startswith(("size bounds", "reshaping", "level 2"))]
+    assert drawn_as(layout, last_incumbent(events))
+
+
+def test_a_whole_floor_miqp_that_stalls_ends_the_solve_without_the_later_stages() -> None:
+    # Five rooms: level 1 is the whole floor's MIQP, solved outright. When SCIP's search
+    # stalls on a covering layout, the heuristic stages after it do not run; when it
+    # proves its layout optimal, they do not either.
+    problem = Problem.model_validate_json((CASES / "apartment-5.json").read_text())
+    events: list[SolveEvent] = []
+    layout = solve(problem.with_options(time_limit=GENEROUS), on_event=events.append)
+    assert layout.report.valid and layout.report.coverage == pytest.approx(1.0)
+    assert layout.report.termination in (Termination.STALLED, Termination.OPTIMAL)
+    assert not [e for e in events if e.detail and ("reshaping" in e.detail
+                                                    or "guillotine" in e.detail)]
+    assert drawn_as(layout, last_incumbent(events))
