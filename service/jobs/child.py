@@ -106,19 +106,24 @@ def run_job(
         subdomains = SubdomainExecutor(pool, slots) if pool is not None else None
         layout = solve(problem, on_event=on_event, should_stop=should_stop,
                        subdomains=subdomains)
-        end_executor(pool)
         if (jobs is not None and problem.options.diverse and problem.options.stop_when_good
                 and problem.floors is None and not problem.by_regions and not should_stop()):
             # (A floor of regions, or of several storeys, is not moved apart: whole wall
             # lines cross its aisles and floors, and its layouts are large to send.)
             from floorplan.service.batch import apart_from_held
 
+            end_executor(pool)  # a second search still running would slow the redraw
+            pool = None
+
             layout, done = apart_from_held(
                 problem, layout, _held(messages, jobs),
                 again=lambda redrawn: solve(redrawn, should_stop=should_stop))
             if done is not None:
                 messages.put(("progress", {"phase": Phase.DONE.value, "detail": done}))
+        # The answer first: ending the pool (killing and reaping its processes) takes
+        # a while on a busy machine, and the user is waiting for the layout.
         messages.put(("done", layout.model_dump_json()))
+        end_executor(pool)
     except Exception as err:
         end_executor(pool)
         messages.put(("error", f"{type(err).__name__}: {err}"))

@@ -163,8 +163,14 @@ def watch(
         if watched.outcome is None and not process.is_alive() and child.messages.empty():
             break
         watched.enforce_limits(now)
+    if watched.outcome is not None:
+        # The answer is in: recorded before the process is reaped, since a process with
+        # SCIP, shapely and a pool takes a while to exit on a busy machine.
+        watched.record_end()
+        watched.end_process()
+        return "finished"
     watched.end_process()
-    if stopping.is_set() and watched.outcome is None:
+    if stopping.is_set():
         return "stopping"
     watched.record_end()
     return "finished"

@@ -102,7 +102,10 @@ def solve_floor(
     pieces, failure = first_level(run, domain, level_one_end)
     if second is not None:
         proven = failure is not None and failure.report.termination is Termination.INFEASIBLE
-        if proven or run.stopped():  # nothing the second search finds can be used
+        if proven or run.stopped() or _settled(run, domain, pieces) or _whole_stalled(
+                run, domain, pieces):
+            # Nothing the second search finds can be used, or level 1 ends the solve (as
+            # without a pool): it is not waited for.
             second.cancel()
         elif (other := awaited(second, run, level_one_end)) is not None and (
                 other.found_by == GUILLOTINE):

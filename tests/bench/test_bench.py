@@ -157,3 +157,20 @@ def test_bench_batch_measures_ours_and_the_annealer_on_the_same_brief(tmp_path: 
     from bench.batch import table
 
     assert table(rows).splitlines()[2].startswith("| tiny | 2 | 1 |")
+
+
+@pytest.mark.slow
+def test_the_api_round_trip_bench_times_a_real_server(cases: Path, tmp_path: Path) -> None:
+    from bench.api import main as api_main
+
+    out = tmp_path / "api"
+    assert api_main(["--cases", str(cases / "tiny-3.json"), "--repeat", "2", "--pause", "0",
+                     "--out", str(out)]) == 0
+    results = json.loads((out / "results.json").read_text())
+    assert [t["seed"] for t in results["trips"]] == [0, 1]
+    assert all(t["status"] == "succeeded" and t["valid"] for t in results["trips"])
+    # The round trip holds the solve: its clock runs from the POST to the job's end.
+    assert all(t["seconds"] >= t["solve_time"] > 0 for t in results["trips"])
+    (row,) = results["summary"]
+    assert row["case"] == "tiny-3" and row["runs"] == 2
+    assert "| tiny-3 |" in (out / "results.md").read_text()

@@ -93,7 +93,7 @@ TWELVE_OFFICES = problem(
     name="offices",
     boundary=[[0, 0], [16, 0], [16, 9], [0, 9]],
     rooms=[{"id": f"office{k}", "min_size": [2, 2], "max_size": [6, 6],
-            "target_size": [4.1 - 0.1 * (k % 3), 3.0]} for k in range(12)],
+            "target_size": [4.1 - 0.1 * (k % 3), 3.1]} for k in range(12)],
     options={"time_limit": 60},
 )
 
