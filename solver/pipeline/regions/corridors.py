@@ -59,11 +59,15 @@ class CorridorPlan:
     network: AisleNetwork
 
 
+#: The share of the floor the corridors are expected to take when the rooms' sizes are
+#: scaled to what is left (`room_pitch`).
+EXPECTED_SHARE = 0.22
+
+
 def room_depth(problem: Problem) -> float:
     """The depth a row of rooms is planned at: the median of the rooms' longer target
-    side (else the side of a square of a room's area). The longer side, not the depth:
-    fewer corridors, rooms deeper than asked; the depth gave office-154 a third of its
-    floor in corridors (bench/NOTES.md, "Corridors")."""
+    side (else the side of a square of a room's area). Used by the bench's square grids;
+    the product plans with `room_pitch`."""
     typical = typical_area(problem)
     sides = [
         max(r.target_size) if r.target_size else math.sqrt(room_area(r, typical))
@@ -72,7 +76,30 @@ def room_depth(problem: Problem) -> float:
     return statistics.median(sides)
 
 
-def network_spec(problem: Problem, corridors: Corridors, pitch: float) -> NetworkSpec:
+def room_pitch(problem: Problem, width: float) -> tuple[float, float]:
+    """The grid's cell size along x and y: the rooms' median target width (x) and depth
+    (y), scaled by how much the rooms must shrink to fit the floor less the corridors,
+    plus half a corridor. A row of rooms along a corridor running along x is then as
+    deep as its rooms' (scaled) depth, a row along a corridor running along y as deep
+    as their width, so the rooms keep their proportions whichever way the IP runs a
+    corridor; a square grid from the longer side made office-154's rooms a metre deeper
+    than asked and far narrower (E_size median 2.1-2.5; bench/NOTES.md, "Corridors")."""
+    typical = typical_area(problem)
+    sizes = [
+        r.target_size if r.target_size else (math.sqrt(room_area(r, typical)),) * 2
+        for r in problem.rooms
+    ]
+    asked = sum(w * d for w, d in sizes)
+    room = float(problem.free_area().area) * (1 - EXPECTED_SHARE)
+    scale = min(1.0, math.sqrt(room / asked)) if asked > 0 else 1.0
+    px = scale * statistics.median(w for w, _ in sizes) + width / 2
+    py = scale * statistics.median(d for _, d in sizes) + width / 2
+    return (min(MAX_PITCH, max(MIN_PITCH, px)), min(MAX_PITCH, max(MIN_PITCH, py)))
+
+
+def network_spec(
+    problem: Problem, corridors: Corridors, pitch: float | tuple[float, float]
+) -> NetworkSpec:
     """The IP for this floor: exits as sinks joined into one network, every cell along
     the network (a room in it opens onto a corridor), no corridors a cell
     apart, the travel cap less half a corridor (a door is on the corridor's side), the
@@ -102,8 +129,7 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     found no network in its time (or proved there is none)."""
     corridors = problem.corridors
     assert corridors is not None
-    pitch = min(MAX_PITCH, max(MIN_PITCH, room_depth(problem) + corridors.width / 2))
-    spec = network_spec(problem, corridors, pitch)
+    spec = network_spec(problem, corridors, room_pitch(problem, corridors.width))
     seconds = min(NETWORK_SECONDS, time_limit * NETWORK_SHARE)
     result = solve_network(spec, time_limit=seconds, seed=seed)
     if not result.found:
@@ -132,19 +158,12 @@ def _strips(block: Polygon, mesh: Mesh, corridors: BaseGeometry) -> list[Polygon
     row of rooms laid out in it opens onto that corridor. Strips that would touch no
     corridor stay joined to their neighbour."""
     x0, y0, x1, y1 = block.bounds
-    px, py = mesh.pitch
-    gx0 = min(p[0] for p in mesh.points)
-    gy0 = min(p[1] for p in mesh.points)
     lengthwise = x1 - x0 >= y1 - y0
     if lengthwise:
-        lines = [gy0 + k * py for k in range(math.ceil((y0 - gy0) / py), int((y1 - gy0) / py) + 1)]
-        lines = [y for y in lines if y0 + 1e-6 < y < y1 - 1e-6]
-        cuts = [y0, *lines, y1]
+        cuts = [y0, *(y for y in mesh.ys if y0 + 1e-6 < y < y1 - 1e-6), y1]
         boxes = [shapely.box(x0, a, x1, b) for a, b in itertools.pairwise(cuts)]
     else:
-        lines = [gx0 + k * px for k in range(math.ceil((x0 - gx0) / px), int((x1 - gx0) / px) + 1)]
-        lines = [x for x in lines if x0 + 1e-6 < x < x1 - 1e-6]
-        cuts = [x0, *lines, x1]
+        cuts = [x0, *(x for x in mesh.xs if x0 + 1e-6 < x < x1 - 1e-6), x1]
         boxes = [shapely.box(a, y0, b, y1) for a, b in itertools.pairwise(cuts)]
     grown = corridors.buffer(1e-4, join_style="mitre")
     out: list[Polygon] = []
