@@ -76,7 +76,7 @@ def repaired_network(
         return None
     began = time.monotonic()
     graph = _Graph(spec.mesh)
-    scored = sorted(((conflicts(spec, graph, set(s)), sorted(s)) for s in starts))
+    scored = sorted((conflicts(spec, graph, set(s)), sorted(s)) for s in starts)
     bad, edges = scored[0]
     current = set(edges)
     tabu: list[int] = []
