@@ -239,19 +239,32 @@ def travel_cap(nm: NetworkModel) -> None:
     """Ours, from Eq. 2: along the hand-over chain from an active half-edge i->j the
     distance value falls by at least each half-edge's length, so the walk from j to the
     sink is at most D_{i->j} - Delta_{i->j} plus the last half-edge's length (at most
-    the longest edge). Bounding D_{i->j} by `max_distance` - longest + Delta_{i->j} / 2
+    the longest edge into a sink, `last_leg`). Bounding D_{i->j} by `max_distance` -
+    longest + Delta_{i->j} / 2
     keeps the middle of every active edge within `max_distance` of a sink along the
     network (a vertex within that plus half an edge). A bound on the vertices instead
     refused edges whose two ends are both far (the last cell of a floor's far corner)."""
     spec = nm.spec
     if spec.max_distance is None:
         return
-    longest = max(spec.mesh.lengths, default=0.0)
+    longest = last_leg(spec)
     bounds = {}
     for i, j, length in half_edges(spec.mesh):
         bounds[(i, j)] = max(0.0, spec.max_distance - longest + length / 2)
         nm.model.chgVarUb(nm.D[(i, j)], min(nm.distance_bound, bounds[(i, j)]))
     nm.distance_bound = min(nm.distance_bound, max(bounds.values(), default=0.0))
+
+
+def last_leg(spec: NetworkSpec) -> float:
+    """The longest mesh edge at a sink: the last half-edge of every chain enters a sink
+    (the longest edge of all was needlessly strict on grids with wider outer cells)."""
+    sink_set = set(spec.sinks)
+    at_sinks = [
+        length
+        for (i, j), length in zip(spec.mesh.edges, spec.mesh.lengths, strict=True)
+        if i in sink_set or j in sink_set
+    ]
+    return max(at_sinks or spec.mesh.lengths or [0.0])
 
 
 def dead_end_cap(nm: NetworkModel) -> None:

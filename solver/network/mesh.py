@@ -65,19 +65,23 @@ class Mesh:
 
 
 def grid_mesh(
-    free: BaseGeometry, pitch: float | tuple[float, float], *, anchors: Sequence[XY] = ()
+    free: BaseGeometry,
+    pitch: float | tuple[float, float],
+    *,
+    anchors: Sequence[XY] = (),
+    thinnest: float = 0.5,
 ) -> Mesh:
     """The grid mesh of `free` at about `pitch` metres (one for both axes, or per axis:
     x, y). Along an axis with an anchor (an exit) strictly inside the floor's extent, the
     grid lines run from that anchor at the pitch both ways, and a last cell thinner than
-    half a pitch joins its neighbour (so the exit lies on a grid line and the cells keep
-    the pitch, the outer ones up to one and a half); else the extent is cut into whole
+    `thinnest` pitches joins its neighbour (so the exit lies on a grid line and the cells
+    keep the pitch, the outer ones up to 1 + `thinnest`); else the extent is cut into whole
     cells, the count the nearest to the pitch, preferring counts that put the anchors
     on grid lines."""
     x0, y0, x1, y1 = free.bounds
     ax, ay = pitch if isinstance(pitch, tuple) else (pitch, pitch)
-    xs = _lines(x0, x1, ax, [a[0] for a in anchors])
-    ys = _lines(y0, y1, ay, [a[1] for a in anchors])
+    xs = _lines(x0, x1, ax, [a[0] for a in anchors], thinnest)
+    ys = _lines(y0, y1, ay, [a[1] for a in anchors], thinnest)
     nx, ny = len(xs) - 1, len(ys) - 1
     px, py = (x1 - x0) / nx, (y1 - y0) / ny
     grown = free.buffer(EPS, join_style="mitre")
@@ -123,9 +127,12 @@ def grid_mesh(
     return Mesh(points, edges, opposite, (px, py), faces, tuple(xs), tuple(ys))
 
 
-def _lines(lo: float, hi: float, pitch: float, anchors: Sequence[float]) -> list[float]:
-    """The grid lines across [lo, hi] (module docstring of `grid_mesh`)."""
-    inside = [a for a in anchors if lo + pitch / 2 < a < hi - pitch / 2]
+def _lines(
+    lo: float, hi: float, pitch: float, anchors: Sequence[float], thinnest: float
+) -> list[float]:
+    """The grid lines across [lo, hi] (docstring of `grid_mesh`)."""
+    edge = pitch * thinnest
+    inside = [a for a in anchors if lo + edge < a < hi - edge]
     if not inside or hi - lo < 2 * pitch:
         n = _cells(hi - lo, pitch, [a - lo for a in anchors])
         return [lo + k * (hi - lo) / n for k in range(n)] + [hi]
@@ -133,7 +140,7 @@ def _lines(lo: float, hi: float, pitch: float, anchors: Sequence[float]) -> list
     below = math.floor((a - lo) / pitch + 1e-9)
     above = math.floor((hi - a) / pitch + 1e-9)
     lines = [a + k * pitch for k in range(-below, above + 1)]
-    inner = [x for x in lines if lo + pitch / 2 - EPS < x < hi - pitch / 2 + EPS]
+    inner = [x for x in lines if lo + edge - EPS < x < hi - edge + EPS]
     return [lo, *inner, hi]
 
 

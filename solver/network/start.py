@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 
-from floorplan.solver.network.formulation import Feature, NetworkModel, NetworkSpec
+from floorplan.solver.network.formulation import Feature, NetworkModel, NetworkSpec, last_leg
 from floorplan.solver.network.measure import distances, judge
 from floorplan.solver.network.mesh import Mesh
 from floorplan.solver.network.repair import repaired_network
@@ -238,7 +238,7 @@ def _fit_distances(
     for _ in range(len(edges)):
         if _distances_fit(spec, current):
             return current
-        longest = max(mesh.lengths)
+        longest = last_leg(spec)
         values = half_edge_values(mesh, current, spec.sinks)
         worst = sorted(
             (
@@ -268,7 +268,7 @@ def _distances_fit(spec: NetworkSpec, edges: Sequence[int]) -> bool:
     if spec.max_distance is None:
         return True
     values = half_edge_values(spec.mesh, edges, spec.sinks)
-    longest = max(spec.mesh.lengths)
+    longest = last_leg(spec)
 
     def bound(a: int, b: int) -> float:
         return (

@@ -18,6 +18,7 @@ from __future__ import annotations
 import itertools
 import math
 import statistics
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import shapely
@@ -59,6 +60,8 @@ class CorridorPlan:
     network: AisleNetwork
 
 
+#: Grids tried around the rooms' pitch for one that lets every cell reach an exit.
+MESH_TRIES = 60
 #: The share of the floor the corridors are expected to take when the rooms' sizes are
 #: scaled to what is left (`room_pitch`).
 EXPECTED_SHARE = 0.22
@@ -97,15 +100,56 @@ def room_pitch(problem: Problem, width: float) -> tuple[float, float]:
     return (min(MAX_PITCH, max(MIN_PITCH, px)), min(MAX_PITCH, max(MIN_PITCH, py)))
 
 
+def walkable_pitch(
+    problem: Problem, corridors: Corridors, pitch: tuple[float, float]
+) -> tuple[tuple[float, float], float]:
+    """The pitch (and thinnest outer cell, in pitches) nearest `pitch` whose grid gives
+    every cell a side within walking reach of an exit: the middle of one of its sides
+    no farther from an exit than the travel cap, walked along x and y (a lower bound on
+    any walk along grid corridors). On mall-140 (exits mid-south and mid-north, 45 m)
+    the cells at the middle of the east and west walls had none at the rooms' pitch, and
+    the IP was infeasible; a slightly finer x pitch with a wider outer column serves
+    them (bench/NOTES.md, "Corridors"). `pitch` itself when no nearby grid does."""
+    if corridors.max_travel is None:
+        return pitch, 0.5
+    cap = corridors.max_travel - corridors.width / 2
+    free = problem.free_area()
+    steps = (1.0, 0.97, 1.03, 0.94, 1.06, 0.91, 1.09, 0.88, 1.12)
+    tries = sorted(
+        ((sx, sy, thin) for sx in steps for sy in steps for thin in (0.5, 0.75)),
+        key=lambda t: (abs(t[0] - 1) + abs(t[1] - 1), t[2]),
+    )
+    for sx, sy, thin in tries[:MESH_TRIES]:
+        trial = (pitch[0] * sx, pitch[1] * sy)
+        mesh = grid_mesh(free, trial, anchors=corridors.exits, thinnest=thin)
+        if _walkable(mesh, corridors.exits, cap):
+            return trial, thin
+    return pitch, 0.5
+
+
+def _walkable(mesh: Mesh, exits: Sequence[tuple[float, float]], cap: float) -> bool:
+    middles = [
+        ((mesh.points[i][0] + mesh.points[j][0]) / 2, (mesh.points[i][1] + mesh.points[j][1]) / 2)
+        for i, j in mesh.edges
+    ]
+    near = [
+        min(abs(m[0] - e[0]) + abs(m[1] - e[1]) for e in exits) <= cap + 1e-9 for m in middles
+    ]
+    return all(any(near[x] for x in sides) for sides in mesh.faces)
+
+
 def network_spec(
-    problem: Problem, corridors: Corridors, pitch: float | tuple[float, float]
+    problem: Problem,
+    corridors: Corridors,
+    pitch: float | tuple[float, float],
+    thinnest: float = 0.5,
 ) -> NetworkSpec:
     """The IP for this floor: exits as sinks joined into one network, every cell along
     the network (a room in it opens onto a corridor), no corridors a cell
     apart, the travel cap less half a corridor (a door is on the corridor's side), the
     dead-end cap less half a corridor (the corridor runs on past its last vertex)."""
     free = problem.free_area()
-    mesh = grid_mesh(free, pitch, anchors=corridors.exits)
+    mesh = grid_mesh(free, pitch, anchors=corridors.exits, thinnest=thinnest)
     sinks = tuple(dict.fromkeys(mesh.nearest(e) for e in corridors.exits))
     half = corridors.width / 2
     return NetworkSpec(
@@ -129,7 +173,8 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     found no network in its time (or proved there is none)."""
     corridors = problem.corridors
     assert corridors is not None
-    spec = network_spec(problem, corridors, room_pitch(problem, corridors.width))
+    pitch, thinnest = walkable_pitch(problem, corridors, room_pitch(problem, corridors.width))
+    spec = network_spec(problem, corridors, pitch, thinnest)
     seconds = min(NETWORK_SECONDS, time_limit * NETWORK_SHARE)
     result = solve_network(spec, time_limit=seconds, seed=seed)
     if not result.found:
