@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import shapely
-from shapely.geometry import Polygon
+from shapely.geometry import LineString, Polygon
 from shapely.geometry.base import BaseGeometry
 
 from floorplan.models import Corridors, Problem
@@ -189,7 +189,9 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
         if piece.buffer(-NARROWEST_PART / 2 + 1e-6, join_style="mitre").is_empty:
             narrow.append(piece)  # too thin for a room: corridor floor
         else:
-            for strip in _strips(piece, spec.mesh, shape):
+            strips, floor = _strips(piece, spec.mesh, shape, NARROWEST_PART)
+            narrow += floor
+            for strip in strips:
                 blocks[f"block-{len(blocks) + 1}"] = strip
     shape = clean_shape(shapely.union_all([shape, *narrow]))
     pieces = aisle_pieces([shape], free, blocks)
@@ -197,38 +199,75 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     return CorridorPlan(spec.mesh, spec.sinks, result, shape, blocks, network)
 
 
-def _strips(block: Polygon, mesh: Mesh, corridors: BaseGeometry) -> list[Polygon]:
-    """A block cut along its length by the grid lines inside it into strips one cell
-    deep: each lies along a corridor (every cell has a network edge on a side), so one
-    row of rooms laid out in it opens onto that corridor. Strips that would touch no
-    corridor stay joined to their neighbour."""
-    x0, y0, x1, y1 = block.bounds
-    lengthwise = x1 - x0 >= y1 - y0
-    if lengthwise:
-        cuts = [y0, *(y for y in mesh.ys if y0 + 1e-6 < y < y1 - 1e-6), y1]
-        boxes = [shapely.box(x0, a, x1, b) for a, b in itertools.pairwise(cuts)]
-    else:
-        cuts = [x0, *(x for x in mesh.xs if x0 + 1e-6 < x < x1 - 1e-6), x1]
-        boxes = [shapely.box(a, y0, b, y1) for a, b in itertools.pairwise(cuts)]
+def _strips(
+    block: Polygon, mesh: Mesh, corridors: BaseGeometry, narrowest: float
+) -> tuple[list[Polygon], list[Polygon]]:
+    """A block cut into strips one cell deep along its corridors, so one row of rooms
+    laid out in a strip opens onto its corridor: the block's pieces in each grid cell,
+    each keyed by the side it shares most with a corridor (a row of cells along a
+    corridor running along x, or a column along one running along y), the pieces of a
+    key joined; a piece touching no corridor joins the neighbour it shares most wall
+    with. A cell's slivers (a lip between an obstacle and a grid line, narrower than
+    `narrowest` metres) are corridor floor where they touch a corridor (returned
+    second). Cutting a whole block one way cut an L-shaped block (a column along a wall
+    joined to a row) across its column's rooms (mall-140)."""
     grown = corridors.buffer(1e-4, join_style="mitre")
-    out: list[Polygon] = []
-    pending: BaseGeometry | None = None
-    for b in boxes:
-        piece = (
-            block.intersection(b)
-            if pending is None
-            else shapely.union_all([pending, block.intersection(b)])
-        )
-        if piece.area <= SLIVER_AREA:
-            continue
-        if piece.intersection(grown).area <= SLIVER_AREA and b is not boxes[-1]:
-            pending = piece
-            continue
-        pending = None
-        if out and piece.intersection(grown).area <= SLIVER_AREA:
-            piece = shapely.union_all([out.pop(), piece])
-        out += [p for p in polygon_pieces(clean_shape(piece)) if p.area > SLIVER_AREA]
-    return out or [block]
+    x0, y0, x1, y1 = block.bounds
+    xs = [x for x in mesh.xs if x0 + 1e-6 < x < x1 - 1e-6]
+    ys = [y for y in mesh.ys if y0 + 1e-6 < y < y1 - 1e-6]
+    pieces: list[tuple[tuple[str, int], Polygon]] = []
+    loose: list[Polygon] = []
+    floor: list[Polygon] = []
+    for i, (a, b) in enumerate(itertools.pairwise([x0, *xs, x1])):
+        for j, (c, d) in enumerate(itertools.pairwise([y0, *ys, y1])):
+            cell = clean_shape(block.intersection(shapely.box(a, c, b, d)))
+            # Slivers of the cell (a lip along an obstacle) are corridor floor beside a
+            # corridor; the rest is kept.
+            opened = cell.buffer(-narrowest / 2, join_style="mitre").buffer(
+                narrowest / 2, join_style="mitre").intersection(cell)
+            for sliver in polygon_pieces(clean_shape(cell.difference(opened))):
+                if sliver.area > SLIVER_AREA:
+                    (floor if sliver.intersects(grown) else loose).append(sliver)
+            for piece in polygon_pieces(clean_shape(opened)):
+                if piece.area <= SLIVER_AREA:
+                    continue
+                along_x, along_y = _contact(piece, grown)
+                if max(along_x, along_y) <= 1e-3:
+                    loose.append(piece)
+                else:
+                    pieces.append((("row", j) if along_x >= along_y else ("column", i), piece))
+    groups: dict[tuple[str, int], list[Polygon]] = {}
+    for key, piece in pieces:
+        groups.setdefault(key, []).append(piece)
+    out = [
+        p
+        for members in groups.values()
+        for p in polygon_pieces(clean_shape(shapely.union_all(members)))
+        if p.area > SLIVER_AREA
+    ]
+    if not out:
+        return [block], []
+    thin = [p for p in out if p.buffer(-NARROWEST_PART / 2 + 1e-6, join_style="mitre").is_empty]
+    out = [p for p in out if not any(p is t for t in thin)] or out
+    for piece in [*loose, *(t for t in thin if not any(t is p for p in out))]:
+        k = max(range(len(out)), key=lambda k: out[k].intersection(piece.buffer(1e-4)).area)
+        joined = polygon_pieces(clean_shape(shapely.union_all([out[k], piece])))
+        out[k] = max(joined, key=lambda p: p.area)
+    return out, floor
+
+
+def _contact(piece: Polygon, grown: BaseGeometry) -> tuple[float, float]:
+    """Length of `piece`'s outline along the corridors on its sides running along x and
+    along y."""
+    along_x = along_y = 0.0
+    coords = list(piece.exterior.coords)
+    for p, q in itertools.pairwise(coords):
+        shared = LineString([p, q]).intersection(grown).length
+        if abs(q[1] - p[1]) <= 1e-9:
+            along_x += shared
+        elif abs(q[0] - p[0]) <= 1e-9:
+            along_y += shared
+    return along_x, along_y
 
 
 def planned_dead_ends(plan: CorridorPlan, width: float) -> list[float]:
