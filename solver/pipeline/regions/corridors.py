@@ -60,6 +60,9 @@ class CorridorPlan:
     network: AisleNetwork
 
 
+#: Metres of corridor along a side that make a cell's piece a candidate for that side's
+#: strip (a corner cell on two corridors goes with the strip its neighbours form).
+CORNER_CONTACT = 1.0
 #: Grids tried around the rooms' pitch for one that lets every cell reach an exit.
 MESH_TRIES = 60
 #: The share of the floor the corridors are expected to take when the rooms' sizes are
@@ -206,17 +209,19 @@ def _strips(
     laid out in a strip opens onto its corridor: the block's pieces in each grid cell,
     each keyed by the side it shares most with a corridor (a row of cells along a
     corridor running along x, or a column along one running along y), the pieces of a
-    key joined; a piece touching no corridor joins the neighbour it shares most wall
-    with. A cell's slivers (a lip between an obstacle and a grid line, narrower than
-    `narrowest` metres) are corridor floor where they touch a corridor (returned
-    second), else left out (a room cannot use them: slicing made a 0.25 m lip above
-    mall-140's stairs a room of its own). Cutting a whole block one way cut an L-shaped block (a column along a wall
-    joined to a row) across its column's rooms (mall-140)."""
+    key joined. A corner piece, on two corridors, takes the key its neighbours share (a
+    wall column of office-154 came out as three one-cell blocks of two rooms each, one
+    without a door). A piece touching no corridor joins the neighbour it shares most
+    wall with. A cell's slivers (a lip between an obstacle and a grid line, narrower
+    than `narrowest` metres) are corridor floor where they touch a corridor (returned
+    second), else left out (slicing made a 0.25 m lip above mall-140's stairs a room of
+    its own). Cutting a whole block one way cut an L-shaped block (a column along a wall
+    joined to a row) across its column's rooms."""
     grown = corridors.buffer(1e-4, join_style="mitre")
     x0, y0, x1, y1 = block.bounds
     xs = [x for x in mesh.xs if x0 + 1e-6 < x < x1 - 1e-6]
     ys = [y for y in mesh.ys if y0 + 1e-6 < y < y1 - 1e-6]
-    pieces: list[tuple[tuple[str, int], Polygon]] = []
+    pieces: list[tuple[list[tuple[str, int]], Polygon]] = []
     loose: list[Polygon] = []
     floor: list[Polygon] = []
     for i, (a, b) in enumerate(itertools.pairwise([x0, *xs, x1])):
@@ -235,10 +240,19 @@ def _strips(
                 along_x, along_y = _contact(piece, grown)
                 if max(along_x, along_y) <= 1e-3:
                     loose.append(piece)
-                else:
-                    pieces.append((("row", j) if along_x >= along_y else ("column", i), piece))
+                    continue
+                keys = [(along_x, ("row", j)), (along_y, ("column", i))]
+                keys.sort(key=lambda k: -k[0])
+                sides = [k for c, k in keys if c >= CORNER_CONTACT] or [keys[0][1]]
+                pieces.append((sides, piece))
+    # A piece on two corridors (a corner) joins the strip of the key others share.
+    members: dict[tuple[str, int], int] = {}
+    for keys, _ in pieces:
+        if len(keys) == 1:
+            members[keys[0]] = members.get(keys[0], 0) + 1
     groups: dict[tuple[str, int], list[Polygon]] = {}
-    for key, piece in pieces:
+    for keys, piece in pieces:
+        key = max(keys, key=lambda k: (members.get(k, 0), -keys.index(k)))
         groups.setdefault(key, []).append(piece)
     out = [
         p
