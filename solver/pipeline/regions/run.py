@@ -176,7 +176,8 @@ def solve_regions(
             terminations.append(laid.report.termination)
             levels = laid.report.levels
         network = _aisles(problem, given, shapes, progress)
-    jobs = region_jobs(problem, list(shapes), given, network)
+    jobs = region_jobs(problem, list(shapes), given, network,
+                       plan.capacity if plan is not None else None)
     placed: dict[str, list[Box]] = {}
     owner: dict[str, str] = {}
     left_rooms = len(problem.rooms)
