@@ -320,6 +320,8 @@ def start_values(nm: NetworkModel, edges: Sequence[int]) -> dict[str, float]:
         for target in spec.sinks[1:]:
             for a, b in _path(mesh, incident, chosen, spec.sinks[0], target):
                 values[nm.F[(a, b)].name] += 1.0
+    for key, var in nm.P.items():
+        values[var.name] = float(all(x in chosen for x in nm.paths[key]))
     for k, var in nm.Z.items():
         a, b = mesh.opposite[k]
         values[var.name] = float(a in chosen and b in chosen)
