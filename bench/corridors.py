@@ -165,10 +165,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--out", type=Path, default=Path("bench/results/corridors"))
     parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--networks-only", action="store_true",
+                        help="only the IP against the search; the layouts kept from the last run")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
-    for case, brief in (("office-154", OFFICE), ("mall-140", MALL)):
+    last = args.out / "corridors.json"
+    if args.networks_only and last.exists():
+        rows = json.loads(last.read_text())["layouts"]
+    for case, brief in () if args.networks_only else (("office-154", OFFICE), ("mall-140", MALL)):
         rows.append(aisles_against_corridors(case, brief))
         print(json.dumps(rows[-1], indent=1), flush=True)
     networks = []
