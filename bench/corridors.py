@@ -15,17 +15,23 @@ import shapely
 from shapely.geometry import Polygon
 
 from floorplan.models import Corridors, Layout, Problem
-from floorplan.solver.network.solve import solve_network
+from floorplan.solver.network.solve import REPAIR_SHARE, solve_network
 from floorplan.solver.network.start import greedy_network
 from floorplan.solver.network.stochastic import judge_spec, stochastic_search
 from floorplan.solver.pipeline.dispatch import solve
-from floorplan.solver.pipeline.regions.corridors import network_spec, room_depth
+from floorplan.solver.pipeline.regions.corridors import (
+    network_spec,
+    room_pitch,
+    walkable_pitch,
+)
 from floorplan.solver.verify.egress import door_travel
 
 CASES = Path(__file__).parent / "data" / "cases"
 #: The office floor's brief: exits at both ends of its long axis.
 OFFICE = {"exits": [[0, 15], [66, 15]], "width": 1.8, "max_travel": 45, "dead_ends": 6}
 #: A smaller office floor (32 x 18 m) with one exit at the middle of its south side.
+#: The mall: exits at the middle of its south and north sides.
+MALL = {"exits": [[35, 0], [35, 34]], "width": 1.8, "max_travel": 45, "dead_ends": 6}
 OFFICE_40 = {"exits": [[16, 0]], "width": 1.8, "max_travel": 30, "dead_ends": 6}
 
 
@@ -99,7 +105,11 @@ def ip_against_search(
     problem = Problem.model_validate({**data, "corridors": brief})
     corridors = problem.corridors
     assert isinstance(corridors, Corridors)
-    spec = network_spec(problem, corridors, pitch or room_depth(problem) + corridors.width / 2)
+    if pitch is None:  # the product's grid
+        spec = network_spec(problem, corridors, *walkable_pitch(
+            problem, corridors, room_pitch(problem, corridors.width)))
+    else:
+        spec = network_spec(problem, corridors, pitch)
     out: dict[str, object] = {
         "case": case,
         "edges": len(spec.mesh.edges),
@@ -135,9 +145,10 @@ def ip_against_search(
         "steps": found.steps,
         "took": round(found.seconds, 1),
     }
-    # The same search from the IP's own start (its time included), for a like start.
+    # The same search from the IP's own start (its time, the repair's included), for a
+    # like start.
     began = time.monotonic()
-    first = greedy_network(spec)
+    first = greedy_network(spec, repair_seconds=seconds * REPAIR_SHARE)
     if first is not None:
         left = seconds - (time.monotonic() - began)
         found = stochastic_search(spec, time_limit=left, seed=0, start=first)
@@ -154,14 +165,23 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--out", type=Path, default=Path("bench/results/corridors"))
     parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--networks-only", action="store_true",
+                        help="only the IP against the search; the layouts kept from the last run")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    rows = [aisles_against_corridors("office-154", OFFICE)]
-    print(json.dumps(rows[-1], indent=1), flush=True)
+    rows = []
+    last = args.out / "corridors.json"
+    if args.networks_only and last.exists():
+        rows = json.loads(last.read_text())["layouts"]
+    for case, brief in () if args.networks_only else (("office-154", OFFICE), ("mall-140", MALL)):
+        rows.append(aisles_against_corridors(case, brief))
+        print(json.dumps(rows[-1], indent=1), flush=True)
     networks = []
     for case, brief, pitch in (
         ("office-154", OFFICE, None),
+        ("office-154", OFFICE, 5.1),
         ("office-154", OFFICE, 3.3),
+        ("mall-140", MALL, None),
         ("office-40", OFFICE_40, None),
     ):
         networks.append(ip_against_search(case, brief, args.seconds, pitch))

@@ -58,6 +58,11 @@ class NetworkSpec:
     max_distance: float | None = None
     #: The longest dead end (metres); 0 forbids dead ends (Eq. 9-10); None: any.
     dead_end: float | None = None
+    #: Point-to-point constraint (Eq. 7-8, Sec. 4.2 L1): vertex pairs (a, b) joined by
+    #: at least one path of active edges with no more edges than the mesh's shortest
+    #: path between them plus `path_slack`.
+    point_pairs: tuple[tuple[int, int], ...] = ()
+    path_slack: int = 2
     t_junctions: Feature = Feature.ALLOW
     too_close: Feature = Feature.ALLOW
     lambda_length: float = 1.0
@@ -80,6 +85,8 @@ class NetworkModel:
     T: dict[tuple[int, int], Variable] = field(default_factory=dict)
     Z: dict[int, Variable] = field(default_factory=dict)
     F: dict[tuple[int, int], Variable] = field(default_factory=dict)
+    P: dict[tuple[int, int, int], Variable] = field(default_factory=dict)
+    paths: dict[tuple[int, int, int], list[int]] = field(default_factory=dict)
     distance_bound: float = 0.0
 
 
@@ -101,6 +108,7 @@ def build_network(spec: NetworkSpec) -> NetworkModel:
     sinks(nm)
     joined_sinks(nm)
     required_nodes(nm)
+    point_to_point(nm)
     dead_end_cap(nm)
     t_junctions(nm)
     too_close(nm)
@@ -235,23 +243,102 @@ def required_nodes(nm: NetworkModel) -> None:
         nm.model.addCons(nm.V[v] >= 1, f"required_{v}")
 
 
+#: Paths enumerated per point-to-point pair at most; a pair with more is refused (pairs
+#: are meant to be near, as the paper's samples of adjacent sub-meshes are).
+MAX_PATHS = 20000
+
+
+def point_to_point(nm: NetworkModel) -> None:
+    """Eq. 7-8 (Sec. 4.2, L1): for each pair (a, b), every simple path of the mesh from
+    a to b with at most (fewest edges + `path_slack`) edges gets an indicator P, on only
+    when all its N edges are: -N + 1 <= N P - sum E <= 0; and at least one P of the
+    pair is on. Raises ValueError for a pair with more than `MAX_PATHS` such paths."""
+    spec = nm.spec
+    if not spec.point_pairs:
+        return
+    m, mesh = nm.model, spec.mesh
+    incident = mesh.incident()
+    for a, b in spec.point_pairs:
+        paths = list(hop_paths(mesh, incident, a, b, spec.path_slack))
+        if not paths:
+            raise ValueError(f"point_pairs: no path joins vertices {a} and {b}")
+        indicators = []
+        for k, edges in enumerate(paths):
+            p = m.addVar(f"P_{a}_{b}_{k}", vtype="B")
+            nm.P[(a, b, k)] = p
+            nm.paths[(a, b, k)] = edges
+            indicators.append(p)
+            total = len(edges) * p - quicksum(nm.E[x] for x in edges)
+            m.addCons(total <= 0, f"eq7_hi_{a}_{b}_{k}")
+            m.addCons(total >= 1 - len(edges), f"eq7_lo_{a}_{b}_{k}")
+        m.addCons(quicksum(indicators) >= 1, f"eq8_{a}_{b}")
+
+
+def hop_paths(
+    mesh: Mesh, incident: list[list[int]], a: int, b: int, slack: int
+) -> Iterator[list[int]]:
+    """The edges of each simple path from a to b with at most (fewest edges + slack)
+    edges (depth-first, pruned by the fewest edges still needed to reach b)."""
+    hops = {b: 0}
+    frontier = [b]
+    while frontier:
+        nxt = []
+        for v in frontier:
+            for x in incident[v]:
+                w = mesh.other(x, v)
+                if w not in hops:
+                    hops[w] = hops[v] + 1
+                    nxt.append(w)
+        frontier = nxt
+    if a not in hops:
+        return
+    limit = hops[a] + slack
+    count = 0
+    stack: list[tuple[int, list[int], frozenset[int]]] = [(a, [], frozenset((a,)))]
+    while stack:
+        here, used, seen = stack.pop()
+        if here == b:
+            count += 1
+            if count > MAX_PATHS:
+                raise ValueError(f"point_pairs: more than {MAX_PATHS} paths join {a} and {b}")
+            yield used
+            continue
+        for x in incident[here]:
+            w = mesh.other(x, here)
+            if w not in seen and len(used) + 1 + hops.get(w, limit + 1) <= limit:
+                stack.append((w, [*used, x], seen | {w}))
+
+
 def travel_cap(nm: NetworkModel) -> None:
     """Ours, from Eq. 2: along the hand-over chain from an active half-edge i->j the
     distance value falls by at least each half-edge's length, so the walk from j to the
     sink is at most D_{i->j} - Delta_{i->j} plus the last half-edge's length (at most
-    the longest edge). Bounding D_{i->j} by `max_distance` - longest + Delta_{i->j} / 2
+    the longest edge into a sink, `last_leg`). Bounding D_{i->j} by `max_distance` -
+    longest + Delta_{i->j} / 2
     keeps the middle of every active edge within `max_distance` of a sink along the
     network (a vertex within that plus half an edge). A bound on the vertices instead
     refused edges whose two ends are both far (the last cell of a floor's far corner)."""
     spec = nm.spec
     if spec.max_distance is None:
         return
-    longest = max(spec.mesh.lengths, default=0.0)
+    longest = last_leg(spec)
     bounds = {}
     for i, j, length in half_edges(spec.mesh):
         bounds[(i, j)] = max(0.0, spec.max_distance - longest + length / 2)
         nm.model.chgVarUb(nm.D[(i, j)], min(nm.distance_bound, bounds[(i, j)]))
     nm.distance_bound = min(nm.distance_bound, max(bounds.values(), default=0.0))
+
+
+def last_leg(spec: NetworkSpec) -> float:
+    """The longest mesh edge at a sink: the last half-edge of every chain enters a sink
+    (the longest edge of all was needlessly strict on grids with wider outer cells)."""
+    sink_set = set(spec.sinks)
+    at_sinks = [
+        length
+        for (i, j), length in zip(spec.mesh.edges, spec.mesh.lengths, strict=True)
+        if i in sink_set or j in sink_set
+    ]
+    return max(at_sinks or spec.mesh.lengths or [0.0])
 
 
 def dead_end_cap(nm: NetworkModel) -> None:

@@ -33,10 +33,13 @@ class Mesh:
     points: list[XY]
     edges: list[tuple[int, int]]
     opposite: list[tuple[int, int]] = field(default_factory=list)
-    pitch: tuple[float, float] = (1.0, 1.0)
+    pitch: tuple[float, float] = (1.0, 1.0)  # the mean cell size along x and y
     #: Per grid cell inside the floor, the mesh edges on its sides (its outline sides are
     #: not mesh edges).
     faces: list[list[int]] = field(default_factory=list)
+    #: The grid lines' positions along x and y (cells may differ in size).
+    xs: tuple[float, ...] = ()
+    ys: tuple[float, ...] = ()
 
     @property
     def lengths(self) -> list[float]:
@@ -61,14 +64,25 @@ class Mesh:
         return min(candidates, key=lambda v: math.dist(self.points[v], point))
 
 
-def grid_mesh(free: BaseGeometry, pitch: float, *, anchors: Sequence[XY] = ()) -> Mesh:
-    """The grid mesh of `free` at about `pitch` metres: the bounding box is cut into
-    whole cells (so the grid ends on the outline), each axis's pitch the nearest to
-    `pitch` that does; where `anchors` (exits) lie on a side, the count of cells is
-    chosen among the nearest few so that as many anchors as possible fall on grid lines."""
+def grid_mesh(
+    free: BaseGeometry,
+    pitch: float | tuple[float, float],
+    *,
+    anchors: Sequence[XY] = (),
+    thinnest: float = 0.5,
+) -> Mesh:
+    """The grid mesh of `free` at about `pitch` metres (one for both axes, or per axis:
+    x, y). Along an axis with an anchor (an exit) strictly inside the floor's extent, the
+    grid lines run from that anchor at the pitch both ways, and a last cell thinner than
+    `thinnest` pitches joins its neighbour (so the exit lies on a grid line and the cells
+    keep the pitch, the outer ones up to 1 + `thinnest`); else the extent is cut into whole
+    cells, the count the nearest to the pitch, preferring counts that put the anchors
+    on grid lines."""
     x0, y0, x1, y1 = free.bounds
-    nx = _cells(x1 - x0, pitch, [a[0] - x0 for a in anchors])
-    ny = _cells(y1 - y0, pitch, [a[1] - y0 for a in anchors])
+    ax, ay = pitch if isinstance(pitch, tuple) else (pitch, pitch)
+    xs = _lines(x0, x1, ax, [a[0] for a in anchors], thinnest)
+    ys = _lines(y0, y1, ay, [a[1] for a in anchors], thinnest)
+    nx, ny = len(xs) - 1, len(ys) - 1
     px, py = (x1 - x0) / nx, (y1 - y0) / ny
     grown = free.buffer(EPS, join_style="mitre")
     shapely.prepare(grown)
@@ -77,7 +91,7 @@ def grid_mesh(free: BaseGeometry, pitch: float, *, anchors: Sequence[XY] = ()) -
     points: list[XY] = []
     for i in range(nx + 1):
         for j in range(ny + 1):
-            p = (x0 + i * px, y0 + j * py)
+            p = (xs[i], ys[j])
             if grown.contains(Point(p)):
                 index[(i, j)] = len(points)
                 points.append(p)
@@ -102,7 +116,7 @@ def grid_mesh(free: BaseGeometry, pitch: float, *, anchors: Sequence[XY] = ()) -
             for a, b in (((i, j, 0), (i, j + 1, 0)), ((i, j, 1), (i + 1, j, 1))):
                 if a in edge_at and b in edge_at:
                     opposite.append((edge_at[a], edge_at[b]))
-            centre = Point(x0 + (i + 0.5) * px, y0 + (j + 0.5) * py)
+            centre = Point((xs[i] + xs[i + 1]) / 2, (ys[j] + ys[j + 1]) / 2)
             if grown.contains(centre):
                 sides = [
                     edge_at[k]
@@ -110,7 +124,24 @@ def grid_mesh(free: BaseGeometry, pitch: float, *, anchors: Sequence[XY] = ()) -
                     if k in edge_at
                 ]
                 faces.append(sides)
-    return Mesh(points, edges, opposite, (px, py), faces)
+    return Mesh(points, edges, opposite, (px, py), faces, tuple(xs), tuple(ys))
+
+
+def _lines(
+    lo: float, hi: float, pitch: float, anchors: Sequence[float], thinnest: float
+) -> list[float]:
+    """The grid lines across [lo, hi] (docstring of `grid_mesh`)."""
+    edge = pitch * thinnest
+    inside = [a for a in anchors if lo + edge < a < hi - edge]
+    if not inside or hi - lo < 2 * pitch:
+        n = _cells(hi - lo, pitch, [a - lo for a in anchors])
+        return [lo + k * (hi - lo) / n for k in range(n)] + [hi]
+    a = inside[0]
+    below = math.floor((a - lo) / pitch + 1e-9)
+    above = math.floor((hi - a) / pitch + 1e-9)
+    lines = [a + k * pitch for k in range(-below, above + 1)]
+    inner = [x for x in lines if lo + edge - EPS < x < hi - edge + EPS]
+    return [lo, *inner, hi]
 
 
 def _cells(length: float, pitch: float, offsets: Sequence[float]) -> int:

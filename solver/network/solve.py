@@ -12,6 +12,9 @@ from floorplan.solver.network.start import greedy_network, start_values
 #: Relative gap at which the network counts as solved (the paper stops at 0.01 %, Sec. 5.3;
 #: a corridor plan gains nothing visible below 0.1 %).
 GAP_LIMIT = 1e-3
+#: Share of the time limit the start's repair (`repair.repaired_network`) may take when no
+#: closed-form start is valid.
+REPAIR_SHARE = 0.5
 #: SCIP's memory limit in MiB.
 MEMORY_LIMIT_MB = 2048
 
@@ -41,11 +44,12 @@ def solve_network(
 ) -> NetworkResult:
     """The best network SCIP finds for `spec` within `time_limit` seconds; with `start`,
     from a greedy network (`start.greedy_network`): on a floor of some 400 edges SCIP
-    found no network at all in 40 s without one (bench/NOTES.md, "Corridors")."""
+    found no network at all in 40 s without one (bench/NOTES.md, "Corridors"). Where no
+    closed-form start is valid, a repair search makes one (in `REPAIR_SHARE` of the time)."""
     started = time.monotonic()
     nm = build_network(spec)
     m = nm.model
-    first = greedy_network(spec) if start else None
+    first = greedy_network(spec, repair_seconds=time_limit * REPAIR_SHARE) if start else None
     if first is not None:
         values = start_values(nm, first)
         sol = m.createSol()

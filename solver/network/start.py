@@ -7,13 +7,18 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 
-from floorplan.solver.network.formulation import Feature, NetworkModel, NetworkSpec
+from floorplan.solver.network.formulation import Feature, NetworkModel, NetworkSpec, last_leg
 from floorplan.solver.network.measure import distances, judge
 from floorplan.solver.network.mesh import Mesh
+from floorplan.solver.network.repair import repaired_network
 
 
-def greedy_network(spec: NetworkSpec, *, prune: bool = True) -> list[int] | None:
-    """A valid network, or None when the pruned mesh is not one (then SCIP starts cold)."""
+def greedy_network(
+    spec: NetworkSpec, *, prune: bool = True, repair_seconds: float = 0.0
+) -> list[int] | None:
+    """A valid network, or None when neither the pruned mesh nor a comb is one, nor
+    `repair.repaired_network` makes one of the combs within `repair_seconds` (then SCIP
+    starts cold)."""
     mesh = spec.mesh
     incident = mesh.incident()
     sink_set = set(spec.sinks)
@@ -47,9 +52,13 @@ def greedy_network(spec: NetworkSpec, *, prune: bool = True) -> list[int] | None
     candidates = [edges] if ok(edges) else []
     if not candidates:
         # The whole mesh breaks a rule (too-close edges): try combs of lines instead.
+        combs = comb_networks(spec)
         candidates = sorted(
-            (c for c in comb_networks(spec) if ok(c)), key=lambda c: sum(mesh.lengths[x] for x in c)
+            (c for c in combs if ok(c)), key=lambda c: sum(mesh.lengths[x] for x in c)
         )
+        if not candidates and repair_seconds > 0:
+            fixed = repaired_network(spec, combs, time_limit=repair_seconds)
+            candidates = [fixed] if fixed is not None and ok(fixed) else []
     fitted = (_fit_distances(spec, c, ok) for c in candidates)
     found = next((c for c in fitted if c is not None), None)
     if found is None:
@@ -72,12 +81,7 @@ def comb_networks(spec: NetworkSpec) -> list[list[int]]:
     second row (or column) across the floor, cross lines every k-th column (row), and
     from each sink a straight run inwards to the first line it meets."""
     mesh = spec.mesh
-    px, py = mesh.pitch
-    x0 = min(p[0] for p in mesh.points)
-    y0 = min(p[1] for p in mesh.points)
-    cell = {
-        (round((p[0] - x0) / px), round((p[1] - y0) / py)): v for v, p in enumerate(mesh.points)
-    }
+    cell = {(_at(mesh.xs, p[0]), _at(mesh.ys, p[1])): v for v, p in enumerate(mesh.points)}
     nx = max(i for i, _ in cell)
     ny = max(j for _, j in cell)
     index = {e: x for x, e in enumerate(mesh.edges)}
@@ -113,6 +117,11 @@ def comb_networks(spec: NetworkSpec) -> list[list[int]]:
                                 chosen.add(x)
                     out.append(sorted(chosen | _sink_runs(mesh, spec.sinks, chosen)))
     return out
+
+
+def _at(lines: Sequence[float], value: float) -> int:
+    """The index of the grid line at `value`."""
+    return min(range(len(lines)), key=lambda k: abs(lines[k] - value))
 
 
 def _sink_runs(mesh: Mesh, sinks: Sequence[int], chosen: set[int]) -> set[int]:
@@ -229,7 +238,7 @@ def _fit_distances(
     for _ in range(len(edges)):
         if _distances_fit(spec, current):
             return current
-        longest = max(mesh.lengths)
+        longest = last_leg(spec)
         values = half_edge_values(mesh, current, spec.sinks)
         worst = sorted(
             (
@@ -259,7 +268,7 @@ def _distances_fit(spec: NetworkSpec, edges: Sequence[int]) -> bool:
     if spec.max_distance is None:
         return True
     values = half_edge_values(spec.mesh, edges, spec.sinks)
-    longest = max(spec.mesh.lengths)
+    longest = last_leg(spec)
 
     def bound(a: int, b: int) -> float:
         return (
@@ -311,6 +320,8 @@ def start_values(nm: NetworkModel, edges: Sequence[int]) -> dict[str, float]:
         for target in spec.sinks[1:]:
             for a, b in _path(mesh, incident, chosen, spec.sinks[0], target):
                 values[nm.F[(a, b)].name] += 1.0
+    for key, var in nm.P.items():
+        values[var.name] = float(all(x in chosen for x in nm.paths[key]))
     for k, var in nm.Z.items():
         a, b = mesh.opposite[k]
         values[var.name] = float(a in chosen and b in chosen)

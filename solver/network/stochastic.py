@@ -10,9 +10,9 @@ from __future__ import annotations
 import random
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from floorplan.solver.network.formulation import NetworkSpec
+from floorplan.solver.network.formulation import Feature, NetworkSpec
 from floorplan.solver.network.measure import Judgement, judge
 from floorplan.solver.network.mesh import Mesh
 from floorplan.solver.network.start import cover_sets
@@ -28,8 +28,9 @@ class SearchResult:
 
 def judge_spec(spec: NetworkSpec, edges: list[int],
                covers: list[list[int]] | None = None) -> Judgement:
-    """`judge` of `edges` against everything `spec` asks of a network."""
-    return judge(
+    """`judge` of `edges` against everything `spec` asks of a network, forbidden
+    too-close pairs (Eq. 12) included."""
+    verdict = judge(
         spec.mesh,
         edges,
         spec.sinks,
@@ -42,6 +43,11 @@ def judge_spec(spec: NetworkSpec, edges: list[int],
         faces=spec.faces_covered,
         join=spec.join_sinks,
     )
+    if spec.too_close is Feature.FORBID and verdict.valid:
+        chosen = set(edges)
+        if any(a in chosen and b in chosen for a, b in spec.mesh.opposite):
+            return replace(verdict, valid=False)
+    return verdict
 
 
 def _moves(mesh: Mesh, incident: list[list[int]], active: set[int]) -> Iterator[frozenset[int]]:

@@ -44,6 +44,15 @@ def onto_corridors(sub: Problem, corridors: BaseGeometry) -> Problem:
         for r in sub.rooms]})
 
 
+def all_on_corridor(layout: Layout, corridors: BaseGeometry, door: float) -> bool:
+    """Every room of `layout` shares at least a door's width of wall with `corridors`."""
+    grown = corridors.buffer(1e-4, join_style="mitre")
+    return all(
+        Polygon(r.polygon).boundary.intersection(grown).length >= door - 1e-6
+        for r in layout.rooms
+    )
+
+
 def no_corridors(problem: Problem, seconds: float) -> Layout:
     """The answer when the network IP found no corridor network in its time."""
     check = ConstraintCheck(

@@ -18,10 +18,11 @@ from __future__ import annotations
 import itertools
 import math
 import statistics
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import shapely
-from shapely.geometry import Polygon
+from shapely.geometry import LineString, Polygon
 from shapely.geometry.base import BaseGeometry
 
 from floorplan.models import Corridors, Problem
@@ -57,13 +58,33 @@ class CorridorPlan:
     shape: BaseGeometry
     blocks: dict[str, Polygon]
     network: AisleNetwork
+    #: The deepest a strip's row of rooms is planned (the larger cell side less half a
+    #: corridor).
+    depth: float = math.inf
+
+    def capacity(self, part: Polygon) -> float:
+        """The floor a strip gives its rooms when dealt them: its area, but no deeper
+        than `depth` along its length. Dealt by area, mall-140's west column (5.4 m
+        deep, 29.8 m long) got 12 rooms, too many for one row along its corridor."""
+        x0, y0, x1, y1 = part.bounds
+        length = max(x1 - x0, y1 - y0, 1e-9)
+        return min(float(part.area), length * self.depth)
+
+
+#: Metres of corridor along a side that make a cell's piece a candidate for that side's
+#: strip (a corner cell on two corridors goes with the strip its neighbours form).
+CORNER_CONTACT = 1.0
+#: Grids tried around the rooms' pitch for one that lets every cell reach an exit.
+MESH_TRIES = 60
+#: The share of the floor the corridors are expected to take when the rooms' sizes are
+#: scaled to what is left (`room_pitch`).
+EXPECTED_SHARE = 0.22
 
 
 def room_depth(problem: Problem) -> float:
     """The depth a row of rooms is planned at: the median of the rooms' longer target
-    side (else the side of a square of a room's area). The longer side, not the depth:
-    fewer corridors, rooms deeper than asked; the depth gave office-154 a third of its
-    floor in corridors (bench/NOTES.md, "Corridors")."""
+    side (else the side of a square of a room's area). Used by the bench's square grids;
+    the product plans with `room_pitch`."""
     typical = typical_area(problem)
     sides = [
         max(r.target_size) if r.target_size else math.sqrt(room_area(r, typical))
@@ -72,13 +93,77 @@ def room_depth(problem: Problem) -> float:
     return statistics.median(sides)
 
 
-def network_spec(problem: Problem, corridors: Corridors, pitch: float) -> NetworkSpec:
+def room_pitch(problem: Problem, width: float) -> tuple[float, float]:
+    """The grid's cell size along x and y: the rooms' median target width (x) and depth
+    (y), scaled by how much the rooms must shrink to fit the floor less the corridors,
+    plus half a corridor. A row of rooms along a corridor running along x is then as
+    deep as its rooms' (scaled) depth, a row along a corridor running along y as deep
+    as their width, so the rooms keep their proportions whichever way the IP runs a
+    corridor; a square grid from the longer side made office-154's rooms a metre deeper
+    than asked and far narrower (E_size median 2.1-2.5; bench/NOTES.md, "Corridors")."""
+    typical = typical_area(problem)
+    sizes = [
+        r.target_size if r.target_size else (math.sqrt(room_area(r, typical)),) * 2
+        for r in problem.rooms
+    ]
+    asked = sum(w * d for w, d in sizes)
+    room = float(problem.free_area().area) * (1 - EXPECTED_SHARE)
+    scale = min(1.0, math.sqrt(room / asked)) if asked > 0 else 1.0
+    px = scale * statistics.median(w for w, _ in sizes) + width / 2
+    py = scale * statistics.median(d for _, d in sizes) + width / 2
+    return (min(MAX_PITCH, max(MIN_PITCH, px)), min(MAX_PITCH, max(MIN_PITCH, py)))
+
+
+def walkable_pitch(
+    problem: Problem, corridors: Corridors, pitch: tuple[float, float]
+) -> tuple[tuple[float, float], float]:
+    """The pitch (and thinnest outer cell, in pitches) nearest `pitch` whose grid gives
+    every cell a side within walking reach of an exit: the middle of one of its sides
+    no farther from an exit than the travel cap, walked along x and y (a lower bound on
+    any walk along grid corridors). On mall-140 (exits mid-south and mid-north, 45 m)
+    the cells at the middle of the east and west walls had none at the rooms' pitch, and
+    the IP was infeasible; a slightly finer x pitch with a wider outer column serves
+    them (bench/NOTES.md, "Corridors"). `pitch` itself when no nearby grid does."""
+    if corridors.max_travel is None:
+        return pitch, 0.5
+    cap = corridors.max_travel - corridors.width / 2
+    free = problem.free_area()
+    steps = (1.0, 0.97, 1.03, 0.94, 1.06, 0.91, 1.09, 0.88, 1.12)
+    tries = sorted(
+        ((sx, sy, thin) for sx in steps for sy in steps for thin in (0.5, 0.75)),
+        key=lambda t: (abs(t[0] - 1) + abs(t[1] - 1), t[2]),
+    )
+    for sx, sy, thin in tries[:MESH_TRIES]:
+        trial = (pitch[0] * sx, pitch[1] * sy)
+        mesh = grid_mesh(free, trial, anchors=corridors.exits, thinnest=thin)
+        if _walkable(mesh, corridors.exits, cap):
+            return trial, thin
+    return pitch, 0.5
+
+
+def _walkable(mesh: Mesh, exits: Sequence[tuple[float, float]], cap: float) -> bool:
+    middles = [
+        ((mesh.points[i][0] + mesh.points[j][0]) / 2, (mesh.points[i][1] + mesh.points[j][1]) / 2)
+        for i, j in mesh.edges
+    ]
+    near = [
+        min(abs(m[0] - e[0]) + abs(m[1] - e[1]) for e in exits) <= cap + 1e-9 for m in middles
+    ]
+    return all(any(near[x] for x in sides) for sides in mesh.faces)
+
+
+def network_spec(
+    problem: Problem,
+    corridors: Corridors,
+    pitch: float | tuple[float, float],
+    thinnest: float = 0.5,
+) -> NetworkSpec:
     """The IP for this floor: exits as sinks joined into one network, every cell along
     the network (a room in it opens onto a corridor), no corridors a cell
     apart, the travel cap less half a corridor (a door is on the corridor's side), the
     dead-end cap less half a corridor (the corridor runs on past its last vertex)."""
     free = problem.free_area()
-    mesh = grid_mesh(free, pitch, anchors=corridors.exits)
+    mesh = grid_mesh(free, pitch, anchors=corridors.exits, thinnest=thinnest)
     sinks = tuple(dict.fromkeys(mesh.nearest(e) for e in corridors.exits))
     half = corridors.width / 2
     return NetworkSpec(
@@ -102,8 +187,8 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     found no network in its time (or proved there is none)."""
     corridors = problem.corridors
     assert corridors is not None
-    pitch = min(MAX_PITCH, max(MIN_PITCH, room_depth(problem) + corridors.width / 2))
-    spec = network_spec(problem, corridors, pitch)
+    pitch, thinnest = walkable_pitch(problem, corridors, room_pitch(problem, corridors.width))
+    spec = network_spec(problem, corridors, pitch, thinnest)
     seconds = min(NETWORK_SECONDS, time_limit * NETWORK_SHARE)
     result = solve_network(spec, time_limit=seconds, seed=seed)
     if not result.found:
@@ -118,53 +203,98 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
         if piece.buffer(-NARROWEST_PART / 2 + 1e-6, join_style="mitre").is_empty:
             narrow.append(piece)  # too thin for a room: corridor floor
         else:
-            for strip in _strips(piece, spec.mesh, shape):
+            strips, floor = _strips(piece, spec.mesh, shape, NARROWEST_PART)
+            narrow += floor
+            for strip in strips:
                 blocks[f"block-{len(blocks) + 1}"] = strip
     shape = clean_shape(shapely.union_all([shape, *narrow]))
     pieces = aisle_pieces([shape], free, blocks)
     network = AisleNetwork(pieces, {b: [p] for b, p in blocks.items()})
-    return CorridorPlan(spec.mesh, spec.sinks, result, shape, blocks, network)
+    depth = max(spec.mesh.pitch) - corridors.width / 2
+    return CorridorPlan(spec.mesh, spec.sinks, result, shape, blocks, network, depth)
 
 
-def _strips(block: Polygon, mesh: Mesh, corridors: BaseGeometry) -> list[Polygon]:
-    """A block cut along its length by the grid lines inside it into strips one cell
-    deep: each lies along a corridor (every cell has a network edge on a side), so one
-    row of rooms laid out in it opens onto that corridor. Strips that would touch no
-    corridor stay joined to their neighbour."""
-    x0, y0, x1, y1 = block.bounds
-    px, py = mesh.pitch
-    gx0 = min(p[0] for p in mesh.points)
-    gy0 = min(p[1] for p in mesh.points)
-    lengthwise = x1 - x0 >= y1 - y0
-    if lengthwise:
-        lines = [gy0 + k * py for k in range(math.ceil((y0 - gy0) / py), int((y1 - gy0) / py) + 1)]
-        lines = [y for y in lines if y0 + 1e-6 < y < y1 - 1e-6]
-        cuts = [y0, *lines, y1]
-        boxes = [shapely.box(x0, a, x1, b) for a, b in itertools.pairwise(cuts)]
-    else:
-        lines = [gx0 + k * px for k in range(math.ceil((x0 - gx0) / px), int((x1 - gx0) / px) + 1)]
-        lines = [x for x in lines if x0 + 1e-6 < x < x1 - 1e-6]
-        cuts = [x0, *lines, x1]
-        boxes = [shapely.box(a, y0, b, y1) for a, b in itertools.pairwise(cuts)]
+def _strips(
+    block: Polygon, mesh: Mesh, corridors: BaseGeometry, narrowest: float
+) -> tuple[list[Polygon], list[Polygon]]:
+    """A block cut into strips one cell deep along its corridors, so one row of rooms
+    laid out in a strip opens onto its corridor: the block's pieces in each grid cell,
+    each keyed by the side it shares most with a corridor (a row of cells along a
+    corridor running along x, or a column along one running along y), the pieces of a
+    key joined. A corner piece, on two corridors, takes the key its neighbours share (a
+    wall column of office-154 came out as three one-cell blocks of two rooms each, one
+    without a door). A piece touching no corridor joins the neighbour it shares most
+    wall with. A cell's slivers (a lip between an obstacle and a grid line, narrower
+    than `narrowest` metres) are corridor floor where they touch a corridor (returned
+    second), else left out (slicing made a 0.25 m lip above mall-140's stairs a room of
+    its own). Cutting a whole block one way cut an L-shaped block (a column along a wall
+    joined to a row) across its column's rooms."""
     grown = corridors.buffer(1e-4, join_style="mitre")
-    out: list[Polygon] = []
-    pending: BaseGeometry | None = None
-    for b in boxes:
-        piece = (
-            block.intersection(b)
-            if pending is None
-            else shapely.union_all([pending, block.intersection(b)])
-        )
-        if piece.area <= SLIVER_AREA:
-            continue
-        if piece.intersection(grown).area <= SLIVER_AREA and b is not boxes[-1]:
-            pending = piece
-            continue
-        pending = None
-        if out and piece.intersection(grown).area <= SLIVER_AREA:
-            piece = shapely.union_all([out.pop(), piece])
-        out += [p for p in polygon_pieces(clean_shape(piece)) if p.area > SLIVER_AREA]
-    return out or [block]
+    x0, y0, x1, y1 = block.bounds
+    xs = [x for x in mesh.xs if x0 + 1e-6 < x < x1 - 1e-6]
+    ys = [y for y in mesh.ys if y0 + 1e-6 < y < y1 - 1e-6]
+    pieces: list[tuple[list[tuple[str, int]], Polygon]] = []
+    loose: list[Polygon] = []
+    floor: list[Polygon] = []
+    for i, (a, b) in enumerate(itertools.pairwise([x0, *xs, x1])):
+        for j, (c, d) in enumerate(itertools.pairwise([y0, *ys, y1])):
+            cell = clean_shape(block.intersection(shapely.box(a, c, b, d)))
+            # Slivers of the cell (a lip along an obstacle) are corridor floor beside a
+            # corridor; the rest is kept.
+            opened = cell.buffer(-narrowest / 2, join_style="mitre").buffer(
+                narrowest / 2, join_style="mitre").intersection(cell)
+            for sliver in polygon_pieces(clean_shape(cell.difference(opened))):
+                if sliver.area > SLIVER_AREA and sliver.intersects(grown):
+                    floor.append(sliver)
+            for piece in polygon_pieces(clean_shape(opened)):
+                if piece.area <= SLIVER_AREA:
+                    continue
+                along_x, along_y = _contact(piece, grown)
+                if max(along_x, along_y) <= 1e-3:
+                    loose.append(piece)
+                    continue
+                keys = [(along_x, ("row", j)), (along_y, ("column", i))]
+                keys.sort(key=lambda k: -k[0])
+                sides = [k for c, k in keys if c >= CORNER_CONTACT] or [keys[0][1]]
+                pieces.append((sides, piece))
+    # A piece on two corridors (a corner) joins the strip of the key others share.
+    members: dict[tuple[str, int], int] = {}
+    for keys, _ in pieces:
+        if len(keys) == 1:
+            members[keys[0]] = members.get(keys[0], 0) + 1
+    groups: dict[tuple[str, int], list[Polygon]] = {}
+    for keys, piece in pieces:
+        key = max(keys, key=lambda k: (members.get(k, 0), -keys.index(k)))
+        groups.setdefault(key, []).append(piece)
+    out = [
+        p
+        for members in groups.values()
+        for p in polygon_pieces(clean_shape(shapely.union_all(members)))
+        if p.area > SLIVER_AREA
+    ]
+    if not out:
+        return [block], []
+    thin = [p for p in out if p.buffer(-NARROWEST_PART / 2 + 1e-6, join_style="mitre").is_empty]
+    out = [p for p in out if not any(p is t for t in thin)] or out
+    for piece in [*loose, *(t for t in thin if not any(t is p for p in out))]:
+        k = max(range(len(out)), key=lambda k: out[k].intersection(piece.buffer(1e-4)).area)
+        joined = polygon_pieces(clean_shape(shapely.union_all([out[k], piece])))
+        out[k] = max(joined, key=lambda p: p.area)
+    return out, floor
+
+
+def _contact(piece: Polygon, grown: BaseGeometry) -> tuple[float, float]:
+    """Length of `piece`'s outline along the corridors on its sides running along x and
+    along y."""
+    along_x = along_y = 0.0
+    coords = list(piece.exterior.coords)
+    for p, q in itertools.pairwise(coords):
+        shared = LineString([p, q]).intersection(grown).length
+        if abs(q[1] - p[1]) <= 1e-9:
+            along_x += shared
+        elif abs(q[0] - p[0]) <= 1e-9:
+            along_y += shared
+    return along_x, along_y
 
 
 def planned_dead_ends(plan: CorridorPlan, width: float) -> list[float]:

@@ -3,7 +3,7 @@ which rooms go to which part."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 from shapely.geometry import LineString, Point, Polygon
 
@@ -86,9 +86,10 @@ def _on_edge(sub: object, building: object) -> bool:
     return min(hi, bhi) - max(lo, blo) > 1e-6
 
 
-def assign_to_parts(problem: Problem, rooms: Sequence[Room],
-                    parts: Sequence[Polygon]) -> list[list[Room]]:
-    """Share out `rooms` among region parts in proportion to their area: units of rooms
+def assign_to_parts(problem: Problem, rooms: Sequence[Room], parts: Sequence[Polygon],
+                    capacity: Callable[[Polygon], float] | None = None) -> list[list[Room]]:
+    """Share out `rooms` among region parts in proportion to their area (or
+    `capacity`, the floor a part can give its rooms): units of rooms
     joined by adjacencies stay together; units with a guide point go to the part holding
     it (else the nearest), then the others, largest first, to the part with the most area
     left, among those touching an exterior wall the unit asks for when there are any."""
@@ -100,8 +101,9 @@ def assign_to_parts(problem: Problem, rooms: Sequence[Room],
         a for a in room_adjacency(problem) if a.a in ids and set(a.partners) <= ids]})
     units = room_units(sub)
     total = sum(room_area(r, typical) for r in rooms)
-    room_share = total / sum(p.area for p in parts)
-    free = [p.area * room_share for p in parts]
+    sizes = [capacity(p) if capacity is not None else p.area for p in parts]
+    room_share = total / sum(sizes)
+    free = [size * room_share for size in sizes]
     out: list[list[Room]] = [[] for _ in parts]
     edges = boundary_edges(problem.boundary)
 
@@ -126,7 +128,8 @@ def assign_to_parts(problem: Problem, rooms: Sequence[Room],
 
 
 def region_jobs(problem: Problem, region_ids: Sequence[str], given: Sequence[Region],
-          network: AisleNetwork) -> list[tuple[str, Polygon, list[Room]]]:
+                network: AisleNetwork, capacity: Callable[[Polygon], float] | None = None,
+                ) -> list[tuple[str, Polygon, list[Room]]]:
     """The room sub-problems: per region part, its rooms. The user's regions (`given`)
     keep their rooms, dealt over that region's own parts; an automatic partition is only
     a means, so its rooms are dealt over every part. Either way the rooms are dealt by
@@ -135,12 +138,13 @@ def region_jobs(problem: Problem, region_ids: Sequence[str], given: Sequence[Reg
     hold what they were dealt (`_dealt`)."""
     if problem.regions is None:
         parts = [(g, part) for g in region_ids for part in network.parts[g]]
-        return _dealt(problem, problem.rooms, parts)
+        return _dealt(problem, problem.rooms, parts, capacity)
     return [job for g in given for job in _dealt(
         problem, [problem.room(r) for r in g.rooms], [(g.id, p) for p in network.parts[g.id]])]
 
 
-def _dealt(problem: Problem, rooms: Sequence[Room], parts: Sequence[tuple[str, Polygon]]
+def _dealt(problem: Problem, rooms: Sequence[Room], parts: Sequence[tuple[str, Polygon]],
+           capacity: Callable[[Polygon], float] | None = None,
            ) -> list[tuple[str, Polygon, list[Room]]]:
     """`rooms` dealt over `parts` (region id, part) by area (`assign_to_parts`); a part
     that cannot hold what it was dealt (`find_impossibilities`: too narrow for a room's
@@ -150,7 +154,7 @@ def _dealt(problem: Problem, rooms: Sequence[Room], parts: Sequence[tuple[str, P
     parts = list(parts)
     jobs: list[tuple[str, Polygon, list[Room]]] = []
     for _ in range(DEAL_ROUNDS):
-        dealt = assign_to_parts(problem, rooms, [p for _, p in parts])
+        dealt = assign_to_parts(problem, rooms, [p for _, p in parts], capacity)
         jobs = [(g, part, dealt_rooms)
                 for (g, part), dealt_rooms in zip(parts, dealt, strict=True) if dealt_rooms]
         cannot = [k for k, (_, part, dealt_rooms) in enumerate(jobs)

@@ -39,6 +39,7 @@ from floorplan.solver.openings import (
 from floorplan.solver.pipeline.regions.aisles import AisleNetwork, aisle_network, aisle_pieces
 from floorplan.solver.pipeline.regions.bands import band_regions
 from floorplan.solver.pipeline.regions.corridor_rooms import (
+    all_on_corridor,
     no_corridors,
     onto_corridors,
     with_corridors,
@@ -75,6 +76,9 @@ MIN_PART_SECONDS = 0.15
 #: and the search after it found nothing better on a 154-room office floor or a 140-room
 #: mall (bench/NOTES.md, "Regions and aisles").
 PART_SECONDS_PER_ROOM = 0.01
+#: A part whose rooms must open onto its corridor is retried with this many shares of
+#: the time (at most a third of the time left) before it gives anything up.
+CORRIDOR_RETRY_SHARES = 3.0
 #: Time kept per room for merging, doors and the check.
 FINISH_SECONDS_PER_ROOM = 0.01
 #: What a room sub-problem gives up, in turn, when it finds no layout (model fields
@@ -172,7 +176,8 @@ def solve_regions(
             terminations.append(laid.report.termination)
             levels = laid.report.levels
         network = _aisles(problem, given, shapes, progress)
-    jobs = region_jobs(problem, list(shapes), given, network)
+    jobs = region_jobs(problem, list(shapes), given, network,
+                       plan.capacity if plan is not None else None)
     placed: dict[str, list[Box]] = {}
     owner: dict[str, str] = {}
     left_rooms = len(problem.rooms)
@@ -247,6 +252,16 @@ def _solve_part(
     relaxations = RELAXATIONS
     corridors = problem.corridors
     if facing is not None and corridors is not None and corridors.rooms_open_onto_corridor:
+        if not slicing_has_demands(sub):
+            # Slicing alone first: a strip one cell deep mostly gets one row, every room
+            # on the corridor, at once; C_boundary on all 21 rooms of office-154's
+            # 66 m strip found no layout in 8 s (bench/NOTES.md, "Corridors").
+            plain = solve(sub.with_options(time_limit=min(
+                share, MIN_PART_SECONDS + PART_SECONDS_PER_ROOM * len(rooms))),
+                should_stop=should_stop)
+            if len(plain.rooms) == len(rooms) and all_on_corridor(
+                    plain, facing, problem.openings.door_width):
+                return plain
         sub = onto_corridors(sub, facing)
         relaxations = (*RELAXATIONS, ("boundary",))
     if not slicing_has_demands(sub):
@@ -259,6 +274,11 @@ def _solve_part(
                   should_stop=should_stop)
     longer = max(share, (deadline - time.monotonic()) * len(rooms)
                  / (left_rooms + len(rooms)))
+    if facing is not None:
+        # Rooms asked onto a corridor are worth more time before one loses its door
+        # (mall-140's deep west column: 12 rooms in one row found in 5 s, not in 1.9 s).
+        longer = max(longer, min(CORRIDOR_RETRY_SHARES * share,
+                                 (deadline - time.monotonic()) / 3))
     if (not inner.rooms and inner.report.termination is Termination.NO_SOLUTION
             and longer > sub.options.time_limit
             and not (should_stop is not None and should_stop())):

@@ -231,3 +231,28 @@ def test_face_coverage_and_joined_exits() -> None:
     joined_spec = NetworkSpec(mesh, tuple(sinks), join_sinks=True)
     assert _refused(joined_spec, apart)
     assert not _refused(NetworkSpec(mesh, tuple(sinks)), apart)
+
+
+def test_point_to_point_pairs_are_joined_by_a_short_path() -> None:
+    """Eq. 7-8: with a pair of vertices on opposite sides of the floor, the network
+    holds a path between them of at most the mesh's fewest edges + 2 (a breadth-first
+    walk over the returned edges here); the cheapest network without the pair has none,
+    so the constraint is what put it there."""
+    mesh = _mesh(15, 12)
+    sink = _vertex(mesh, (0, 6))
+    a, b = _vertex(mesh, (6, 0)), _vertex(mesh, (6, 12))
+    base = dict(coverage=3.0 + 1e-6, lambda_length=1.0)
+
+    def hops(edges: list[int]) -> int | None:
+        adjacent = _adjacent(mesh, edges)
+        seen, frontier, steps = {a}, [a], 0
+        while frontier and b not in seen:
+            frontier = [w for v in frontier for w, _ in adjacent.get(v, []) if w not in seen]
+            seen.update(frontier)
+            steps += 1
+        return steps if b in seen else None
+
+    free = _solve(NetworkSpec(mesh, (sink,), **base))
+    joined = _solve(NetworkSpec(mesh, (sink,), point_pairs=((a, b),), **base))
+    assert hops(joined) is not None and hops(joined) <= 4 + 2
+    assert hops(free) is None or hops(free) > 4 + 2
