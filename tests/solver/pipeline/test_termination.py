@@ -11,6 +11,7 @@ from typing import Any
 import pytest
 import shapely
 
+from bench.planted import draw
 from floorplan.models import Layout, Problem, Termination
 from floorplan.solver import solve
 from floorplan.solver.budget import FloorBudget, judge_seconds, significant_gain, stall_window
@@ -20,7 +21,6 @@ from floorplan.solver.pipeline.assemble import same_layout, termination
 from floorplan.solver.pipeline.judge import final_spec, judged
 from floorplan.solver.pipeline.run import Run, ScipAnswer, layout_objective
 from floorplan.solver.verify.checker import check_layout
-from bench.planted import draw
 from tests.paths import CASES, EXAMPLES
 
 #: Far above what any solve here needs: the stop rule, not the limit, ends them.
