@@ -7,6 +7,7 @@
 // report, plan, brief, downloads) is one state, and Undo / Redo step between them.
 
 import { drawPlan } from "./plan.js";
+import { drawVariantsTable, favourite } from "./variants.js";
 import { meanAreaError } from "./verdict.js";
 
 const $ = (id) => document.getElementById(id);
@@ -95,6 +96,7 @@ export function exploreResult(job, info, layout, problem) {
 
 function render(source = "explore") {
   drawThumbnails();
+  drawVariantsTable(state.view, pick);
   drawShown(source);
   fillRoomList();
   drawComparison();
@@ -107,7 +109,8 @@ function render(source = "explore") {
 function caption(layout, k) {
   const error = meanAreaError(state.view.problem, layout);
   const report = layout.report ?? {};
-  const parts = [`#${k + 1}`];
+  const kept = favourite(state.view.job?.id ?? "", k);
+  const parts = [`${kept.star ? "★ " : ""}#${k + 1}${kept.name ? ` ${kept.name}` : ""}`];
   if (error != null) parts.push(`areas off ${(100 * error).toFixed(0)} % on average`);
   if (report.coverage != null) parts.push(`${(100 * report.coverage).toFixed(1)} % covered`);
   if (report.valid === false) parts.push("invalid");
