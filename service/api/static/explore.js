@@ -96,7 +96,7 @@ export function exploreResult(job, info, layout, problem) {
 
 function render(source = "explore") {
   drawThumbnails();
-  drawVariantsTable(state.view, pick);
+  drawVariantsTable(state.view, pick, drawThumbnails);
   drawShown(source);
   fillRoomList();
   drawComparison();
@@ -190,13 +190,19 @@ function fillRoomList() {
 
 const roomOf = (id) => (state.view?.problem.rooms ?? []).find((r) => r.id === id);
 
-/** The chosen room's width and depth on the plan now (its bounding box), else its target. */
+/** The chosen room's width and depth on the plan now, else its target: its bounding
+ * box's width, and for a room of several rectangles (an L) the depth that gives its
+ * area at that width, so that a wider target asks for a strip more, not for the whole
+ * bounding box. */
 function showTarget() {
   const id = $("edit-room").value;
   const placed = shown()?.rooms.find((r) => r.id === id);
   const xs = placed?.polygon.map((p) => p[0]) ?? [];
   const ys = placed?.polygon.map((p) => p[1]) ?? [];
-  const now = placed ? [Math.max(...xs) - Math.min(...xs), Math.max(...ys) - Math.min(...ys)] : null;
+  const width = Math.max(...xs) - Math.min(...xs);
+  const depth = (placed?.rectangles?.length ?? 1) > 1 ? placed.area / width
+    : Math.max(...ys) - Math.min(...ys);
+  const now = placed ? [width, depth] : null;
   const [w, d] = now ?? roomOf(id)?.target_size ?? ["", ""];
   $("target-width").value = w === "" ? "" : Number(w).toFixed(2);
   $("target-depth").value = d === "" ? "" : Number(d).toFixed(2);

@@ -100,8 +100,9 @@ export function drawPlan(svg, problem, layout = null, source = "problem") {
                   class: "free" }, svg);
   for (const o of problem.obstacles ?? []) {
     const g = el("g", { class: "obstacle" }, svg);
-    el("rect", { x: o.x, y: -(o.y + o.depth), width: o.width, height: o.depth,
-                 fill: "url(#hatch)" }, g);
+    const box = { x: o.x, y: -(o.y + o.depth), width: o.width, height: o.depth };
+    el("rect", { ...box, class: "solid" }, g); // not the red of uncovered floor below
+    el("rect", { ...box, fill: "url(#hatch)" }, g);
     el("title", {}, g).textContent = o.label ?? "obstacle";
   }
 

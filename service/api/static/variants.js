@@ -43,8 +43,9 @@ function cell(tr, text, className = "") {
   return td;
 }
 
-/** Fills the table for `view` ({job, problem, layouts, picked}); `pick(k)` shows one. */
-export function drawVariantsTable(view, pick) {
+/** Fills the table for `view` ({job, problem, layouts, picked}); `pick(k)` shows one,
+ * `kept()` after a star or a name changed (the thumbnails' captions name them too). */
+export function drawVariantsTable(view, pick, kept = () => {}) {
   const box = $("variants-box");
   const body = $("variants-table").querySelector("tbody");
   body.replaceChildren();
@@ -53,7 +54,7 @@ export function drawVariantsTable(view, pick) {
   const jobId = view.job?.id ?? "";
   view.layouts.forEach((layout, k) => {
     const report = layout.report ?? {};
-    const kept = favourite(jobId, k);
+    const stored = favourite(jobId, k);
     const tr = document.createElement("tr");
     tr.dataset.testid = "variant-row";
     tr.dataset.index = String(k);
@@ -63,23 +64,25 @@ export function drawVariantsTable(view, pick) {
     star.type = "button";
     star.className = "star";
     star.dataset.testid = "variant-star";
-    star.textContent = kept.star ? "★" : "☆";
-    star.setAttribute("aria-pressed", String(Boolean(kept.star)));
+    star.textContent = stored.star ? "★" : "☆";
+    star.setAttribute("aria-pressed", String(Boolean(stored.star)));
     star.setAttribute("aria-label", `star variant ${k + 1}`);
     star.addEventListener("click", () => {
       const on = star.getAttribute("aria-pressed") !== "true";
       keep(jobId, k, { star: on });
       star.textContent = on ? "★" : "☆";
       star.setAttribute("aria-pressed", String(on));
+      kept();
     });
     const name = document.createElement("input");
     name.type = "text";
     name.size = 10;
-    name.value = kept.name ?? "";
+    name.value = stored.name ?? "";
     name.placeholder = `variant ${k + 1}`;
     name.dataset.testid = "variant-name";
     name.setAttribute("aria-label", `name of variant ${k + 1}`);
     name.addEventListener("input", () => keep(jobId, k, { name: name.value }));
+    name.addEventListener("change", kept);
     const first = document.createElement("td");
     first.append(star);
     const second = document.createElement("td");
