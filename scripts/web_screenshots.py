@@ -14,7 +14,6 @@ It prints what each step measured (rooms changed by the edit, the page's width a
 
 from __future__ import annotations
 
-import json
 import os
 import socket
 import subprocess
@@ -26,6 +25,7 @@ from typing import Any
 
 import httpx2 as httpx
 from playwright.sync_api import expect, sync_playwright
+from shapely.geometry import Polygon
 
 CHROMIUM = "/usr/bin/chromium"
 ROWS = "[data-testid=room-row]"
@@ -80,6 +80,26 @@ def solve(tab: Any) -> None:
     expect(tab.locator(f"#status[data-job='{job}']")).to_have_text(
         "succeeded", timeout=SOLVE_TIMEOUT_MS)
     expect(tab.locator("#summary")).to_be_visible()
+
+
+def shown_layout(tab: Any, url: str) -> dict[str, Any]:
+    """The layout the page shows, as its layout-JSON link serves it."""
+    href = tab.get_attribute("[data-testid=download-json]", "href")
+    return httpx.get(f"{url}/{href}", timeout=30).json()
+
+
+def stability(before: dict[str, Any], after: dict[str, Any], *, fixed: str, widened: str) -> None:
+    """Prints which rooms the edit moved against those it may move (the widened room and
+    the rooms sharing a wall with it, as the page counts them), and whether every other
+    room stayed exactly where it was."""
+    polygons = {r["id"]: Polygon(r["polygon"]) for r in before["rooms"]}
+    moved = {r["id"] for r in after["rooms"]
+             if Polygon(r["polygon"]).symmetric_difference(polygons[r["id"]]).area > 1e-6}
+    grown = polygons[widened].buffer(0.011, join_style="mitre")
+    may_move = {r for r, p in polygons.items() if grown.intersection(p).area > 0.05 * 0.011}
+    may_move.discard(fixed)
+    print(f"moved: {sorted(moved)}; may move: {sorted(may_move)}; "
+          f"the others stayed: {'yes' if moved <= may_move else 'NO'}")
 
 
 def shoot(tab: Any, out: Path, name: str, selector: str | None = None) -> None:
@@ -137,8 +157,7 @@ def steps(tab: Any, url: str, out: Path) -> None:
     else:
         print("one variant only: no variants table to show")
 
-    before = json.loads(tab.input_value("#problem"))
-    rooms = [r["id"] for r in before["rooms"]]
+    before = shown_layout(tab, url)
     tab.click("#plan .room[data-room='bath']")
     tab.select_option("#edit-room", "bed2")
     width = float(tab.input_value("#target-width"))
@@ -147,7 +166,8 @@ def steps(tab: Any, url: str, out: Path) -> None:
     tab.click("#resolve")
     # Done when the note no longer says it is re-solving (a layout, or none found).
     expect(tab.locator("#edit-note")).not_to_contain_text("Re-solving", timeout=SOLVE_TIMEOUT_MS)
-    print("edit:", tab.inner_text("#edit-note"), f"({len(rooms)} rooms)")
+    print("edit:", tab.inner_text("#edit-note"))
+    stability(before, shown_layout(tab, url), fixed="bath", widened="bed2")
     shoot(tab, out, "web-7-edit.png", "#output")
 
     tab.set_viewport_size({"width": 390, "height": 844})

@@ -299,6 +299,7 @@ export function showFieldErrors(errors) {
   const names = state.rows.map(({ row }) => row.querySelector("[data-field='name']").value)
     .filter(Boolean);
   const unplaced = [];
+  markOnPlan(errors);
   for (const error of errors) {
     const spot = placeOf(error);
     if (!spot) {
@@ -317,6 +318,20 @@ export function showFieldErrors(errors) {
     }
   }
   return unplaced;
+}
+
+/** Geometric errors on the plan too: the obstacle or the entrance refused, or the
+ * whole outline, drawn in the error colour. */
+function markOnPlan(errors) {
+  const plan = $("plan");
+  for (const el of plan.querySelectorAll(".invalid")) el.classList.remove("invalid");
+  for (const error of errors) {
+    const [head, index] = String(error.field ?? "").split(".");
+    const target = head === "obstacles" ? plan.querySelectorAll(".obstacle")[Number(index)]
+      : head === "entrance" ? plan.querySelector(".entrance")
+        : head === "boundary" ? plan.querySelector(".outline") : null;
+    target?.classList.add("invalid");
+  }
 }
 
 const FIELD_INPUT = { id: "name", type: "type", target_size: "area", min_size: "min",

@@ -85,6 +85,12 @@ def test_outlines_entrance_obstacles_drawing_and_the_adjacency_matrix_make_a_val
         {"x": 5, "y": 6, "width": 0.6, "depth": 0.6, "label": "shaft"},
         {"x": 1.5, "y": 6, "width": 1, "depth": 1}]
     expect(page.locator("#plan .obstacle")).to_have_count(2)
+    # One moved off the outline: refused as you type, on its row and on the plan.
+    row.locator("[data-testid=obstacle-x]").fill("20")
+    expect(page.locator("#plan .obstacle.invalid")).to_have_count(1, timeout=10_000)
+    expect(row.locator(".field-errors")).not_to_be_empty()
+    row.locator("[data-testid=obstacle-x]").fill("5")
+    expect(page.locator("#plan .obstacle.invalid")).to_have_count(0, timeout=10_000)
 
     # Adjacencies per pair: a tick is the pair in "Next to", and back.
     pair = page.locator("[data-testid=adjacency-pair][data-a=bed1][data-b=bath]")
