@@ -132,7 +132,7 @@ def steps(tab: Any, url: str, out: Path) -> None:
     tab.select_option("[data-testid=place-mode]", "outline")
     for x, y in ((0, 0), (8, 0), (8, 4), (11, 4)):
         click_plan(tab, x, y)
-    shoot(tab, out, "web-2-draw.png", "#output")
+    shoot(tab, out, "web-2-draw.png", "#plan")
     tab.click("#cancel-drawing")
 
     for a, b in (("kitchen", "living"), ("bed1", "bath"), ("hall", "living")):
