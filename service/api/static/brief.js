@@ -1,8 +1,9 @@
 // The brief without JSON: the outline (outline.js: a rectangle, L, U or T by its
 // dimensions, or drawn on a grid), the entrance, obstacles, a room list (name, type,
 // target area, smallest and largest side, neighbours, exterior wall) and the adjacency
-// matrix (matrix.js, a view of the rooms' neighbours). The form and the JSON view are two views of one brief:
-// a change in either rewrites the other, and fields the form does not show are kept.
+// matrix (matrix.js, a view of the rooms' neighbours). The form and the JSON view are
+// two views of one brief: a change in either rewrites the other, and fields the form
+// does not show are kept.
 // Blank sizes are left to the residential template, which the server expands.
 
 import { drawMatrix } from "./matrix.js";

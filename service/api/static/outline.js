@@ -56,6 +56,10 @@ export function shapeOf(boundary) {
     u: () => [w - 2 * boundary[5][0], d - boundary[5][1]],
     t: () => [boundary[0][0], boundary[2][1]],
   };
+  if (boundary.length === 4 && b.x0 === 0 && b.y0 === 0 && boundary.every(([x, y]) =>
+    (x === b.x0 || x === b.x1) && (y === b.y0 || y === b.y1))) {
+    return { shape: "rectangle", w, d }; // in any order: the form writes it counter-clockwise
+  }
   const corners = { rectangle: 4, l: 6, u: 8, t: 8 };
   const same = JSON.stringify(boundary);
   for (const [shape, guess] of Object.entries(guesses)) {
