@@ -187,7 +187,7 @@ export function obstaclesOfForm() {
 
 // Clicks on the plan: the entrance, an obstacle, an outline drawn corner by corner.
 
-const state = { drawing: null, hooks: null };
+const state = { drawing: null, cursor: [0, 0], hooks: null };
 
 function planPoint(svg, event) {
   const point = svg.createSVGPoint();
@@ -235,10 +235,36 @@ function drawBoard() {
       g.append(c);
     }
   }
+  const [cx, cy] = state.cursor; // the keyboard's cursor
+  line(cx - step / 2, cy, cx + step / 2, cy, "cursor");
+  line(cx, cy - step / 2, cx, cy + step / 2, "cursor");
   svg.dataset.source = "board";
-  $("draw-note").textContent = points.length
+  svg.dataset.cursor = `${cx},${cy}`;
+  $("draw-note").textContent = (points.length
     ? `${points.length} corner(s): click the next, or the first to close the outline.`
-    : "Click the first corner of the outline on the grid.";
+    : "Click the first corner of the outline on the grid.")
+    + " By keyboard: arrows move the cross, Enter puts a corner there, Escape stops.";
+}
+
+/** The board by keyboard: arrows move the cursor by a grid step, Enter or Space puts a
+ * corner there, Escape stops drawing. */
+function boardKey(event) {
+  if (!state.drawing) return;
+  const step = gridStep();
+  const moves = { ArrowLeft: [-step, 0], ArrowRight: [step, 0], ArrowUp: [0, step], ArrowDown: [0, -step] };
+  if (event.key in moves) {
+    const [dx, dy] = moves[event.key];
+    state.cursor = [round(Math.max(0, state.cursor[0] + dx)), round(Math.max(0, state.cursor[1] + dy))];
+    drawBoard();
+  } else if (event.key === "Enter" || event.key === " ") {
+    addCorner(state.cursor);
+  } else if (event.key === "Escape") {
+    stopDrawing();
+  } else {
+    return;
+  }
+  event.preventDefault();
+  event.stopPropagation();
 }
 
 /** A corner clicked while drawing: snapped to the grid, and square to the last one. */
@@ -257,6 +283,7 @@ function addCorner([x, y]) {
     return;
   }
   points.push(p);
+  state.cursor = p;
   drawBoard();
 }
 
@@ -274,6 +301,7 @@ export function closeDrawing() {
 
 export function stopDrawing() {
   state.drawing = null;
+  $("plan").removeAttribute("tabindex");
   $("draw-controls").hidden = true;
   if ($("place-mode").value === "outline") $("place-mode").value = "";
   state.hooks.redraw();
@@ -281,8 +309,11 @@ export function stopDrawing() {
 
 function startDrawing() {
   state.drawing = [];
+  state.cursor = [0, 0];
   $("draw-controls").hidden = false;
   drawBoard();
+  $("plan").setAttribute("tabindex", "0");
+  $("plan").focus();
 }
 
 /** Wires the plan's clicks to the place mode; `hooks`: brief() the brief now,
@@ -296,6 +327,7 @@ export function setupPlacing(hooks) {
   $("close-outline").addEventListener("click", closeDrawing);
   $("cancel-drawing").addEventListener("click", stopDrawing);
   $("grid-step").addEventListener("change", () => state.drawing && drawBoard());
+  $("plan").addEventListener("keydown", boardKey);
   // Before the plan's own listeners (fixing rooms): a click while placing is the brief's.
   $("output").addEventListener("click", (event) => {
     const svg = $("plan");

@@ -1,8 +1,9 @@
 """The brief editor's shapes and pickers in headless Chromium against a real server: U
 and T outlines by their dimensions, the entrance at a side's middle or clicked on the
 outline, obstacles as rows and dropped on the plan, an outline drawn on the snapping
-grid, and adjacencies ticked per pair in the matrix (by mouse and by keyboard); the
-server's validation accepts what the editor made, and nothing overflows at 390 px."""
+grid (by mouse and by keyboard), and adjacencies ticked per pair in the matrix (by mouse
+and by keyboard); the server's validation accepts what the editor made, and nothing
+overflows at 390 px."""
 
 from __future__ import annotations
 
@@ -127,3 +128,15 @@ def test_outlines_entrance_obstacles_drawing_and_the_adjacency_matrix_make_a_val
     page.select_option("#entrance-side", "south")
     page.click("#validate")
     expect(page.locator("#messages")).to_contain_text("No problem found")
+
+    # The same board by keyboard: arrows move the cross a grid step, Enter puts a corner.
+    page.select_option("[data-testid=place-mode]", "outline")
+    assert page.evaluate("document.activeElement.id") == "plan"
+    for key, times in (("Enter", 1), ("ArrowRight", 12), ("Enter", 1), ("ArrowUp", 8),
+                       ("Enter", 1), ("ArrowLeft", 12), ("Enter", 1), ("ArrowDown", 8),
+                       ("Enter", 1)):
+        for _ in range(times):
+            page.keyboard.press(key)
+    assert brief(page)["boundary"] == [[0, 0], [6, 0], [6, 4], [0, 4]]
+    expect(page.locator("[data-testid=outline-shape]")).to_have_value("rectangle")
+    expect(page.locator("[data-testid=outline-width]")).to_have_value("6")
