@@ -1,9 +1,14 @@
-// The brief without JSON: the outline by width and depth (a rectangle or an L), the
-// entrance's side, and a room list (name, type, target area, smallest and largest side,
-// neighbours, exterior wall). The form and the JSON view are two views of one brief:
-// a change in either rewrites the other, and fields the form does not show are kept.
+// The brief without JSON: the outline (outline.js: a rectangle, L, U or T by its
+// dimensions, or drawn on a grid), the entrance, obstacles, a room list (name, type,
+// target area, smallest and largest side, neighbours, exterior wall) and the adjacency
+// matrix (matrix.js, a view of the rooms' neighbours). The form and the JSON view are
+// two views of one brief: a change in either rewrites the other, and fields the form
+// does not show are kept.
 // Blank sizes are left to the residential template, which the server expands.
 
+import { drawMatrix } from "./matrix.js";
+import { addObstacleRow, entranceOf, fillObstacles, obstaclesOfForm, outlineOf, round, SHAPES,
+         setupPlacing, shapeOf, sideOf, SIDES } from "./outline.js";
 import { hintFor } from "./words.js";
 
 const $ = (id) => document.getElementById(id);
@@ -13,7 +18,6 @@ export const ROOM_TYPES = [
   "balcony", "bathroom", "bedroom", "closet", "corridor", "dining", "foyer", "garage",
   "hall", "kitchen", "laundry", "living", "office", "room", "stairs", "storage", "study", "wc",
 ];
-const SIDES = ["north", "south", "east", "west"];
 
 /** Briefs to start from, made of the form's own fields. */
 export const STARTERS = {
@@ -38,47 +42,8 @@ export const STARTERS = {
 };
 
 const state = { brief: null, onChange: null, rows: [] };
-const round = (v, digits = 2) => Number(Number(v).toFixed(digits));
 
 // The brief -> the form.
-
-function boxOf(points) {
-  const xs = points.map((p) => p[0]);
-  const ys = points.map((p) => p[1]);
-  return { x0: Math.min(...xs), y0: Math.min(...ys), x1: Math.max(...xs), y1: Math.max(...ys) };
-}
-
-/** The outline as the form's shape: a rectangle, our L (a corner cut at the north-east)
- * or "other" (kept as written, edited in JSON). */
-function shapeOf(boundary) {
-  if (!Array.isArray(boundary) || boundary.length < 4) return { shape: "rectangle" };
-  const b = boxOf(boundary);
-  const w = b.x1 - b.x0;
-  const d = b.y1 - b.y0;
-  if (boundary.length === 4 && boundary.every(([x, y]) => (x === b.x0 || x === b.x1)
-      && (y === b.y0 || y === b.y1)) && b.x0 === 0 && b.y0 === 0) {
-    return { shape: "rectangle", w, d };
-  }
-  const l = lShape(w, d, 0, 0);
-  if (boundary.length === 6 && b.x0 === 0 && b.y0 === 0 && boundary[3]) {
-    const [cx, cy] = [w - boundary[3][0], d - boundary[3][1]];
-    if (JSON.stringify(lShape(w, d, cx, cy)) === JSON.stringify(boundary)) {
-      return { shape: "l", w, d, cx, cy };
-    }
-  }
-  return { shape: "other", w, d, l };
-}
-
-function lShape(w, d, cx, cy) {
-  return [[0, 0], [w, 0], [w, round(d - cy)], [round(w - cx), round(d - cy)], [round(w - cx), d], [0, d]];
-}
-
-/** The side whose middle the entrance is at ("custom" elsewhere, kept as written). */
-function sideOf(entrance, boundary) {
-  if (!entrance || !boundary) return "";
-  const side = SIDES.find((s) => JSON.stringify(entranceOf(s, boundary)) === JSON.stringify(entrance));
-  return side ?? "custom";
-}
 
 const sizeText = (size) => (!size ? "" : size[0] === size[1] ? String(size[0])
   : `${size[0]} x ${size[1]}`);
@@ -101,20 +66,58 @@ function fillForm(brief) {
   $("entrance-side").value = sideOf(brief.entrance, brief.boundary) || "";
   $("use-template").checked = Boolean(brief.template);
   showShape();
+  fillObstacles(brief.obstacles, formChanged);
   const list = $("room-rows");
   list.replaceChildren();
   state.rows = [];
   (brief.rooms ?? []).forEach((room) => addRow(typeof room === "string" ? { type: room } : room,
                                                brief.adjacency ?? []));
+  showMatrix();
 }
 
 function showShape() {
   const shape = $("outline-shape").value;
-  $("cut-box").hidden = shape !== "l";
+  const cut = SHAPES[shape];
+  $("cut-box").hidden = !cut;
+  if (cut) {
+    $("cut-width-label").textContent = cut.cut[0];
+    $("cut-depth-label").textContent = cut.cut[1];
+  }
   const other = shape === "other";
   for (const id of ["outline-width", "outline-depth"]) $(id).disabled = other;
-  $("outline-note").textContent = other ? "This outline has more corners than the form "
-    + "draws: edit it in the JSON view, or pick a rectangle or an L to replace it." : "";
+  $("outline-note").textContent = other ? "A drawn outline, or one with more corners than the "
+    + "form's shapes: draw it again on the grid, edit it in the JSON view, or pick a shape to "
+    + "replace it." : cut ? `${shape.toUpperCase()}: ${cut.note}.` : "";
+}
+
+// The adjacency matrix: a view of the rows' "Next to" fields.
+
+const nextInput = (row) => row.querySelector("[data-field='next']");
+const nameOf = (row) => row.querySelector("[data-field='name']").value.trim();
+const listOf = (text) => text.split(",").map((s) => s.trim()).filter(Boolean);
+
+function showMatrix() {
+  const names = state.rows.map(({ row }) => nameOf(row));
+  const pairs = state.rows.flatMap(({ row }) => listOf(nextInput(row).value)
+    .map((b) => [nameOf(row), b]));
+  drawMatrix(names, pairs, togglePair);
+}
+
+/** A pair ticked (written in a's "Next to") or unticked (taken out of both rooms'). */
+function togglePair(a, b, on) {
+  const rowOf = (name) => state.rows.find(({ row }) => nameOf(row) === name)?.row;
+  const edit = (row, other, add) => {
+    if (!row) return;
+    const list = listOf(nextInput(row).value).filter((n) => n !== other);
+    if (add) list.push(other);
+    nextInput(row).value = list.join(", ");
+  };
+  if (on) edit(rowOf(a), b, true);
+  else {
+    edit(rowOf(a), b, false);
+    edit(rowOf(b), a, false);
+  }
+  formChanged();
 }
 
 function field(row, name, label, input) {
@@ -222,24 +225,13 @@ function outlineOfForm() {
   const d = Number($("outline-depth").value);
   const shape = $("outline-shape").value;
   if (shape === "other" || !(w > 0) || !(d > 0)) return state.brief?.boundary;
-  if (shape === "l") {
-    const cx = Number($("cut-width").value) || round(w / 2);
-    const cy = Number($("cut-depth").value) || round(d / 2);
-    return lShape(w, d, cx, cy);
-  }
-  return [[0, 0], [w, 0], [w, d], [0, d]];
+  const [cx, cy] = SHAPES[shape]?.defaults(w, d) ?? [0, 0];
+  return outlineOf(shape, w, d, Number($("cut-width").value) || cx, Number($("cut-depth").value) || cy);
 }
 
-function entranceOf(side, boundary) {
-  if (!boundary || !side) return undefined;
+function entranceOfForm(side, boundary) {
   if (side === "custom") return state.brief?.entrance;
-  const b = boxOf(boundary);
-  // The middle of that side's edge of the outline (the L's north side is its west arm).
-  const northEdge = boundary.filter(([, y]) => y === b.y1).map(([x]) => x);
-  const eastEdge = boundary.filter(([x]) => x === b.x1).map(([, y]) => y);
-  const mid = (vals) => round((Math.min(...vals) + Math.max(...vals)) / 2);
-  return { south: [mid([b.x0, b.x1]), b.y0], north: [mid(northEdge), b.y1],
-           west: [b.x0, mid([b.y0, b.y1])], east: [b.x1, mid(eastEdge)] }[side];
+  return entranceOf(side, boundary);
 }
 
 /** The brief as the form has it, over the last brief (its other fields kept). */
@@ -247,12 +239,14 @@ function briefOfForm() {
   const brief = { ...(state.brief ?? {}) };
   brief.boundary = outlineOfForm();
   if (!brief.boundary) delete brief.boundary;
-  const entrance = entranceOf($("entrance-side").value, brief.boundary);
+  const entrance = entranceOfForm($("entrance-side").value, brief.boundary);
   if (entrance) brief.entrance = entrance;
   else delete brief.entrance;
   if ($("use-template").checked) brief.template = "residential";
   else delete brief.template;
   brief.rooms = state.rows.map(roomOfRow);
+  brief.obstacles = obstaclesOfForm();
+  if (!brief.obstacles.length) delete brief.obstacles;
   // Neighbours: the pairs the rows name; adjacencies the form cannot show are kept.
   const kept = (brief.adjacency ?? []).filter((a) => !a.b);
   const old = Object.fromEntries((brief.adjacency ?? []).filter((a) => a.b)
@@ -274,6 +268,7 @@ function briefOfForm() {
 
 function formChanged() {
   state.brief = briefOfForm();
+  showMatrix();
   state.onChange?.(state.brief, "form");
 }
 
@@ -305,6 +300,7 @@ export function showFieldErrors(errors) {
   const names = state.rows.map(({ row }) => row.querySelector("[data-field='name']").value)
     .filter(Boolean);
   const unplaced = [];
+  markOnPlan(errors);
   for (const error of errors) {
     const spot = placeOf(error);
     if (!spot) {
@@ -323,6 +319,20 @@ export function showFieldErrors(errors) {
     }
   }
   return unplaced;
+}
+
+/** Geometric errors on the plan too: the obstacle or the entrance refused, or the
+ * whole outline, drawn in the error colour. */
+function markOnPlan(errors) {
+  const plan = $("plan");
+  for (const el of plan.querySelectorAll(".invalid")) el.classList.remove("invalid");
+  for (const error of errors) {
+    const [head, index] = String(error.field ?? "").split(".");
+    const target = head === "obstacles" ? plan.querySelectorAll(".obstacle")[Number(index)]
+      : head === "entrance" ? plan.querySelector(".entrance")
+        : head === "boundary" ? plan.querySelector(".outline") : null;
+    target?.classList.add("invalid");
+  }
 }
 
 const FIELD_INPUT = { id: "name", type: "type", target_size: "area", min_size: "min",
@@ -346,6 +356,12 @@ function placeOf(error) {
                input: row.querySelector("[data-field='next']"), label: "Next to" };
     }
   }
+  const obstacle = document.querySelectorAll("#obstacle-rows .obstacle-row")[Number(path[1])];
+  if (path[0] === "obstacles" && obstacle) {
+    const input = obstacle.querySelector(`[data-field='${path[2]}']`);
+    return { box: obstacle.querySelector(".field-errors"), input,
+             label: input ? input.closest("label").firstChild.textContent : "Obstacle" };
+  }
   if (path[0] === "boundary" || path[0] === "entrance") {
     return { box: $("outline-errors"), input: $(path[0] === "boundary" ? "outline-width" : "entrance-side"),
              label: path[0] === "boundary" ? "Outline" : "Entrance" };
@@ -361,8 +377,25 @@ export function setupBrief(onChange) {
     formChanged();
     row.querySelector("[data-field='name']").focus();
   });
+  $("add-obstacle").addEventListener("click", () => {
+    // A metre square in the middle of the outline's box, to move and size from there.
+    const points = state.brief?.boundary ?? [[0, 0], [2, 2]];
+    const mid = (k) => round(Math.floor((Math.min(...points.map((p) => p[k]))
+      + Math.max(...points.map((p) => p[k]))) / 2 - 0.5));
+    const row = addObstacleRow({ x: mid(0), y: mid(1), width: 1, depth: 1 }, formChanged);
+    formChanged();
+    row.querySelector("input").focus();
+  });
   $("brief-form").addEventListener("input", (event) => {
+    if (event.target.closest("#adjacency-matrix, #place-box")) return; // their own handlers
     if (event.target.id === "outline-shape") showShape();
     formChanged();
+  });
+  setupPlacing({
+    brief: () => state.brief,
+    apply: (fields) => {
+      loadBrief({ ...(state.brief ?? {}), ...fields });
+    },
+    redraw: () => state.onChange?.(state.brief, "redraw"),
   });
 }

@@ -7,6 +7,7 @@
 // report, plan, brief, downloads) is one state, and Undo / Redo step between them.
 
 import { drawPlan } from "./plan.js";
+import { drawVariantsTable, favourite } from "./variants.js";
 import { meanAreaError } from "./verdict.js";
 
 const $ = (id) => document.getElementById(id);
@@ -95,6 +96,7 @@ export function exploreResult(job, info, layout, problem) {
 
 function render(source = "explore") {
   drawThumbnails();
+  drawVariantsTable(state.view, pick, drawThumbnails);
   drawShown(source);
   fillRoomList();
   drawComparison();
@@ -107,7 +109,8 @@ function render(source = "explore") {
 function caption(layout, k) {
   const error = meanAreaError(state.view.problem, layout);
   const report = layout.report ?? {};
-  const parts = [`#${k + 1}`];
+  const kept = favourite(state.view.job?.id ?? "", k);
+  const parts = [`${kept.star ? "★ " : ""}#${k + 1}${kept.name ? ` ${kept.name}` : ""}`];
   if (error != null) parts.push(`areas off ${(100 * error).toFixed(0)} % on average`);
   if (report.coverage != null) parts.push(`${(100 * report.coverage).toFixed(1)} % covered`);
   if (report.valid === false) parts.push("invalid");
@@ -187,13 +190,19 @@ function fillRoomList() {
 
 const roomOf = (id) => (state.view?.problem.rooms ?? []).find((r) => r.id === id);
 
-/** The chosen room's width and depth on the plan now (its bounding box), else its target. */
+/** The chosen room's width and depth on the plan now, else its target: its bounding
+ * box's width, and for a room of several rectangles (an L) the depth that gives its
+ * area at that width, so that a wider target asks for a strip more, not for the whole
+ * bounding box. */
 function showTarget() {
   const id = $("edit-room").value;
   const placed = shown()?.rooms.find((r) => r.id === id);
   const xs = placed?.polygon.map((p) => p[0]) ?? [];
   const ys = placed?.polygon.map((p) => p[1]) ?? [];
-  const now = placed ? [Math.max(...xs) - Math.min(...xs), Math.max(...ys) - Math.min(...ys)] : null;
+  const width = Math.max(...xs) - Math.min(...xs);
+  const depth = (placed?.rectangles?.length ?? 1) > 1 ? placed.area / width
+    : Math.max(...ys) - Math.min(...ys);
+  const now = placed ? [width, depth] : null;
   const [w, d] = now ?? roomOf(id)?.target_size ?? ["", ""];
   $("target-width").value = w === "" ? "" : Number(w).toFixed(2);
   $("target-depth").value = d === "" ? "" : Number(d).toFixed(2);

@@ -86,7 +86,8 @@ export function drawPlan(svg, problem, layout = null, source = "problem") {
   if (outline.length < 3) return;
   const e = extent(outline);
   const pad = 0.04 * Math.max(e.maxX - e.minX, e.maxY - e.minY, 1);
-  svg.setAttribute("viewBox", [e.minX - pad, -e.maxY - pad, e.maxX - e.minX + 2 * pad,
+  const arrow = source === "variant" || source === "previous" ? 0 : 2 * pad; // the north arrow's strip
+  svg.setAttribute("viewBox", [e.minX - pad, -e.maxY - pad, e.maxX - e.minX + 2 * pad + arrow,
                                e.maxY - e.minY + 2 * pad].join(" "));
 
   const defs = el("defs", {}, svg);
@@ -100,8 +101,9 @@ export function drawPlan(svg, problem, layout = null, source = "problem") {
                   class: "free" }, svg);
   for (const o of problem.obstacles ?? []) {
     const g = el("g", { class: "obstacle" }, svg);
-    el("rect", { x: o.x, y: -(o.y + o.depth), width: o.width, height: o.depth,
-                 fill: "url(#hatch)" }, g);
+    const box = { x: o.x, y: -(o.y + o.depth), width: o.width, height: o.depth };
+    el("rect", { ...box, class: "solid" }, g); // not the red of uncovered floor below
+    el("rect", { ...box, fill: "url(#hatch)" }, g);
     el("title", {}, g).textContent = o.label ?? "obstacle";
   }
 
@@ -122,8 +124,19 @@ export function drawPlan(svg, problem, layout = null, source = "problem") {
     el("circle", { cx: x, cy: -y, r: pad / 3 }, g);
     el("title", {}, g).textContent = "entrance";
   }
+  if (arrow) addNorth(svg, e.maxX + pad + arrow / 2, -e.maxY, arrow);
   svg.dataset.source = source;
   svg.dataset.drawn = String(Number(svg.dataset.drawn ?? 0) + 1);
+}
+
+/** A north arrow `size` wide, its tip at (x, y) in drawing units (north is up: the
+ * plan's y grows north), in a strip right of the outline. */
+function addNorth(svg, x, y, size) {
+  const g = el("g", { class: "north", "aria-hidden": "true" }, svg);
+  el("polygon", { points: `${x},${y} ${x - size * 0.3},${y + size} ${x},${y + size * 0.75} `
+    + `${x + size * 0.3},${y + size}` }, g);
+  const n = el("text", { x, y: y + size * 1.6, "font-size": size * 0.5, "text-anchor": "middle" }, g);
+  n.textContent = "N";
 }
 
 /** Every room of a layout: its rooms, or those of every floor of a building. */

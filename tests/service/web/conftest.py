@@ -25,8 +25,9 @@ VIEWPORT = {"width": 1280, "height": 860}
 JOB_TIMEOUT_MS = 30_000
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="package")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    """One server for the page's test modules (its start is seconds of the suite)."""
     s = Server(tmp_path_factory.mktemp("web"), WORKERS="1").start()
     yield s
     s.stop()

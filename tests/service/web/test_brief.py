@@ -251,6 +251,33 @@ def test_a_picked_variant_is_the_one_reported_and_downloaded(page: Any, server: 
         assert float(rows[room["id"]][3]) == pytest.approx(room["area"], abs=0.051)
     assert "variant=1" in page.get_attribute("#download-svg", "href")
 
+    # Side by side: each variant's coverage, score and validity as its report says.
+    variants = httpx.get(f"{server.url}/v1/layouts/{job}/result", timeout=30).json()["variants"]
+    table = page.locator("[data-testid=variant-row]")
+    expect(table).to_have_count(len(variants))
+    for k, variant in enumerate(variants):
+        cells = table.nth(k).locator("td, th").all_inner_texts()
+        report = variant["report"]
+        assert cells[2] == f"#{k + 1}" and cells[3] == f"{100 * report['coverage']:.1f} %", cells
+        assert cells[5] == f"{report['objective']:.2f}", cells
+        assert cells[6].startswith("✓" if report["valid"] else "✗"), cells
+    expect(table.nth(1)).to_have_class("picked")
+    # A favourite starred and named, kept across a reload (the job is followed again).
+    table.nth(1).locator("[data-testid=variant-star]").click()
+    table.nth(1).locator("[data-testid=variant-name]").fill("open kitchen")
+    page.reload()
+    expect(table).to_have_count(len(variants), timeout=30_000)
+    expect(table.nth(1).locator("[data-testid=variant-star]")).to_have_attribute(
+        "aria-pressed", "true")
+    expect(table.nth(1).locator("[data-testid=variant-name]")).to_have_value("open kitchen")
+    expect(thumbs.nth(1)).to_contain_text("★ #2 open kitchen")
+    expect(table.nth(0).locator("[data-testid=variant-star]")).to_have_attribute(
+        "aria-pressed", "false")
+    last = len(variants) - 1
+    table.nth(last).locator("[data-testid=variant-show]").click()  # picked from the table
+    expect(page.locator("#summary-list dd[data-term='variant']")).to_have_text(f"#{last + 1}")
+    assert f"variant={last}" in page.get_attribute("#download-json", "href")
+
 
 def touching(polygons: dict[str, Polygon], ids: set[str]) -> set[str]:
     """`ids` and the rooms sharing a stretch of wall (over 5 cm, walls up to 1 cm apart)

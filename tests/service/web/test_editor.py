@@ -1,0 +1,142 @@
+"""The brief editor's shapes and pickers in headless Chromium against a real server: U
+and T outlines by their dimensions, the entrance at a side's middle or clicked on the
+outline, obstacles as rows and dropped on the plan, an outline drawn on the snapping
+grid (by mouse and by keyboard), and adjacencies ticked per pair in the matrix (by mouse
+and by keyboard); the server's validation accepts what the editor made, and nothing
+overflows at 390 px."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import pytest
+
+from tests.servers import Server
+from tests.service.web.conftest import expect, screenshot
+
+ROWS = "[data-testid=room-row]"
+
+
+def brief(tab: Any) -> dict[str, Any]:
+    return json.loads(tab.input_value("#problem"))
+
+
+def click_plan(tab: Any, x: float, y: float) -> None:
+    """Clicks the plan at the point (x, y) in metres (y north), through the drawing's own
+    transform."""
+    tab.locator("#plan").scroll_into_view_if_needed()
+    at = tab.evaluate("""([x, y]) => {
+      const svg = document.getElementById("plan");
+      const p = svg.createSVGPoint();
+      p.x = x; p.y = -y;
+      const s = p.matrixTransform(svg.getScreenCTM());
+      return [s.x, s.y];
+    }""", [x, y])
+    tab.mouse.click(*at)
+
+
+@pytest.mark.slow
+def test_outlines_entrance_obstacles_drawing_and_the_adjacency_matrix_make_a_valid_brief(
+        page: Any, server: Server) -> None:
+    page.goto(server.url)
+    page.select_option("#example", "template:flat-6")
+    expect(page.locator(ROWS)).to_have_count(6)
+
+    page.select_option("[data-testid=outline-shape]", "u")
+    page.fill("[data-testid=outline-width]", "12")
+    page.fill("[data-testid=cut-width]", "4")
+    page.fill("[data-testid=cut-depth]", "3")
+    expect(page.locator("#cut-width-label")).to_have_text("Notch width")
+    assert brief(page)["boundary"] == [[0, 0], [12, 0], [12, 8], [8, 8], [8, 5], [4, 5],
+                                       [4, 8], [0, 8]]
+    page.select_option("#entrance-side", "north")  # the middle of a north arm, on the wall
+    assert brief(page)["entrance"] == [10, 8]
+
+    page.select_option("[data-testid=outline-shape]", "t")
+    t_shape = [[4, 0], [8, 0], [8, 3], [12, 3], [12, 8], [0, 8], [0, 3], [4, 3]]
+    assert brief(page)["boundary"] == t_shape
+    page.select_option("#entrance-side", "south")
+    assert brief(page)["entrance"] == [6, 0]
+    page.reload()  # the JSON view read back into the form: still a T
+    page.select_option("#example", "template:flat-6")
+    page.click("#json-view summary")
+    changed = {**brief(page), "boundary": t_shape, "entrance": [6, 0]}
+    page.fill("#problem", json.dumps(changed))
+    expect(page.locator("[data-testid=outline-shape]")).to_have_value("t")
+    expect(page.locator("[data-testid=cut-width]")).to_have_value("4")
+
+    # The entrance clicked near the east wall lands on it, to the decimetre.
+    page.select_option("[data-testid=place-mode]", "entrance")
+    click_plan(page, 12.3, 6.26)
+    assert brief(page)["entrance"] == [12, 6.3]
+    expect(page.locator("#entrance-side")).to_have_value("custom")
+    expect(page.locator("[data-testid=place-mode]")).to_have_value("")
+
+    # Obstacles: one typed in a row, one dropped on the plan (snapped to the grid).
+    page.click("[data-testid=add-obstacle]")
+    row = page.locator("[data-testid=obstacle-row]").first
+    for name, value in (("x", "5"), ("y", "6"), ("width", "0.6"), ("depth", "0.6"),
+                        ("label", "shaft")):
+        row.locator(f"[data-testid=obstacle-{name}]").fill(value)
+    page.select_option("[data-testid=place-mode]", "obstacle")
+    click_plan(page, 2.2, 6.3)
+    page.select_option("[data-testid=place-mode]", "")
+    assert brief(page)["obstacles"] == [
+        {"x": 5, "y": 6, "width": 0.6, "depth": 0.6, "label": "shaft"},
+        {"x": 1.5, "y": 6, "width": 1, "depth": 1}]
+    expect(page.locator("#plan .obstacle")).to_have_count(2)
+    # One moved off the outline: refused as you type, on its row and on the plan.
+    row.locator("[data-testid=obstacle-x]").fill("20")
+    expect(page.locator("#plan .obstacle.invalid")).to_have_count(1, timeout=10_000)
+    expect(row.locator(".field-errors")).not_to_be_empty()
+    row.locator("[data-testid=obstacle-x]").fill("5")
+    expect(page.locator("#plan .obstacle.invalid")).to_have_count(0, timeout=10_000)
+
+    # Adjacencies per pair: a tick is the pair in "Next to", and back.
+    pair = page.locator("[data-testid=adjacency-pair][data-a=bed1][data-b=bath]")
+    pair.check()
+    assert {"a": "bed1", "b": "bath"} in brief(page)["adjacency"]
+    expect(page.locator(ROWS).nth(3).locator("[data-testid=room-next]")).to_have_value("bath")
+    page.locator(ROWS).nth(2).locator("[data-testid=room-next]").fill("living")
+    expect(page.locator("[data-testid=adjacency-pair][data-a=living][data-b=kitchen]")).to_be_checked()
+    pair.focus()
+    page.keyboard.press("Space")  # by keyboard: unticked, and the focus stays on it
+    assert {"a": "bed1", "b": "bath"} not in brief(page).get("adjacency", [])
+    assert page.evaluate("document.activeElement.dataset.pair") == "bath|bed1"
+    page.keyboard.press("Space")
+    assert {"a": "bed1", "b": "bath"} in brief(page)["adjacency"]
+
+    page.click("#validate")
+    expect(page.locator("#messages")).to_contain_text("No problem found")
+    screenshot(page, "web-editor.png")
+    page.set_viewport_size({"width": 390, "height": 844})
+    assert page.evaluate("document.documentElement.scrollWidth") <= 390
+    page.set_viewport_size({"width": 1280, "height": 860})
+
+    # An outline drawn on the 0.5 m grid: corners snapped and squared, closed on the first.
+    page.locator("#obstacle-rows button").first.click()
+    page.locator("#obstacle-rows button").first.click()
+    page.select_option("[data-testid=place-mode]", "outline")
+    expect(page.locator("#plan")).to_have_attribute("data-source", "board")
+    for x, y in ((0.1, 0.2), (8.2, -0.1), (8.1, 4.1), (10.2, 3.9), (9.9, 7.2), (0.2, 6.8),
+                 (0.1, 0.1)):
+        click_plan(page, x, y)
+    assert brief(page)["boundary"] == [[0, 0], [8, 0], [8, 4], [10, 4], [10, 7], [0, 7]]
+    expect(page.locator("[data-testid=outline-shape]")).to_have_value("other")
+    expect(page.locator("#draw-controls")).to_be_hidden()
+    page.select_option("#entrance-side", "south")
+    page.click("#validate")
+    expect(page.locator("#messages")).to_contain_text("No problem found")
+
+    # The same board by keyboard: arrows move the cross a grid step, Enter puts a corner.
+    page.select_option("[data-testid=place-mode]", "outline")
+    assert page.evaluate("document.activeElement.id") == "plan"
+    for key, times in (("Enter", 1), ("ArrowRight", 12), ("Enter", 1), ("ArrowUp", 8),
+                       ("Enter", 1), ("ArrowLeft", 12), ("Enter", 1), ("ArrowDown", 8),
+                       ("Enter", 1)):
+        for _ in range(times):
+            page.keyboard.press(key)
+    assert brief(page)["boundary"] == [[0, 0], [6, 0], [6, 4], [0, 4]]
+    expect(page.locator("[data-testid=outline-shape]")).to_have_value("rectangle")
+    expect(page.locator("[data-testid=outline-width]")).to_have_value("6")
