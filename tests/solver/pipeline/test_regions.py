@@ -271,6 +271,7 @@ def test_a_part_out_of_time_is_retried_with_its_share_before_anything_is_relaxed
                                  if not c.satisfied]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 3])
 def test_office_regions_example_lays_out(seed: int) -> None:
     # examples/office-regions: four given regions around a central 4 x 4 m core. Its

@@ -98,6 +98,7 @@ TWELVE_OFFICES = problem(
 )
 
 
+@pytest.mark.slow
 def test_should_stop_interrupts_and_keeps_the_best_layout_so_far() -> None:
     # Asked to stop at the first incumbent (its 60 s would go to the neighbourhood
     # search and the reshaping, which never start).
