@@ -5,11 +5,13 @@ writes of a worker that holds a job."""
 from __future__ import annotations
 
 import json
+import logging
 import time
 import uuid
+from dataclasses import replace
 from typing import Any
 
-from sqlalchemy import and_, delete, func, insert, or_, select, update
+from sqlalchemy import and_, delete, exists, func, insert, or_, select, update
 from sqlalchemy.engine import Connection
 from sqlalchemy.exc import IntegrityError
 
@@ -17,7 +19,9 @@ from floorplan.models.jobs import JobStatus
 from floorplan.service.records import Job
 from floorplan.service.store.base import Quota
 from floorplan.service.store.events import EventLog
-from floorplan.service.tables import events, jobs
+from floorplan.service.tables import batches, events, jobs
+
+log = logging.getLogger("floorplan.store")
 
 
 class IdempotencyConflict(Exception):
@@ -88,7 +92,7 @@ class JobRecords(EventLog):
             query = query.where(jobs.c.owner == owner)
         with self._tx() as conn:
             row = conn.execute(query).first()
-        return job_of_row(row) if row is not None else None
+        return self._job(row) if row is not None else None
 
     def list(
         self, *, owner: str | None, status: JobStatus | None, limit: int,
@@ -156,7 +160,8 @@ class JobRecords(EventLog):
                      attempts=jobs.c.attempts + 1))
             if claimed.rowcount != 1:
                 return None
-            job = job_of_row(conn.execute(select(jobs).where(jobs.c.id == row.id)).one())
+            row = conn.execute(select(jobs).where(jobs.c.id == row.id)).one()
+        job = self._job(row)  # its problem derived after the write lock is released
         self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
         return job
 
@@ -172,7 +177,8 @@ class JobRecords(EventLog):
                      heartbeat_at=now, worker=worker, attempts=jobs.c.attempts + 1))
             if claimed.rowcount != 1:
                 return None
-            job = job_of_row(conn.execute(select(jobs).where(jobs.c.id == job_id)).one())
+            row = conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
+        job = self._job(row)
         self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
         return job
 
@@ -239,9 +245,12 @@ class JobRecords(EventLog):
         return self.get(job_id)
 
     def delete(self, job_id: str) -> None:
+        """Delete a job and its events; a batch whose last job this was goes too (its
+        brief is stored once, in its row)."""
         with self._tx() as conn:
             conn.execute(delete(events).where(events.c.job_id == job_id))
             conn.execute(delete(jobs).where(jobs.c.id == job_id))
+            delete_empty_batches(conn)
 
     def recover(self, retry_limit: int) -> tuple[int, int]:
         """After a restart: jobs left running go back to the queue, or fail once they
@@ -282,6 +291,39 @@ class JobRecords(EventLog):
         return bool(back.rowcount)
 
 
+    def _job(self, row: Any) -> Job:
+        """A full row as a job: a layout of a batch stores no problem (NULL), its
+        problem is derived from the batch's brief, stored once (`layout_problem`), with
+        its own time limit. A brief that cannot give one (it always can: it was checked
+        when the batch was made) leaves the problem empty, and the job's solve fails."""
+        job = job_of_row(row)
+        if row.problem is not None or row.batch_id is None:
+            return job
+        from floorplan.service.batch import layout_problem
+
+        with self._tx() as conn:
+            batch = conn.execute(select(
+                batches.c.brief, batches.c.seed, batches.c.time_limit,
+                batches.c.vary_program, batches.c.time_ceiling,
+            ).where(batches.c.id == row.batch_id)).first()
+        if batch is None or batch.brief is None:
+            return job
+        try:
+            problem, time_limit = layout_problem(
+                batch.brief, batch.seed + row.batch_index, batch.time_limit,
+                bool(batch.vary_program), batch.time_ceiling)
+        except Exception:
+            log.exception("the problem of job %s could not be derived from its batch's brief",
+                          row.id)
+            return job
+        return replace(job, problem=problem, time_limit=time_limit)
+
+
+def delete_empty_batches(conn: Connection) -> None:
+    """Delete the batches none of whose jobs is left (their briefs with them)."""
+    conn.execute(delete(batches).where(~exists().where(jobs.c.batch_id == batches.c.id)))
+
+
 def _held(job_id: str, worker: str | None) -> list[Any]:
     """The WHERE clause of a write to a job, fenced to `worker` when one is named."""
     clause = [jobs.c.id == job_id]
@@ -298,7 +340,8 @@ def job_of_row(row: Any, *, light: bool = False) -> Job:
     """A row as a job; `light`: a row without the `_HEAVY` columns."""
     return Job(
         id=row.id, owner=row.owner, status=JobStatus(row.status), termination=row.termination,
-        problem="" if light else row.problem, time_limit=row.time_limit,
+        problem="" if light or row.problem is None else row.problem,
+        time_limit=row.time_limit,
         result=None if light else row.result, incumbent=None if light else row.incumbent,
         progress=json.loads(row.progress) if row.progress else None,
         error=json.loads(row.error) if row.error else None,
