@@ -24,6 +24,11 @@ from floorplan.service.tables import batches, events, jobs
 log = logging.getLogger("floorplan.store")
 
 
+#: Claims of the fairest job a worker loses to other workers before it claims the job
+#: its message names (`claim_fair`).
+FAIR_TRIES = 5
+
+
 class IdempotencyConflict(Exception):
     """The same Idempotency-Key came with another body."""
 
@@ -130,40 +135,63 @@ class JobRecords(EventLog):
     # The runner's side.
 
     def claim_next(self) -> Job | None:
-        """The next queued job, now running, fair across owners (docs/security.md,
-        "Fair scheduling"): the owner with the fewest jobs running, among those the one
-        served longest ago (one never served first), and that owner's oldest queued job.
-        First in, first out across keys let one key's batch of hundreds hold every solve
-        while another key's single job waited behind it."""
+        """The next queued job, now running, fair across owners (`_fairest`)."""
         with self._tx() as conn:
-            waiting = [row.owner for row in conn.execute(select(jobs.c.owner).distinct().where(
-                jobs.c.status == JobStatus.QUEUED))]
-            if not waiting:
-                return None
-            running = {o: int(n) for o, n in conn.execute(select(jobs.c.owner, func.count()).where(
-                jobs.c.status == JobStatus.RUNNING, jobs.c.owner.in_(waiting)
-            ).group_by(jobs.c.owner))}
-            served = {o: float(t) for o, t in conn.execute(
-                select(jobs.c.owner, func.max(jobs.c.started_at)).where(
-                    jobs.c.owner.in_(waiting), jobs.c.started_at.is_not(None)
-                ).group_by(jobs.c.owner))}
-            owner = min(waiting, key=lambda o: (running.get(o, 0), served.get(o) or 0.0, o))
-            row = conn.execute(select(jobs.c.id).where(
-                jobs.c.status == JobStatus.QUEUED, jobs.c.owner == owner
-            ).order_by(jobs.c.created_at, jobs.c.id).limit(1)).first()
-            if row is None:
+            job_id = self._fairest(conn)
+            if job_id is None:
                 return None
             now = time.time()
             claimed = conn.execute(update(jobs).where(
-                jobs.c.id == row.id, jobs.c.status == JobStatus.QUEUED
+                jobs.c.id == job_id, jobs.c.status == JobStatus.QUEUED
             ).values(status=JobStatus.RUNNING, started_at=now, updated_at=now,
                      attempts=jobs.c.attempts + 1))
             if claimed.rowcount != 1:
                 return None
-            row = conn.execute(select(jobs).where(jobs.c.id == row.id)).one()
+            row = conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
         job = self._job(row)  # its problem derived after the write lock is released
         self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
         return job
+
+    def claim_fair(self, named: str, worker: str) -> Job | None:
+        """Take the next queued job for `worker`, fair across owners (`_fairest`), as
+        `claim` takes one: the distributed mode's workers read a broker message
+        (`named`) as "a job is waiting", not as which one. Every accepted job sends one
+        message and every message claims at most one job, so no job is left without a
+        message to claim it. A job another worker took first is looked for again; after
+        `FAIR_TRIES` such races, the job the message names. None when nothing is queued."""
+        for _ in range(FAIR_TRIES):
+            with self._tx() as conn:
+                job_id = self._fairest(conn)
+            if job_id is None:
+                return None
+            job = self.claim(job_id, worker)
+            if job is not None:
+                return job
+        return self.claim(named, worker)
+
+    @staticmethod
+    def _fairest(conn: Connection) -> str | None:
+        """The queued job to run next, fair across owners (docs/security.md, "Fair
+        scheduling"): the owner with the fewest jobs running, among those the one served
+        longest ago (one never served first), and that owner's oldest queued job. First
+        in, first out across keys let one key's batch of hundreds hold every solve while
+        another key's single job waited behind it."""
+        waiting = [row.owner for row in conn.execute(select(jobs.c.owner).distinct().where(
+            jobs.c.status == JobStatus.QUEUED))]
+        if not waiting:
+            return None
+        running = {o: int(n) for o, n in conn.execute(select(jobs.c.owner, func.count()).where(
+            jobs.c.status == JobStatus.RUNNING, jobs.c.owner.in_(waiting)
+        ).group_by(jobs.c.owner))}
+        served = {o: float(t) for o, t in conn.execute(
+            select(jobs.c.owner, func.max(jobs.c.started_at)).where(
+                jobs.c.owner.in_(waiting), jobs.c.started_at.is_not(None)
+            ).group_by(jobs.c.owner))}
+        owner = min(waiting, key=lambda o: (running.get(o, 0), served.get(o) or 0.0, o))
+        row = conn.execute(select(jobs.c.id).where(
+            jobs.c.status == JobStatus.QUEUED, jobs.c.owner == owner
+        ).order_by(jobs.c.created_at, jobs.c.id).limit(1)).first()
+        return None if row is None else str(row.id)
 
     def claim(self, job_id: str, worker: str) -> Job | None:
         """Take a queued job for `worker` (the distributed mode): it is then running, and
