@@ -25,8 +25,8 @@ log = logging.getLogger("floorplan.store")
 
 
 #: Claims of the fairest job a worker loses to other workers before it claims the job
-#: its message names (`claim_fair`).
-FAIR_TRIES = 5
+#: its message names (`claim_fair`); each loss is another worker's claim.
+FAIR_TRIES = 100
 
 
 class IdempotencyConflict(Exception):
@@ -156,16 +156,27 @@ class JobRecords(EventLog):
         """Take the next queued job for `worker`, fair across owners (`_fairest`), as
         `claim` takes one: the distributed mode's workers read a broker message
         (`named`) as "a job is waiting", not as which one. Every accepted job sends one
-        message and every message claims at most one job, so no job is left without a
-        message to claim it. A job another worker took first is looked for again; after
-        `FAIR_TRIES` such races, the job the message names. None when nothing is queued."""
+        message and every message claims one job while any is queued, so no job is left
+        without a message to claim it. The job is picked and claimed in one transaction,
+        its row locked (PostgreSQL: rows other workers are claiming are skipped); a job
+        another worker claimed first is looked for again, and since each such loss is
+        another worker's claim, the looking ends. After `FAIR_TRIES` losses, the job the
+        message names. None when nothing is queued."""
         for _ in range(FAIR_TRIES):
+            now = time.time()
             with self._tx() as conn:
                 job_id = self._fairest(conn)
-            if job_id is None:
-                return None
-            job = self.claim(job_id, worker)
-            if job is not None:
+                if job_id is None:
+                    return None
+                claimed = conn.execute(update(jobs).where(
+                    jobs.c.id == job_id, jobs.c.status == JobStatus.QUEUED
+                ).values(status=JobStatus.RUNNING, started_at=now, updated_at=now,
+                         heartbeat_at=now, worker=worker, attempts=jobs.c.attempts + 1))
+                row = (conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
+                       if claimed.rowcount == 1 else None)
+            if row is not None:
+                job = self._job(row)
+                self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
                 return job
         return self.claim(named, worker)
 
@@ -175,23 +186,26 @@ class JobRecords(EventLog):
         scheduling"): the owner with the fewest jobs running, among those the one served
         longest ago (one never served first), and that owner's oldest queued job. First
         in, first out across keys let one key's batch of hundreds hold every solve while
-        another key's single job waited behind it."""
+        another key's single job waited behind it. The row is locked for the caller's
+        transaction; on PostgreSQL rows locked by another claim are passed over (that
+        owner's next job, or the next owner's)."""
         waiting = [row.owner for row in conn.execute(select(jobs.c.owner).distinct().where(
             jobs.c.status == JobStatus.QUEUED))]
-        if not waiting:
-            return None
         running = {o: int(n) for o, n in conn.execute(select(jobs.c.owner, func.count()).where(
             jobs.c.status == JobStatus.RUNNING, jobs.c.owner.in_(waiting)
-        ).group_by(jobs.c.owner))}
+        ).group_by(jobs.c.owner))} if waiting else {}
         served = {o: float(t) for o, t in conn.execute(
             select(jobs.c.owner, func.max(jobs.c.started_at)).where(
                 jobs.c.owner.in_(waiting), jobs.c.started_at.is_not(None)
-            ).group_by(jobs.c.owner))}
-        owner = min(waiting, key=lambda o: (running.get(o, 0), served.get(o) or 0.0, o))
-        row = conn.execute(select(jobs.c.id).where(
-            jobs.c.status == JobStatus.QUEUED, jobs.c.owner == owner
-        ).order_by(jobs.c.created_at, jobs.c.id).limit(1)).first()
-        return None if row is None else str(row.id)
+            ).group_by(jobs.c.owner))} if waiting else {}
+        for owner in sorted(waiting, key=lambda o: (running.get(o, 0), served.get(o) or 0.0, o)):
+            row = conn.execute(select(jobs.c.id).where(
+                jobs.c.status == JobStatus.QUEUED, jobs.c.owner == owner
+            ).order_by(jobs.c.created_at, jobs.c.id).limit(1)
+                .with_for_update(skip_locked=True)).first()
+            if row is not None:
+                return str(row.id)
+        return None
 
     def claim(self, job_id: str, worker: str) -> Job | None:
         """Take a queued job for `worker` (the distributed mode): it is then running, and
