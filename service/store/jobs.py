@@ -91,13 +91,26 @@ class JobRecords(EventLog):
             raise IdempotencyConflict(idempotency_key)
         return job_of_row(row)
 
-    def get(self, job_id: str, owner: str | None = None) -> Job | None:
+    def get(self, job_id: str, owner: str | None = None, *,
+            problem: bool = True) -> Job | None:
+        """The job; with `problem` False, a layout of a batch comes without its problem
+        (empty: `with_problem` derives it), which the routes that only show a job's
+        state do not need."""
         query = select(jobs).where(jobs.c.id == job_id)
         if owner is not None:
             query = query.where(jobs.c.owner == owner)
         with self._tx() as conn:
             row = conn.execute(query).first()
-        return self._job(row) if row is not None else None
+        if row is None:
+            return None
+        return self._job(row) if problem else job_of_row(row)
+
+    def with_problem(self, job: Job) -> Job:
+        """`job` with its problem: as it is, or a layout of a batch read without it
+        (`get(problem=False)`) read again with it."""
+        if job.problem or job.batch_id is None:
+            return job
+        return self.get(job.id) or job
 
     def list(
         self, *, owner: str | None, status: JobStatus | None, limit: int,
