@@ -161,7 +161,7 @@ class JobRecords(EventLog):
             if claimed.rowcount != 1:
                 return None
             row = conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
-        job = self._job(row)  # its problem derived after the write lock is released
+        job = self._claimed(row)  # its problem derived after the write lock is released
         self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
         return job
 
@@ -188,7 +188,7 @@ class JobRecords(EventLog):
                 row = (conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
                        if claimed.rowcount == 1 else None)
             if row is not None:
-                job = self._job(row)
+                job = self._claimed(row)
                 self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
                 return job
         return self.claim(named, worker)
@@ -233,7 +233,7 @@ class JobRecords(EventLog):
             if claimed.rowcount != 1:
                 return None
             row = conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
-        job = self._job(row)
+        job = self._claimed(row)
         self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
         return job
 
@@ -345,6 +345,17 @@ class JobRecords(EventLog):
                                               "detail": "handed back by a stopping worker"})
         return bool(back.rowcount)
 
+
+    def _claimed(self, row: Any) -> Job:
+        """A job just claimed, with its problem; a batch's layout whose derived time
+        limit is not the one its row held until then (with `vary_program` each layout's
+        programme, and so its default limit, is its own) has its row say so."""
+        job = self._job(row)
+        if job.time_limit != row.time_limit:
+            with self._tx() as conn:
+                conn.execute(update(jobs).where(jobs.c.id == job.id).values(
+                    time_limit=job.time_limit))
+        return job
 
     def _job(self, row: Any) -> Job:
         """A full row as a job: a layout of a batch stores no problem (NULL), its

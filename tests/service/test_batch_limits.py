@@ -282,3 +282,20 @@ def test_a_batch_s_layouts_derive_their_problems_from_the_one_brief(tmp_path: Pa
     for job in made:
         store.delete(job.id)
     assert store.get_batch(made[0].batch_id or "") is None
+
+
+def test_a_claimed_layout_s_row_says_its_own_time_limit(tmp_path: Path) -> None:
+    """With vary_program each layout's programme, and so its default limit, is its own:
+    a layout's row holds the first layout's limit until it is claimed, then its own."""
+    store = JobStore(f"sqlite:///{tmp_path / 'jobs.db'}")
+    brief = (Path(__file__).resolve().parents[2] / "examples/flat-7-template.json").read_text()
+    _, made = store.create_batch(owner="o", name="b", seed=0, vary_program=True, brief=brief,
+                                 count=2, time_limit=None, time_ceiling=600,
+                                 job_time_limit=layout_problem(brief, 0, None, True, 600)[1])
+    own = [layout_problem(brief, k, None, True, 600)[1] for k in range(2)]
+    assert own[0] != own[1]  # seed 1 draws six rooms, seed 0 seven
+    while (job := store.claim_next()) is not None:
+        assert job.time_limit == own[[m.id for m in made].index(job.id)]
+    listed = {job.id: job.time_limit for job in store.list(owner="o", status=None, limit=10,
+                                                           after=None)}
+    assert [listed[job.id] for job in made] == own
