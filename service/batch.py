@@ -187,6 +187,23 @@ def job_problem(task: LayoutTask) -> Problem:
                                 time_limit=problem.options.time_limit * (REDRAWS + 1))
 
 
+def layout_problem(brief: str, seed: int, time_limit: float | None, vary_program: bool,
+                   ceiling: float) -> tuple[str, float]:
+    """The problem (JSON) of the layout of a service batch solved under `seed`, and the
+    job's time limit: `job_problem` of the brief (JSON as sent), its limit capped at
+    `ceiling` (FLOORPLAN_MAX_TIME_LIMIT when the batch was made). The store keeps a
+    batch's brief once and derives each layout's problem from it when it is read; the
+    same arguments give the same problem."""
+    import json
+
+    from floorplan.service.timing import effective_time_limit
+
+    task = LayoutTask(json.loads(brief), seed, time_limit, vary_program,
+                      good_enough=math.inf)  # each job ends at its first good layout
+    problem, limit = effective_time_limit(job_problem(task), ceiling)
+    return problem.model_dump_json(), limit
+
+
 def lay_out(task: LayoutTask) -> tuple[Problem, Layout, bool]:
     """Solve one layout of a batch (in the calling process): the problem solved, its
     layout, and whether the solve stopped at a good-enough incumbent (`GoodEnough`). A

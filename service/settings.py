@@ -94,9 +94,9 @@ class Settings(BaseSettings):
         "that one key cannot fill the queue for the others",
     )
     max_batch_bytes: int = Field(
-        64 << 20, ge=1024, description="most bytes the problems of one batch take in the job "
-        "store (each layout's job keeps its problem: the brief times the count); beyond, "
-        "413 batch-too-large",
+        64 << 20, ge=1024, description="most bytes the brief of one batch takes in the job "
+        "store (stored once, whatever the count: each layout's problem is derived from "
+        "it); beyond, 413 batch-too-large",
     )
     max_stored_bytes_per_key: int = Field(
         1 << 30, ge=1024, description="bytes one API key's jobs may keep in the store "

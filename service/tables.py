@@ -22,7 +22,9 @@ jobs = Table(
     Column("owner", String(64), nullable=False, default=""),
     Column("status", String(16), nullable=False, index=True),
     Column("termination", String(32)),
-    Column("problem", Text, nullable=False),
+    # NULL for a layout of a batch made since migration 0005: its problem is derived
+    # from the batch's brief (batches.brief), stored once for all its layouts.
+    Column("problem", Text),
     Column("time_limit", Float, nullable=False),
     Column("result", Text),
     Column("incumbent", Text),
@@ -69,4 +71,11 @@ batches = Table(
     Column("seed", Integer, nullable=False),
     Column("vary_program", Boolean, nullable=False, default=False),
     Column("created_at", Float, nullable=False, index=True),
+    # The brief (JSON as sent), the per-layout limit the request gave and the service's
+    # FLOORPLAN_MAX_TIME_LIMIT then: what each layout's problem is derived from
+    # (service.batch.layout_problem). NULL for a batch made before migration 0005,
+    # whose jobs hold their problems.
+    Column("brief", Text),
+    Column("time_limit", Float),
+    Column("time_ceiling", Float),
 )

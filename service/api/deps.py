@@ -99,7 +99,9 @@ def job_dep(job_id: JobId, store: StoreDep, owner: OwnerDep) -> Job:
         canonical = str(UUID(job_id))
     except ValueError:
         canonical = None
-    job = None if canonical is None else store.get(canonical, owner)
+    # Without a batch layout's problem, derived from its batch's brief at some cost:
+    # the routes that need it (exports) ask the store for it (JobStore.with_problem).
+    job = None if canonical is None else store.get(canonical, owner, problem=False)
     if job is None:
         raise ApiError(404, f"job {job_id} not found", kind="job-not-found")
     return job

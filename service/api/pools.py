@@ -8,7 +8,9 @@ from __future__ import annotations
 import asyncio
 import logging
 import multiprocessing
+import os
 import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -21,6 +23,10 @@ T = TypeVar("T")
 
 #: Retry-After (seconds) of work whose process was lost.
 LOST_RETRY_AFTER = 2
+#: Seconds a killed pool process is waited for when the API stops.
+PROCESS_EXIT_WAIT = 5.0
+#: How often a pool process looks whether the API that started it is still there.
+PARENT_CHECK_SECONDS = 1.0
 
 
 class WorkPool:
@@ -35,10 +41,19 @@ class WorkPool:
 
     def _new(self) -> ProcessPoolExecutor:
         return ProcessPoolExecutor(self.processes,
-                                   mp_context=multiprocessing.get_context("spawn"))
+                                   mp_context=multiprocessing.get_context("spawn"),
+                                   initializer=_exit_with, initargs=(os.getpid(),))
 
     def close(self) -> None:
+        """Stop the pool with the API: its processes killed, the work they held with
+        them (a stopped server answers nothing). Shut down alone, an idle process may
+        be left waiting for work for good once the API has exited."""
+        processes = list((getattr(self.pool, "_processes", None) or {}).values())
         self.pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            process.kill()
+        for process in processes:
+            process.join(PROCESS_EXIT_WAIT)
 
     async def run(self, work: Callable[[], T]) -> T:
         """`work` (picklable) in one of the pool's processes. A pool whose process died
@@ -70,3 +85,15 @@ class WorkPool:
             log.warning("a process %s was lost; its pool is replaced", self.what)
             self.pool = self._new()
         pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _exit_with(parent: int) -> None:
+    """In each pool process, as it starts: exit once `parent` (the API process) is gone,
+    killed without a chance to stop its pools (SIGKILL, the OOM killer); an idle
+    process would otherwise wait for work from it for good."""
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_CHECK_SECONDS)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-api", daemon=True).start()

@@ -66,9 +66,8 @@ PROBLEM_TYPES: dict[str, ProblemType] = {
         "items than this service takes (FLOORPLAN_MAX_VERTICES, FLOORPLAN_MAX_OBSTACLES, "
         "FLOORPLAN_MAX_REGIONS); `errors` names each list."),
     "batch-too-large": ProblemType(
-        413, "Batch too large", "The batch's layouts would store more than "
-        "FLOORPLAN_MAX_BATCH_BYTES (the brief once per layout). Ask for fewer layouts, or "
-        "send a smaller brief."),
+        413, "Batch too large", "The batch's brief, stored once for all its "
+        "layouts, takes more than FLOORPLAN_MAX_BATCH_BYTES. Send a smaller brief."),
     "unsupported-media-type": ProblemType(
         415, "Unsupported media type", "The body must be sent as `application/json`."),
     "invalid-problem": ProblemType(

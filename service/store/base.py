@@ -27,7 +27,7 @@ from sqlalchemy.exc import DBAPIError
 
 from floorplan.models.jobs import JobStatus
 from floorplan.service.migrations import upgrade
-from floorplan.service.tables import jobs
+from floorplan.service.tables import batches, jobs
 
 #: What the database driver raises when the store cannot do what it is asked: a full
 #: disk, a read-only file or server, a lost connection. The API answers it with 503.
@@ -129,7 +129,8 @@ class StoreBase:
 
     def _stored_bytes(self, conn: Connection, owner: str) -> int:
         """The bytes `owner`'s jobs keep: problems, results and incumbents, finished and
-        canceled jobs too until they are deleted."""
+        canceled jobs too until they are deleted, and the briefs of its batches (each
+        once, whatever its count; a batch goes with its last job)."""
         def size(column: Any) -> Any:
             if self.engine.dialect.name == "sqlite":  # its length() counts characters
                 return func.coalesce(func.length(cast(column, LargeBinary)), 0)
@@ -138,7 +139,9 @@ class StoreBase:
         total = select(func.coalesce(func.sum(
             size(jobs.c.problem) + size(jobs.c.result) + size(jobs.c.incumbent)), 0)
         ).where(jobs.c.owner == owner)
-        return int(conn.execute(total).scalar_one())
+        briefs = select(func.coalesce(func.sum(size(batches.c.brief)), 0)).where(
+            batches.c.owner == owner)
+        return int(conn.execute(total).scalar_one()) + int(conn.execute(briefs).scalar_one())
 
     def unwritable(self) -> str | None:
         """Why the store cannot take a job now, or None when it can: a write is refused

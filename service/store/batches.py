@@ -21,33 +21,34 @@ class BatchRecords(StoreBase):
     """Batches of jobs."""
 
     def create_batch(
-        self, *, owner: str, name: str, seed: int, vary_program: bool,
-        problems: list[tuple[str, float]], quota: Quota | None = None,
+        self, *, owner: str, name: str, seed: int, vary_program: bool, brief: str,
+        count: int, time_limit: float | None, time_ceiling: float, job_time_limit: float,
+        quota: Quota | None = None,
     ) -> tuple[Batch, list[Job]]:
-        """A batch and its queued jobs (one per (problem JSON, time limit), in order), in
-        one transaction: a restart finds the whole batch or none of it. Within `quota`,
-        counted in that transaction (QuotaExceeded)."""
+        """A batch and its `count` queued jobs, in one transaction: a restart finds the
+        whole batch or none of it. The brief (JSON as sent) is stored once, in the
+        batch's row; each job's problem is derived from it when the job is read
+        (`_job`), `job_time_limit` standing for the jobs' limits until then. Within
+        `quota`, counted in that transaction (QuotaExceeded)."""
         now = time.time()
         batch_id = str(uuid.uuid4())
-        ids = [str(uuid.uuid4()) for _ in problems]
         with self._admission() as conn:
             if quota is not None:
-                self._within(conn, owner, len(problems), quota,
-                             sum(len(problem.encode()) for problem, _ in problems))
+                self._within(conn, owner, count, quota, len(brief.encode()))
             conn.execute(insert(batches).values(
-                id=batch_id, owner=owner, name=name, count=len(problems), seed=seed,
-                vary_program=vary_program, created_at=now))
+                id=batch_id, owner=owner, name=name, count=count, seed=seed,
+                vary_program=vary_program, created_at=now, brief=brief,
+                time_limit=time_limit, time_ceiling=time_ceiling))
             conn.execute(insert(jobs), [
-                {"id": job_id, "owner": owner, "status": JobStatus.QUEUED,
-                 "problem": problem, "time_limit": time_limit, "attempts": 0,
+                {"id": str(uuid.uuid4()), "owner": owner, "status": JobStatus.QUEUED,
+                 "problem": None, "time_limit": job_time_limit, "attempts": 0,
                  "cancel_requested": False, "created_at": now, "updated_at": now,
                  "batch_id": batch_id, "batch_index": index}
-                for index, (job_id, (problem, time_limit)) in enumerate(
-                    zip(ids, problems, strict=True))])
+                for index in range(count)])
             rows = conn.execute(select(jobs).where(jobs.c.batch_id == batch_id)
                                 .order_by(jobs.c.batch_index)).all()
-        batch = Batch(batch_id, owner, name, len(problems), seed, vary_program, now)
-        return batch, [job_of_row(row) for row in rows]
+        batch = Batch(batch_id, owner, name, count, seed, vary_program, now)
+        return batch, [job_of_row(row, light=True) for row in rows]
 
     def get_batch(self, batch_id: str, owner: str | None = None) -> Batch | None:
         query = select(batches).where(batches.c.id == batch_id)

@@ -5,11 +5,13 @@ writes of a worker that holds a job."""
 from __future__ import annotations
 
 import json
+import logging
 import time
 import uuid
+from dataclasses import replace
 from typing import Any
 
-from sqlalchemy import and_, delete, func, insert, or_, select, update
+from sqlalchemy import and_, delete, exists, func, insert, or_, select, update
 from sqlalchemy.engine import Connection
 from sqlalchemy.exc import IntegrityError
 
@@ -17,7 +19,14 @@ from floorplan.models.jobs import JobStatus
 from floorplan.service.records import Job
 from floorplan.service.store.base import Quota
 from floorplan.service.store.events import EventLog
-from floorplan.service.tables import events, jobs
+from floorplan.service.tables import batches, events, jobs
+
+log = logging.getLogger("floorplan.store")
+
+
+#: Claims of the fairest job a worker loses to other workers before it claims the job
+#: its message names (`claim_fair`); each loss is another worker's claim.
+FAIR_TRIES = 100
 
 
 class IdempotencyConflict(Exception):
@@ -82,13 +91,26 @@ class JobRecords(EventLog):
             raise IdempotencyConflict(idempotency_key)
         return job_of_row(row)
 
-    def get(self, job_id: str, owner: str | None = None) -> Job | None:
+    def get(self, job_id: str, owner: str | None = None, *,
+            problem: bool = True) -> Job | None:
+        """The job; with `problem` False, a layout of a batch comes without its problem
+        (empty: `with_problem` derives it), which the routes that only show a job's
+        state do not need."""
         query = select(jobs).where(jobs.c.id == job_id)
         if owner is not None:
             query = query.where(jobs.c.owner == owner)
         with self._tx() as conn:
             row = conn.execute(query).first()
-        return job_of_row(row) if row is not None else None
+        if row is None:
+            return None
+        return self._job(row) if problem else job_of_row(row)
+
+    def with_problem(self, job: Job) -> Job:
+        """`job` with its problem: as it is, or a layout of a batch read without it
+        (`get(problem=False)`) read again with it."""
+        if job.problem or job.batch_id is None:
+            return job
+        return self.get(job.id) or job
 
     def list(
         self, *, owner: str | None, status: JobStatus | None, limit: int,
@@ -126,39 +148,77 @@ class JobRecords(EventLog):
     # The runner's side.
 
     def claim_next(self) -> Job | None:
-        """The next queued job, now running, fair across owners (docs/security.md,
-        "Fair scheduling"): the owner with the fewest jobs running, among those the one
-        served longest ago (one never served first), and that owner's oldest queued job.
-        First in, first out across keys let one key's batch of hundreds hold every solve
-        while another key's single job waited behind it."""
+        """The next queued job, now running, fair across owners (`_fairest`)."""
         with self._tx() as conn:
-            waiting = [row.owner for row in conn.execute(select(jobs.c.owner).distinct().where(
-                jobs.c.status == JobStatus.QUEUED))]
-            if not waiting:
-                return None
-            running = {o: int(n) for o, n in conn.execute(select(jobs.c.owner, func.count()).where(
-                jobs.c.status == JobStatus.RUNNING, jobs.c.owner.in_(waiting)
-            ).group_by(jobs.c.owner))}
-            served = {o: float(t) for o, t in conn.execute(
-                select(jobs.c.owner, func.max(jobs.c.started_at)).where(
-                    jobs.c.owner.in_(waiting), jobs.c.started_at.is_not(None)
-                ).group_by(jobs.c.owner))}
-            owner = min(waiting, key=lambda o: (running.get(o, 0), served.get(o) or 0.0, o))
-            row = conn.execute(select(jobs.c.id).where(
-                jobs.c.status == JobStatus.QUEUED, jobs.c.owner == owner
-            ).order_by(jobs.c.created_at, jobs.c.id).limit(1)).first()
-            if row is None:
+            job_id = self._fairest(conn)
+            if job_id is None:
                 return None
             now = time.time()
             claimed = conn.execute(update(jobs).where(
-                jobs.c.id == row.id, jobs.c.status == JobStatus.QUEUED
+                jobs.c.id == job_id, jobs.c.status == JobStatus.QUEUED
             ).values(status=JobStatus.RUNNING, started_at=now, updated_at=now,
                      attempts=jobs.c.attempts + 1))
             if claimed.rowcount != 1:
                 return None
-            job = job_of_row(conn.execute(select(jobs).where(jobs.c.id == row.id)).one())
+            row = conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
+        job = self._claimed(row)  # its problem derived after the write lock is released
         self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
         return job
+
+    def claim_fair(self, named: str, worker: str) -> Job | None:
+        """Take the next queued job for `worker`, fair across owners (`_fairest`), as
+        `claim` takes one: the distributed mode's workers read a broker message
+        (`named`) as "a job is waiting", not as which one. Every accepted job sends one
+        message and every message claims one job while any is queued, so no job is left
+        without a message to claim it. The job is picked and claimed in one transaction,
+        its row locked (PostgreSQL: rows other workers are claiming are skipped); a job
+        another worker claimed first is looked for again, and since each such loss is
+        another worker's claim, the looking ends. After `FAIR_TRIES` losses, the job the
+        message names. None when nothing is queued."""
+        for _ in range(FAIR_TRIES):
+            now = time.time()
+            with self._tx() as conn:
+                job_id = self._fairest(conn)
+                if job_id is None:
+                    return None
+                claimed = conn.execute(update(jobs).where(
+                    jobs.c.id == job_id, jobs.c.status == JobStatus.QUEUED
+                ).values(status=JobStatus.RUNNING, started_at=now, updated_at=now,
+                         heartbeat_at=now, worker=worker, attempts=jobs.c.attempts + 1))
+                row = (conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
+                       if claimed.rowcount == 1 else None)
+            if row is not None:
+                job = self._claimed(row)
+                self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
+                return job
+        return self.claim(named, worker)
+
+    @staticmethod
+    def _fairest(conn: Connection) -> str | None:
+        """The queued job to run next, fair across owners (docs/security.md, "Fair
+        scheduling"): the owner with the fewest jobs running, among those the one served
+        longest ago (one never served first), and that owner's oldest queued job. First
+        in, first out across keys let one key's batch of hundreds hold every solve while
+        another key's single job waited behind it. The row is locked for the caller's
+        transaction; on PostgreSQL rows locked by another claim are passed over (that
+        owner's next job, or the next owner's)."""
+        waiting = [row.owner for row in conn.execute(select(jobs.c.owner).distinct().where(
+            jobs.c.status == JobStatus.QUEUED))]
+        running = {o: int(n) for o, n in conn.execute(select(jobs.c.owner, func.count()).where(
+            jobs.c.status == JobStatus.RUNNING, jobs.c.owner.in_(waiting)
+        ).group_by(jobs.c.owner))} if waiting else {}
+        served = {o: float(t) for o, t in conn.execute(
+            select(jobs.c.owner, func.max(jobs.c.started_at)).where(
+                jobs.c.owner.in_(waiting), jobs.c.started_at.is_not(None)
+            ).group_by(jobs.c.owner))} if waiting else {}
+        for owner in sorted(waiting, key=lambda o: (running.get(o, 0), served.get(o) or 0.0, o)):
+            row = conn.execute(select(jobs.c.id).where(
+                jobs.c.status == JobStatus.QUEUED, jobs.c.owner == owner
+            ).order_by(jobs.c.created_at, jobs.c.id).limit(1)
+                .with_for_update(skip_locked=True)).first()
+            if row is not None:
+                return str(row.id)
+        return None
 
     def claim(self, job_id: str, worker: str) -> Job | None:
         """Take a queued job for `worker` (the distributed mode): it is then running, and
@@ -172,7 +232,8 @@ class JobRecords(EventLog):
                      heartbeat_at=now, worker=worker, attempts=jobs.c.attempts + 1))
             if claimed.rowcount != 1:
                 return None
-            job = job_of_row(conn.execute(select(jobs).where(jobs.c.id == job_id)).one())
+            row = conn.execute(select(jobs).where(jobs.c.id == job_id)).one()
+        job = self._claimed(row)
         self.add_event(job.id, "status", {"status": JobStatus.RUNNING})
         return job
 
@@ -239,9 +300,12 @@ class JobRecords(EventLog):
         return self.get(job_id)
 
     def delete(self, job_id: str) -> None:
+        """Delete a job and its events; a batch whose last job this was goes too (its
+        brief is stored once, in its row)."""
         with self._tx() as conn:
             conn.execute(delete(events).where(events.c.job_id == job_id))
             conn.execute(delete(jobs).where(jobs.c.id == job_id))
+            delete_empty_batches(conn)
 
     def recover(self, retry_limit: int) -> tuple[int, int]:
         """After a restart: jobs left running go back to the queue, or fail once they
@@ -282,6 +346,50 @@ class JobRecords(EventLog):
         return bool(back.rowcount)
 
 
+    def _claimed(self, row: Any) -> Job:
+        """A job just claimed, with its problem; a batch's layout whose derived time
+        limit is not the one its row held until then (with `vary_program` each layout's
+        programme, and so its default limit, is its own) has its row say so."""
+        job = self._job(row)
+        if job.time_limit != row.time_limit:
+            with self._tx() as conn:
+                conn.execute(update(jobs).where(jobs.c.id == job.id).values(
+                    time_limit=job.time_limit))
+        return job
+
+    def _job(self, row: Any) -> Job:
+        """A full row as a job: a layout of a batch stores no problem (NULL), its
+        problem is derived from the batch's brief, stored once (`layout_problem`), with
+        its own time limit. A brief that cannot give one (it always can: it was checked
+        when the batch was made) leaves the problem empty, and the job's solve fails."""
+        job = job_of_row(row)
+        if row.problem is not None or row.batch_id is None:
+            return job
+        from floorplan.service.batch import layout_problem
+
+        with self._tx() as conn:
+            batch = conn.execute(select(
+                batches.c.brief, batches.c.seed, batches.c.time_limit,
+                batches.c.vary_program, batches.c.time_ceiling,
+            ).where(batches.c.id == row.batch_id)).first()
+        if batch is None or batch.brief is None:
+            return job
+        try:
+            problem, time_limit = layout_problem(
+                batch.brief, batch.seed + row.batch_index, batch.time_limit,
+                bool(batch.vary_program), batch.time_ceiling)
+        except Exception:
+            log.exception("the problem of job %s could not be derived from its batch's brief",
+                          row.id)
+            return job
+        return replace(job, problem=problem, time_limit=time_limit)
+
+
+def delete_empty_batches(conn: Connection) -> None:
+    """Delete the batches none of whose jobs is left (their briefs with them)."""
+    conn.execute(delete(batches).where(~exists().where(jobs.c.batch_id == batches.c.id)))
+
+
 def _held(job_id: str, worker: str | None) -> list[Any]:
     """The WHERE clause of a write to a job, fenced to `worker` when one is named."""
     clause = [jobs.c.id == job_id]
@@ -298,7 +406,8 @@ def job_of_row(row: Any, *, light: bool = False) -> Job:
     """A row as a job; `light`: a row without the `_HEAVY` columns."""
     return Job(
         id=row.id, owner=row.owner, status=JobStatus(row.status), termination=row.termination,
-        problem="" if light else row.problem, time_limit=row.time_limit,
+        problem="" if light or row.problem is None else row.problem,
+        time_limit=row.time_limit,
         result=None if light else row.result, incumbent=None if light else row.incumbent,
         progress=json.loads(row.progress) if row.progress else None,
         error=json.loads(row.error) if row.error else None,

@@ -9,7 +9,7 @@ import time
 from sqlalchemy import delete, or_, select, update
 
 from floorplan.models.jobs import JobStatus
-from floorplan.service.store.jobs import JobRecords
+from floorplan.service.store.jobs import JobRecords, delete_empty_batches
 from floorplan.service.tables import events, jobs
 
 
@@ -92,4 +92,5 @@ class Reconciling(JobRecords):
             if ids:
                 conn.execute(delete(events).where(events.c.job_id.in_(ids)))
                 conn.execute(delete(jobs).where(jobs.c.id.in_(ids)))
+                delete_empty_batches(conn)
         return len(ids)

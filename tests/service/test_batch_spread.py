@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 
 import pytest
+from sqlalchemy import update
 
 from floorplan.models import Layout, Problem
 from floorplan.models.jobs import JobStatus
@@ -17,6 +18,7 @@ from floorplan.service.batch import MOVED_APART, LayoutTask, apart_from_held, jo
 from floorplan.service.jobs.processes import Runner
 from floorplan.service.settings import Settings
 from floorplan.service.store import JobStore
+from floorplan.service.tables import jobs
 from floorplan.solver import solve
 from floorplan.solver.distinct import DistinctPlans
 
@@ -30,7 +32,8 @@ def _store(tmp_path: Path) -> JobStore:
 def test_the_store_gives_a_batch_s_finished_layouts_newest_first(tmp_path: Path) -> None:
     store = _store(tmp_path)
     _, made = store.create_batch(owner="o", name="b", seed=0, vary_program=False,
-                                 problems=[("{}", 1.0)] * 4)
+                                 brief=json.dumps(APARTMENT), count=4, time_limit=1.0,
+                                 time_ceiling=600, job_time_limit=1.0)
     store.finish(made[0].id, JobStatus.SUCCEEDED, termination="optimal", result='"first"')
     store.finish(made[1].id, JobStatus.FAILED, error={"code": "x", "message": "y"})
     store.finish(made[2].id, JobStatus.SUCCEEDED, termination="optimal", result='"third"')
@@ -50,7 +53,14 @@ def test_the_runner_moves_a_batch_layout_that_repeats_a_finished_one(tmp_path: P
     store = JobStore(settings.store_url)
     problem = job_problem(LayoutTask(APARTMENT, 4, 20.0, good_enough=math.inf))
     _, made = store.create_batch(owner="", name="twice", seed=4, vary_program=False,
-                                 problems=[(problem.model_dump_json(), 10.0)] * 2)
+                                 brief=json.dumps(APARTMENT), count=2, time_limit=20.0,
+                                 time_ceiling=600, job_time_limit=10.0)
+    # Both layouts given the first one's problem, as a batch made before the brief was
+    # stored once holds them in its jobs (the store derives a job's problem only when
+    # it holds none).
+    with store.engine.begin() as conn:
+        conn.execute(update(jobs).where(jobs.c.batch_id == made[0].batch_id).values(
+            problem=problem.model_dump_json(), time_limit=10.0))
     runner = Runner(store, settings)
     runner.start()
     try:

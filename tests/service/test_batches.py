@@ -80,6 +80,11 @@ def test_a_batch_reports_progress_and_pages_its_results(client: httpx.Client) ->
     rest, link = results(client, batch["id"], after=1, limit=10, layouts="false")
     assert [line["index"] for line in rest] == [2, 3, 4]
     assert link is None and all("layout" not in line for line in rest)
+    # A layout's export needs its problem, which the store derives from the batch's
+    # brief (stored once): the plan's rooms are the brief's.
+    svg = client.get(f"/v1/layouts/{rest[0]['job_id']}/result/svg")
+    assert svg.status_code == 200, svg.text
+    assert all(room["id"] in svg.text for room in TINY["rooms"])
 
 
 def test_cancel_stops_what_is_left(client: httpx.Client) -> None:

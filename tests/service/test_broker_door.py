@@ -1,8 +1,9 @@
 """Broker messages are checked at the worker's door (the distributed mode, real Redis
 and PostgreSQL, real worker processes): a solve task naming no job is acknowledged and
 dropped once, never requeued, and holds up no real job; a sub-domain task whose budget
-or deadline no solve of this service sends is refused before it runs, in a worker that
-really is a prefork pool."""
+or deadline no solve of this service sends is refused before it runs, and one that
+runs past the worker's hard time limit is killed, in a worker that really is a prefork
+pool."""
 
 from __future__ import annotations
 
@@ -13,10 +14,14 @@ from pathlib import Path
 import httpx2 as httpx
 import pytest
 import redis
+from celery.exceptions import TimeLimitExceeded
 
 from floorplan.service.jobs.broker.codec import decode_outcome, encode_task
 from floorplan.service.jobs.broker.config import SUBDOMAIN_TASK, TASK_NAME, Keys, make_celery
 from floorplan.service.settings import Settings
+from floorplan.solver.geometry.boxes import Box
+from floorplan.solver.miqp.spec import LevelSpec, RectSpec
+from floorplan.solver.pipeline.subdomains import SubdomainTask
 from tests.servers import Cluster
 from tests.service.test_security import full_task
 from tests.service.test_service import SMALL, wait
@@ -74,11 +79,26 @@ def test_poison_solve_messages_are_dropped_once_and_hold_up_no_job(tmp_path: Pat
         cluster.stop()
 
 
+def heavy_task(rects: int = 400) -> SubdomainTask:
+    """A task within every limit whose model alone takes far longer than the worker's
+    hard time limit to build (300 rectangles: 16 s on the test machine, and the time
+    grows with the square of the count and more): what a sub-domain that overruns its
+    budget looks like, since its budget is checked only before the model is built."""
+    spec = LevelSpec(name="heavy", region=Box(0, 0, 100, 100), blocked=(), free_area=1e4,
+                     rects=tuple(RectSpec(name=f"r{k}", room=f"room{k}", min_size=(1.0, 1.0),
+                                          max_size=(10.0, 10.0), target=(3.0, 3.0))
+                                 for k in range(rects)))
+    return SubdomainTask(spec=spec, start={}, budget=1.0, deadline=time.time() + 5, seed=0)
+
+
 @pytest.mark.slow
-def test_a_sub_domain_task_beyond_the_time_limit_is_refused_in_a_prefork_pool(
+def test_a_sub_domain_task_beyond_the_time_limit_is_refused_or_killed_in_a_prefork_pool(
         tmp_path: Path) -> None:
+    """Refused at the door when its budget or deadline is beyond FLOORPLAN_MAX_TIME_LIMIT;
+    killed by the pool's hard time limit (FLOORPLAN_MAX_TIME_LIMIT + 5 s) when it runs
+    past it all the same, failing that task only: the worker and its next task go on."""
     cluster = Cluster(tmp_path / "cluster", workers=1, WORKERS="1",
-                      FLOORPLAN_SUBDOMAINS="celery", FLOORPLAN_MAX_TIME_LIMIT="60").start()
+                      FLOORPLAN_SUBDOMAINS="celery", FLOORPLAN_MAX_TIME_LIMIT="1").start()
     celery = make_celery(Settings(redis_url=cluster.redis_url, namespace=cluster.name))
     try:
         sub = cluster.add_worker("sub", "--subdomains", log_level="info")
@@ -91,7 +111,8 @@ def test_a_sub_domain_task_beyond_the_time_limit_is_refused_in_a_prefork_pool(
         client.close()
         # Prefork: the worker's pool processes are its children (a thread pool has
         # none), where Celery's hard time limit applies.
-        assert children(sub.pid), "no pool processes: the worker runs threads"
+        pool = children(sub.pid)
+        assert pool, "no pool processes: the worker runs threads"
         now = time.time()
         for bad in (replace(full_task(), budget=1e6, deadline=now + 1e6),
                     replace(full_task(), budget=1.0, deadline=now + 1e6)):
@@ -99,7 +120,25 @@ def test_a_sub_domain_task_beyond_the_time_limit_is_refused_in_a_prefork_pool(
                                       queue=keys.subdomains)
             with pytest.raises(Exception, match=r"task\.(budget|deadline)"):
                 result.get(timeout=WAIT)
-        # A task within the limits runs as before.
+        # Within the limits, but running past the hard limit: its pool process is
+        # killed, and the task fails.
+        heavy = celery.send_task(SUBDOMAIN_TASK, args=[encode_task(heavy_task())],
+                                 queue=keys.subdomains)
+        with pytest.raises(TimeLimitExceeded):
+            heavy.get(timeout=WAIT)
+        log = tmp_path / "cluster" / "sub.log"
+        killed = [f"pid:{pid} exited with 'signal 9 (SIGKILL)'" for pid in pool]
+        deadline = time.monotonic() + WAIT
+        while not any(line in log.read_text() for line in killed):
+            assert time.monotonic() < deadline, log.read_text()[-3000:]
+            time.sleep(0.2)
+        assert "Hard time limit (6.0s) exceeded" in log.read_text()
+        # Only that task: the same worker, a new pool process, and the next task runs.
+        assert sub.poll() is None
+        deadline = time.monotonic() + WAIT
+        while not (replaced := children(sub.pid)) or set(replaced) == set(pool):
+            assert time.monotonic() < deadline, "the killed pool process was not replaced"
+            time.sleep(0.2)
         fine = celery.send_task(SUBDOMAIN_TASK, args=[encode_task(
             replace(full_task(), budget=0.0, deadline=time.time() + 5))],
             queue=keys.subdomains)

@@ -9,6 +9,7 @@ import os
 import re
 import subprocess
 import sys
+import threading
 import time
 import uuid
 from collections.abc import Iterator
@@ -279,6 +280,47 @@ def test_a_job_is_claimed_once_and_a_stale_worker_can_no_longer_write(
     assert pg_store.finish(job.id, JobStatus.SUCCEEDED, result="{}", worker="b:2:y")
     final = pg_store.get(job.id)
     assert final is not None and final.status is JobStatus.SUCCEEDED and final.attempts == 2
+
+
+def test_workers_claim_fairly_across_keys_whichever_job_the_message_names(
+    pg_store: JobStore,
+) -> None:
+    batch = [pg_store.create(problem="{}", time_limit=1, owner="alpha")[0] for _ in range(4)]
+    single, _ = pg_store.create(problem="{}", time_limit=1, owner="beta")
+    first = pg_store.claim_fair(batch[0].id, "w:1:a")
+    assert first is not None and first.owner in ("alpha", "beta")
+    # Every message after it names one of alpha's layouts; the key with nothing running
+    # is served next, then the other, alpha's jobs oldest first.
+    claimed = [first] + [pg_store.claim_fair(job.id, f"w:{k}:b") for k, job in
+                         enumerate(batch[1:], start=2)]
+    owners = [job.owner for job in claimed if job is not None]
+    assert sorted(owners[:2]) == ["alpha", "beta"], owners
+    assert [job.id for job in claimed if job is not None and job.owner == "alpha"] == [
+        job.id for job in batch[:3]]
+    # Five claims for five jobs: the message left over finds the last one, none after.
+    last = pg_store.claim_fair(single.id, "w:9:c")
+    assert last is not None and last.id == batch[3].id
+    assert pg_store.claim_fair(single.id, "w:9:d") is None
+
+
+def test_concurrent_fair_claims_take_each_job_once(pg_store: JobStore) -> None:
+    made = [pg_store.create(problem="{}", time_limit=1, owner=f"k{n % 3}")[0]
+            for n in range(12)]
+    barrier = threading.Barrier(12)
+    taken: list[str | None] = [None] * 12
+
+    def claim(k: int) -> None:
+        barrier.wait()
+        job = pg_store.claim_fair(made[k].id, f"w:{k}:x")
+        taken[k] = job.id if job is not None else None
+
+    threads = [threading.Thread(target=claim, args=(k,)) for k in range(12)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    # Twelve messages, twelve jobs: each job claimed by exactly one of them.
+    assert sorted(t for t in taken if t is not None) == sorted(job.id for job in made)
 
 
 def test_lost_jobs_fail_after_the_retry_limit_and_canceled_ones_end_canceled(

@@ -5,11 +5,12 @@ process is found among the server's children and killed with SIGKILL."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import httpx2 as httpx
@@ -105,3 +106,60 @@ def test_readyz_reports_a_lost_explain_process_and_the_pool_comes_back(
         assert ready.json()["explain"] == "replaced"
         assert client.get("/readyz").status_code == 200
         assert explain(client).status_code == 200
+
+
+def in_session(sid: int) -> list[str]:
+    """The processes of session `sid` still alive (zombies aside), as 'pid cmdline'."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+        except OSError:
+            continue
+        if int(fields[3]) == sid and fields[0] != "Z":
+            found.append(f"{entry.name} {cmdline[:120]}")
+    return found
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("how", [signal.SIGTERM, signal.SIGKILL], ids=["stopped", "killed"])
+def test_no_explain_process_outlives_the_server(tmp_path: Path, how: signal.Signals) -> None:
+    """Stopped (SIGTERM) or killed (SIGKILL, as the OOM killer would) while one
+    explanation runs and another process of the pool idles, the server leaves no
+    process behind: its session empties once it exits. Before, the idle process (and
+    multiprocessing's resource tracker with it) was left waiting for work for good,
+    after a SIGTERM too. Nothing is forced here, so that an orphan would be seen."""
+    server = Server(tmp_path, **{**QUIET, "FLOORPLAN_EXPLAIN_PROCESSES": "2"}).start()
+    assert server.process is not None
+    sid = server.process.pid
+    try:
+        with httpx.Client(base_url=server.url, timeout=WAIT) as client:
+            assert explain(client).status_code == 200
+            call = threading.Thread(target=lambda: _quietly(lambda: explain(client, 30)))
+            call.start()
+            deadline = time.monotonic() + WAIT
+            while len(explain_processes(server)) < 2:
+                assert time.monotonic() < deadline
+                time.sleep(0.1)
+            time.sleep(1)  # the 30-s explanation is in its process by now
+            server.process.send_signal(how)
+            server.process.wait(WAIT)
+            call.join(WAIT)
+        deadline = time.monotonic() + WAIT
+        while left := in_session(sid):
+            assert time.monotonic() < deadline, left
+            time.sleep(0.2)
+    finally:
+        if server.process.poll() is None:
+            server.stop()
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(sid, signal.SIGKILL)  # whatever is left, once the test has failed
+
+
+def _quietly(call: Callable[[], object]) -> None:
+    """`call`, its connection error (the server stopped under it) ignored."""
+    with contextlib.suppress(httpx.TransportError):
+        call()

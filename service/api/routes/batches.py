@@ -6,7 +6,7 @@ in one transaction with the batch's row."""
 from __future__ import annotations
 
 import io
-import math
+import json
 import re
 import zipfile
 from collections.abc import Iterator
@@ -28,8 +28,7 @@ from floorplan.service.api.body import BATCH_BODY_DOC, BatchBody
 from floorplan.service.api.deps import BackendDep, OwnerDep, SettingsDep, StoreDep
 from floorplan.service.api.errors import STORE_RETRY_AFTER, ApiError
 from floorplan.service.api.limits import quota, refusal
-from floorplan.service.api.routes.layouts import effective_time_limit
-from floorplan.service.batch import GOOD_COVERAGE, LayoutTask, job_problem
+from floorplan.service.batch import GOOD_COVERAGE, layout_problem
 from floorplan.service.records import Batch, BatchLayout
 from floorplan.service.store import JobStore, QuotaExceeded
 
@@ -74,22 +73,25 @@ def submit_batch(
     if unwritable is not None:  # accepted, the layouts would be lost: nothing is taken
         raise ApiError(503, f"the job store cannot take jobs now: {unwritable}",
                        kind="store-unavailable", headers={"Retry-After": str(STORE_RETRY_AFTER)})
-    problems = []
-    for index in range(body.count):
-        task = LayoutTask(body.problem, body.seed + index, body.time_limit, body.vary_program,
-                          good_enough=math.inf)  # each job ends at its first good layout
-        problem, time_limit = effective_time_limit(job_problem(task), settings.max_time_limit)
-        problems.append((problem.model_dump_json(), time_limit))
+    # The brief is stored once, in the batch's row; each layout's problem is derived
+    # from it when its job is read (service.batch.layout_problem). The first layout's
+    # is derived here: a brief that cannot give one is refused now, not layout by
+    # layout, and its limit stands for the jobs' until then.
+    brief = json.dumps(body.problem, separators=(",", ":"))
+    _, first_limit = layout_problem(brief, body.seed, body.time_limit, body.vary_program,
+                                    settings.max_time_limit)
     name = body.name or str(body.problem.get("name") or "batch")
-    stored = sum(len(problem) for problem, _ in problems)
+    stored = len(brief.encode())
     if stored > settings.max_batch_bytes:
-        raise ApiError(413, f"the batch's {body.count} problems take {stored} bytes, more "
-                       f"than {settings.max_batch_bytes} (FLOORPLAN_MAX_BATCH_BYTES); send "
-                       "fewer layouts or a smaller brief", kind="batch-too-large")
+        raise ApiError(413, f"the batch's brief takes {stored} bytes, more than "
+                       f"{settings.max_batch_bytes} (FLOORPLAN_MAX_BATCH_BYTES); send a "
+                       "smaller brief", kind="batch-too-large")
     try:  # the limits counted in the transaction that inserts the batch
-        batch, made = store.create_batch(owner=owner, name=name[:200], seed=body.seed,
-                                         vary_program=body.vary_program, problems=problems,
-                                         quota=quota(settings))
+        batch, made = store.create_batch(
+            owner=owner, name=name[:200], seed=body.seed, vary_program=body.vary_program,
+            brief=brief, count=body.count, time_limit=body.time_limit,
+            time_ceiling=settings.max_time_limit, job_time_limit=first_limit,
+            quota=quota(settings))
     except QuotaExceeded as err:
         raise refusal(err, body.count) from err
     for job in made:

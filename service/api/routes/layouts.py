@@ -14,7 +14,6 @@ from typing import Annotated
 from fastapi import APIRouter, Header, Query, Response
 from fastapi.responses import StreamingResponse
 
-from floorplan.models import Problem as LayoutProblem
 from floorplan.models.jobs import JobStatus
 from floorplan.service.api.body import PROBLEM_BODY_DOC, ProblemBody
 from floorplan.service.api.deps import (
@@ -31,8 +30,7 @@ from floorplan.service.api.schemas import JobPage, JobPublic, job_public
 from floorplan.service.jobs.backend import JobBackend
 from floorplan.service.records import Job
 from floorplan.service.store import IdempotencyConflict, QuotaExceeded
-from floorplan.solver.pipeline.storeys import job_ceiling, job_time_limit
-from floorplan.solver.pipeline.variants import variant_time_factor
+from floorplan.service.timing import effective_time_limit
 
 #: Longest wait between two looks at the store while streaming events (the backend
 #: wakes the stream sooner when it knows of new events).
@@ -99,25 +97,6 @@ def submit_layout(
         backend.submitted(job)
     response.headers["Location"] = f"/v1/layouts/{job.id}"
     return job_public(job)
-
-
-def effective_time_limit(problem: LayoutProblem, ceiling: float) -> tuple[LayoutProblem, float]:
-    """The problem as it will be solved, and the whole job's time limit, at most
-    `ceiling` (FLOORPLAN_MAX_TIME_LIMIT). A limit the user gave above it was refused
-    already (422); the default, which grows with the rooms and adds up over a
-    building's floors, is capped at it, and the capped limit written into the problem
-    so that the solve divides that time among its floors. With design variants
-    (options.variants above 1) the job may take `variant_time_factor` times one
-    layout's limit, and one layout's limit is cut so that the whole stays under
-    `ceiling`."""
-    factor = variant_time_factor(problem)
-    time_limit = job_time_limit(problem)
-    if factor == 1 and time_limit <= ceiling:
-        # One layout under the default limit may take its late allowance.
-        return problem, min(job_ceiling(problem), ceiling)
-    if time_limit * factor <= ceiling:
-        return problem, time_limit * factor
-    return problem.with_options(time_limit=ceiling / factor), ceiling
 
 
 @router.get("", response_model=JobPage,

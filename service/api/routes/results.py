@@ -28,7 +28,7 @@ from floorplan.models.formats import (
 from floorplan.models.jobs import FieldError
 from floorplan.models.options import MAX_VARIANTS
 from floorplan.service.api.body import run_off_loop
-from floorplan.service.api.deps import JobDep, LimitsDep
+from floorplan.service.api.deps import JobDep, LimitsDep, store_dep
 from floorplan.service.api.errors import ApiError
 from floorplan.service.records import Job
 from floorplan.solver.export import render
@@ -149,6 +149,8 @@ async def _answer(request: Request, limits: LimitsDep, job: Job, fmt: FormatName
         text = await run_off_loop(request, partial(_variant_text, job, variant))
     if fmt == "json":
         return Response(text, media_type=MEDIA_TYPES["json"])
+    # A batch's layout: its problem derived from the brief (off the event loop).
+    job = await run_off_loop(request, partial(store_dep(request).with_problem, job))
     body = await limits.run_export(partial(export, job.problem, text, fmt, options))
     # A plan shows in the browser; drawings and data download as files.
     disposition = "inline" if BY_NAME[fmt].inline else "attachment"

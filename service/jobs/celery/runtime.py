@@ -90,7 +90,8 @@ class WorkerRuntime:
                                   f"{busy}/{self.slots}", ex=max(1, round(ttl)))
 
     def run(self, value: object, message_id: str | None = None) -> str:
-        """The task: claim the job `value` names and solve it. Returns what happened,
+        """The task: `value` names a queued job; claim the next job fairly across keys
+        (that one, or another key's waiting longer) and solve it. Returns what happened,
         for the log. A message that names no job, or whose data the store refuses, is
         acknowledged and dropped with a log line; one handed back too often (the store
         away) too."""
@@ -102,7 +103,9 @@ class WorkerRuntime:
             raise Reject("the worker is stopping", requeue=True)  # for another worker
         token = f"{self.identity}:{uuid.uuid4().hex[:8]}"
         try:
-            job = self.store.claim(job_id, token)
+            # The message says a job waits; the job run is the fairest one across keys
+            # (docs/security.md, "Fair scheduling"), not necessarily the one it names.
+            job = self.store.claim_fair(job_id, token)
         except DATA_ERRORS as err:
             log.warning("dropped the message of job %s: the store refuses its data (%s)",
                         job_id, type(err).__name__)
@@ -118,6 +121,7 @@ class WorkerRuntime:
             raise Reject(str(err), requeue=True) from err
         if job is None:
             return "not queued"  # a duplicate delivery, a canceled or finished job
+        job_id = job.id
         log.info("job %s claimed as %s (attempt %d, limit %g s)", job_id, token, job.attempts,
                  job.time_limit)
         self.dispatcher.announce(job_id)
