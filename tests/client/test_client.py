@@ -40,7 +40,7 @@ from floorplan_client import (
 )
 from floorplan_client.models import Layout, Problem, Termination
 from tests.paths import ROOT
-from tests.servers import BACKENDS, AnyServer, service
+from tests.servers import AnyServer, service
 from tests.service.test_service import LONG, SMALL
 
 KEY = "alpha"
@@ -49,7 +49,13 @@ CROWDED: dict[str, Any] = {**SMALL, "name": "crowded", "adjacency": [],
                            "rooms": [{"id": k, "min_size": [4, 4]} for k in "ab"]}
 
 
-@pytest.fixture(scope="module", params=BACKENDS)
+CLIENT_BACKENDS = ["embedded"]
+
+
+# The client speaks HTTP only: what the service does with a job in either mode is
+# tests/service/test_service.py's to prove (both modes); here the embedded service
+# stands for both, which keeps a Celery cluster's start and stop out of these modules.
+@pytest.fixture(scope="module", params=CLIENT_BACKENDS)
 def backend(request: pytest.FixtureRequest) -> str:
     return str(request.param)
 
