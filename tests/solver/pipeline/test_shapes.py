@@ -60,7 +60,7 @@ def solved_with_relaxations(problem: Problem) -> tuple[Layout, list[str]]:
 def test_an_l_shaped_flat_needs_an_l_shaped_living_room_and_gets_one() -> None:
     # The living room must touch a bedroom at the end of each arm of the L; neither
     # bedroom reaches the corner square, so no rectangle can touch both.
-    p = example("l-flat", time_limit=60)
+    p = example("l-flat", time_limit=60, stop_when_good=True)
     domain = make_domain(p)
     single = run_level(build_level(level_one_spec(p, domain, window=None), feasibility=True),
                        time_limit=10)
@@ -80,7 +80,8 @@ def test_an_l_shaped_flat_needs_an_l_shaped_living_room_and_gets_one() -> None:
 def test_one_proof_for_the_users_bounds_ends_the_window_schedule() -> None:
     # l-flat has no layout of one rectangle per room: after three windows proved empty,
     # a proof for the user's own bounds holds for every wider window, which are skipped.
-    layout, details = solved_with_relaxations(example("l-flat", time_limit=60))
+    layout, details = solved_with_relaxations(
+        example("l-flat", time_limit=60, stop_when_good=True))
     assert layout.report.valid
     probe = details.index("size bounds user bounds, feasibility only: infeasible")
     assert [d for d in details[:probe] if d.endswith("infeasible")][-3:] == [
@@ -157,7 +158,7 @@ def test_a_second_level_one_search_so_started_says_who_made_the_room_an_l() -> N
 
 @pytest.mark.slow
 def test_a_room_may_ask_to_be_free_from_the_start() -> None:
-    layout = solve(example("corridor-flat", time_limit=60))
+    layout = solve(example("corridor-flat", time_limit=60, stop_when_good=True))
     assert layout.report.valid, [c for c in layout.report.constraints if not c.satisfied]
     extra = [(e.room, e.reason) for e in layout.report.extra_rectangles]
     assert extra[0] == ("hall", "asked")

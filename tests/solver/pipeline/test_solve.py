@@ -91,14 +91,14 @@ def test_progress_events_report_levels_and_a_final_done() -> None:
 
 TWELVE_OFFICES = problem(
     name="offices",
-    boundary=[[0, 0], [16, 0], [16, 9], [0, 9]],
+    # A little more floor than the targets ask: no exact tiling ends the solve at once.
+    boundary=[[0, 0], [16.2, 0], [16.2, 9], [0, 9]],
     rooms=[{"id": f"office{k}", "min_size": [2, 2], "max_size": [6, 6],
-            "target_size": [4.1 - 0.1 * (k % 3), 3.1]} for k in range(12)],
+            "target_size": [4.1 - 0.1 * (k % 3), 3.0]} for k in range(12)],
     options={"time_limit": 60},
 )
 
 
-@pytest.mark.slow
 def test_should_stop_interrupts_and_keeps_the_best_layout_so_far() -> None:
     # Asked to stop at the first incumbent (its 60 s would go to the neighbourhood
     # search and the reshaping, which never start).
@@ -229,12 +229,17 @@ def test_solved_layouts_of_feasible_problems_always_pass_the_checker(p: Problem)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("rows_up_to", "start"), [
-    (40, "sliced into rows: found"),  # rows of columns honour its adjacencies and walls
-    (0, "built in batches: found"),  # without the row search: the batch construction
+@pytest.mark.parametrize(("rows_up_to", "start", "limit"), [
+    # Rows of columns honour its adjacencies and walls. A limit far above the need (the
+    # stall rule ends the solve): on a busy machine the row search needs more than its
+    # share of a short one.
+    (40, "sliced into rows: found", 40),
+    # Without the row search: the batch construction, at once; the layout it leads to
+    # does not cover the floor, so no stall ends the solve before its limit.
+    (0, "built in batches: found", 8),
 ])
 def test_problems_above_twenty_rooms_get_a_constructive_start_and_come_back_valid(
-    rows_up_to: int, start: str, monkeypatch: pytest.MonkeyPatch,
+    rows_up_to: int, start: str, limit: float, monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     monkeypatch.setattr("floorplan.solver.heuristics.slicing.DEMANDS_UP_TO", rows_up_to)
     rooms = [{"id": f"cell{k:02d}", "type": "office", "min_size": [1.8, 1.8],
@@ -245,7 +250,7 @@ def test_problems_above_twenty_rooms_get_a_constructive_start_and_come_back_vali
         name="cells", boundary=[[0, 0], [15, 0], [15, 10], [0, 10]],
         obstacles=[{"x": 6, "y": 4, "width": 2, "depth": 2}], rooms=rooms,
         adjacency=[{"a": f"cell{k:02d}", "b": f"cell{k + 1:02d}"} for k in range(2, 10, 2)],
-        options={"time_limit": 8, "seed": 3},
+        options={"time_limit": limit, "seed": 3},
     )
     events: list[SolveEvent] = []
     layout = solve(p, on_event=events.append)
