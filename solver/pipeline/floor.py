@@ -102,8 +102,7 @@ def solve_floor(
     pieces, failure = first_level(run, domain, level_one_end)
     if second is not None:
         proven = failure is not None and failure.report.termination is Termination.INFEASIBLE
-        if proven or run.stopped() or _settled(run, domain, pieces) or _whole_stalled(
-                run, domain, pieces):
+        if proven or run.stopped() or _settled(run, domain, pieces):
             # Nothing the second search finds can be used, or level 1 ends the solve (as
             # without a pool): it is not waited for.
             second.cancel()
@@ -115,7 +114,7 @@ def solve_floor(
     elif (candidate is None or candidate.pieces is None) and (
             failure is None or failure.report.termination is not Termination.INFEASIBLE
     ) and not (good is not None and problem.options.diverse) and not _settled(
-            run, domain, pieces) and not _whole_stalled(run, domain, pieces):
+            run, domain, pieces):
         # (Not for a batch's layout, which stops when good: when level 1 gave none,
         # another draw of level 1 (`_redrawn`) gives one sooner than this search.)
         candidate = guillotine_here(run, domain)
@@ -135,7 +134,7 @@ def solve_floor(
         # Stopped when good: that layout, not whatever SCIP reported after it.
         pieces = as_pieces(good.rooms)
         return final_layout(run, domain, pieces, 1)
-    if _settled(run, domain, pieces) or _whole_stalled(run, domain, pieces):
+    if _settled(run, domain, pieces):
         # SCIP proved the whole floor's MIQP optimal and its layout covers the floor: the
         # gap is closed, so the solve ends here, as the paper's does.
         return final_layout(run, domain, better_final(run, domain, pieces, candidate), 1)
@@ -221,12 +220,14 @@ def _slid(run: Run, domain: Domain, pieces: list[Piece]) -> list[Piece]:
 
 
 def _settled(run: Run, domain: Domain, pieces: list[Piece] | None) -> bool:
-    """Whether `pieces` are SCIP's proven optimum of the whole floor's MIQP and cover
-    the floor, with `options.stop` "stalled": no stage after level 1 can lower Eq. 12
-    within the model, so none runs."""
+    """Whether `pieces` are SCIP's answer to the whole floor's MIQP, covering the floor,
+    under `options.stop` "stalled", and SCIP either proved them optimal or its search
+    stalled on them (a floor small enough to be solved outright): no stage after level 1
+    can lower Eq. 12 within the model, or the heuristic stages after it are no longer
+    spent on it, so none runs."""
     answer = run.scip_answer
-    if pieces is None or answer is None or not answer.optimal or (
-            run.problem.options.stop != "stalled"):
+    if pieces is None or answer is None or run.problem.options.stop != "stalled" or not (
+            answer.optimal or run.stage_stalled):
         return False
     rooms = room_boxes(pieces)
     return same_layout(answer.rooms, rooms) and covers(domain, rooms)
@@ -239,19 +240,6 @@ def _exact(run: Run, domain: Domain, candidate: LevelOneOutcome | None) -> bool:
         return False
     return exact(run.problem, domain, room_boxes(absorb_gaps(run.problem, domain,
                                                              candidate.pieces)))
-
-
-def _whole_stalled(run: Run, domain: Domain, pieces: list[Piece] | None) -> bool:
-    """Whether `pieces` are SCIP's answer to the whole floor's MIQP (a floor small enough
-    to be solved outright), covering the floor, and SCIP's search stalled on it under
-    `options.stop` "stalled": the model's best is what its own search found, and the
-    heuristic stages after it are no longer spent on it."""
-    answer = run.scip_answer
-    if pieces is None or answer is None or not run.stage_stalled or (
-            run.problem.options.stop != "stalled"):
-        return False
-    rooms = room_boxes(pieces)
-    return same_layout(answer.rooms, rooms) and covers(domain, rooms)
 
 
 def _stop_when_good(good: GoodEnough, on_event: EventSink | None,
