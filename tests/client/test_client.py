@@ -352,7 +352,7 @@ def test_a_full_queue_is_rate_limited_honouring_retry_after(backend: str, tmp_pa
     s = service(backend, tmp_path, FLOORPLAN_QUEUE_LIMIT="1", WORKERS="1").start()
     try:
         with Client(s.url, api_key=None, max_retries=1) as fp:
-            busy = fp.submit({**LONG, "options": {**LONG["options"], "time_limit": 30}})
+            busy = fp.submit({**LONG, "options": {"time_limit": 30}})
             while busy.refresh().status is JobStatus.QUEUED:
                 time.sleep(0.05)
             waiting = fp.submit(SMALL)

@@ -74,7 +74,7 @@ def test_a_worker_killed_mid_job_runs_it_again_on_another_worker(tmp_path: Path)
     store = store_of(cluster)
     try:
         with httpx.Client(base_url=cluster.url, timeout=30) as client:
-            job = submit(client, {**LONG, "options": {**LONG["options"], "time_limit": 4}})
+            job = submit(client, {**LONG, "options": {"time_limit": 4}})
             wait(client, job["id"], until={"running"})
             first = holder_pid(store, job["id"])
             solves = solve_processes(first)
@@ -211,7 +211,7 @@ def test_a_redis_restart_loses_no_accepted_job(tmp_path: Path) -> None:
                           redis_url=broker.url).start()
         try:
             with httpx.Client(base_url=cluster.url, timeout=30) as client:
-                busy = submit(client, {**LONG, "options": {**LONG["options"], "time_limit": 6}})
+                busy = submit(client, {**LONG, "options": {"time_limit": 6}})
                 wait(client, busy["id"], until={"running"})
                 waiting = [submit(client, {**SMALL, "name": f"waiting-{k}"})["id"]
                            for k in range(2)]  # in the broker's queue, behind `busy`

@@ -572,8 +572,7 @@ def test_a_full_data_dir_is_not_ready_and_accepts_nothing(small_disk: Path,
         with httpx.Client(base_url=server.url, timeout=30) as client:
             done = client.post("/v1/layouts", json={**SMALL, "options": {"time_limit": 1}})
             wait(client, done.json()["id"])
-            running = client.post("/v1/layouts", json={
-                **LONG, "options": {**LONG["options"], "time_limit": 3}})
+            running = client.post("/v1/layouts", json={**LONG, "options": {"time_limit": 3}})
             wait(client, running.json()["id"], until={"running"})
             queued = client.post("/v1/layouts", json={**SMALL, "options": {"time_limit": 1}})
             assert queued.json()["status"] == "queued"

@@ -36,15 +36,15 @@ SMALL: dict[str, Any] = {
     "options": {"time_limit": 2},
 }
 
-# Twelve offices: a first layout within a fraction of a second, then the whole limit
-# used (`stop: limit`), so that a test can catch the job running. The floor is a little
+# Twelve offices: a first layout within a fraction of a second, then seconds of search
+# before it stalls, so that a test can catch the job running. The floor is a little
 # larger than the targets ask, so no exact tiling ends the solve at once.
 LONG: dict[str, Any] = {
     "name": "offices",
     "boundary": [[0, 0], [16.2, 0], [16.2, 9], [0, 9]],
     "rooms": [{"id": f"office{k}", "type": "office", "min_size": [2, 2], "max_size": [6, 6],
                "target_size": [4.1 - 0.1 * (k % 3), 3.0]} for k in range(12)],
-    "options": {"time_limit": 20, "stop": "limit"},
+    "options": {"time_limit": 20},
 }
 
 
@@ -325,7 +325,7 @@ def test_a_killed_service_resumes_its_jobs_after_a_restart(backend: str, tmp_pat
     # Distributed: every process dies; the job's lease expires and it runs again.
     first = service(backend, tmp_path).start()
     with httpx.Client(base_url=first.url, timeout=30) as c:
-        job = submit(c, {**LONG, "options": {**LONG["options"], "time_limit": 4}})
+        job = submit(c, {**LONG, "options": {"time_limit": 4}})
         wait(c, job["id"], until={"running"})
     first.kill()
     second = service(backend, tmp_path).start()
@@ -369,7 +369,7 @@ def test_a_full_queue_answers_429_with_retry_after(backend: str, tmp_path: Path)
     s = service(backend, tmp_path, FLOORPLAN_QUEUE_LIMIT="1", WORKERS="1").start()
     try:
         with httpx.Client(base_url=s.url, timeout=30) as c:
-            busy = submit(c, {**LONG, "options": {**LONG["options"], "time_limit": 30}})
+            busy = submit(c, {**LONG, "options": {"time_limit": 30}})
             wait(c, busy["id"], until={"running"})
             waiting = submit(c, SMALL)
             full = c.post("/v1/layouts", json=SMALL)
@@ -388,7 +388,7 @@ def test_a_stopped_service_hands_running_jobs_back_without_counting_an_attempt(
 ) -> None:
     first = service(backend, tmp_path).start()
     with httpx.Client(base_url=first.url, timeout=30) as c:
-        job = submit(c, {**LONG, "options": {**LONG["options"], "time_limit": 4}})
+        job = submit(c, {**LONG, "options": {"time_limit": 4}})
         wait(c, job["id"], until={"running"})
     first.stop()  # SIGTERM: a graceful stop
     second = service(backend, tmp_path).start()
@@ -415,7 +415,7 @@ def test_a_crashed_solve_fails_its_own_job_and_the_service_carries_on(
     s = service(backend, tmp_path).start()
     try:
         with httpx.Client(base_url=s.url, timeout=30) as c:
-            doomed = submit(c, {**LONG, "options": {**LONG["options"], "time_limit": 30}})
+            doomed = submit(c, {**LONG, "options": {"time_limit": 30}})
             wait(c, doomed["id"], until={"running"})
             deadline = time.monotonic() + 60
             while not (children := [pid for parent in s.solver_parents()
