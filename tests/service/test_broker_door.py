@@ -23,7 +23,7 @@ from floorplan.solver.geometry.boxes import Box
 from floorplan.solver.miqp.spec import LevelSpec, RectSpec
 from floorplan.solver.pipeline.subdomains import SubdomainTask
 from tests.servers import Cluster
-from tests.service.test_security import full_task
+from tests.service.test_security_broker import full_task
 from tests.service.test_service import SMALL, wait
 
 #: Bounded waits, not speed claims.

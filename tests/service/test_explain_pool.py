@@ -17,7 +17,7 @@ import httpx2 as httpx
 import pytest
 
 from tests.servers import Server
-from tests.service.test_security import TIGHT
+from tests.service.test_security_requests import TIGHT
 from tests.service.test_service import SMALL
 
 QUIET = {"WORKERS": "1", "FLOORPLAN_SUBDOMAIN_PROCESSES": "1",
