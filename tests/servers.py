@@ -188,7 +188,7 @@ class Cluster:
         return self
 
     def add_worker(self, name: str, *options: str,
-                   log_level: str = "warning") -> subprocess.Popen[bytes]:
+                   log_level: str = "info") -> subprocess.Popen[bytes]:
         log = (self.data_dir / f"{name}.log").open("ab")
         self._logs.append(log)
         worker = subprocess.Popen(

@@ -173,14 +173,18 @@ class JobRecords(EventLog):
         without a message to claim it. The job is picked and claimed in one transaction,
         its row locked (PostgreSQL: rows other workers are claiming are skipped); a job
         another worker claimed first is looked for again, and since each such loss is
-        another worker's claim, the looking ends. After `FAIR_TRIES` losses, the job the
-        message names. None when nothing is queued."""
+        another worker's claim, the looking ends. After `FAIR_TRIES` losses, or when every
+        queued row is locked, the job the message names. None when nothing is queued."""
         for _ in range(FAIR_TRIES):
             now = time.time()
             with self._tx() as conn:
                 job_id = self._fairest(conn)
                 if job_id is None:
-                    return None
+                    # Nothing unlocked is queued; the named job may still be, its row held
+                    # for a moment by another writer (the API marks a job dispatched just
+                    # after sending its message). Claiming it waits for that lock: skipping
+                    # it dropped the message and left the job queued for good.
+                    break
                 claimed = conn.execute(update(jobs).where(
                     jobs.c.id == job_id, jobs.c.status == JobStatus.QUEUED
                 ).values(status=JobStatus.RUNNING, started_at=now, updated_at=now,

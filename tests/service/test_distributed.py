@@ -22,10 +22,12 @@ import pytest
 import redis
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
+from sqlalchemy import Connection, text, update
 
 from floorplan.models.jobs import JobStatus
+from floorplan.service.records import Job
 from floorplan.service.store import JobStore
-from floorplan.service.tables import metadata
+from floorplan.service.tables import jobs, metadata
 from tests.paths import ROOT
 from tests.servers import Cluster, free_port, schema_url
 from tests.service.test_service import LONG, SMALL, TERMINAL, solve_processes, submit, wait
@@ -321,6 +323,37 @@ def test_concurrent_fair_claims_take_each_job_once(pg_store: JobStore) -> None:
         thread.join()
     # Twelve messages, twelve jobs: each job claimed by exactly one of them.
     assert sorted(t for t in taken if t is not None) == sorted(job.id for job in made)
+
+
+def test_a_message_claims_its_job_while_another_writer_holds_the_row(
+    pg_store: JobStore,
+) -> None:
+    # The API marks a job dispatched just after sending its message; a worker quick
+    # enough read the row as locked, skipped it, found nothing queued and dropped the
+    # message, and the job stayed queued for good (seen on CI: "still queued after 60 s").
+    job, _ = pg_store.create(problem="{}", time_limit=1)
+    claimed: list[Job | None] = []
+    with pg_store.engine.connect() as writer:
+        writer.execute(update(jobs).where(jobs.c.id == job.id).values(dispatched_at=time.time()))
+        claimer = threading.Thread(target=lambda: claimed.append(
+            pg_store.claim_fair(job.id, "w:1:x")))
+        claimer.start()
+        deadline = time.monotonic() + 60
+        while claimer.is_alive() and not lock_waits(writer):
+            assert time.monotonic() < deadline, "the claim neither ended nor waited"
+            time.sleep(0.05)
+        writer.commit()  # the writer lets go; the waiting claim goes on
+    claimer.join(timeout=60)
+    assert claimed and claimed[0] is not None and claimed[0].id == job.id
+
+
+def lock_waits(conn: Connection) -> int:
+    """Sessions of this database waiting on a lock (a row lock held by `conn`). The
+    activity view is a snapshot kept for the transaction: cleared to read it again."""
+    conn.execute(text("SELECT pg_stat_clear_snapshot()"))
+    return int(conn.execute(text(
+        "SELECT count(*) FROM pg_stat_activity WHERE datname = current_database() "
+        "AND wait_event_type = 'Lock'")).scalar_one())
 
 
 def test_lost_jobs_fail_after_the_retry_limit_and_canceled_ones_end_canceled(
