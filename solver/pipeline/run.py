@@ -156,8 +156,8 @@ class Run:
     def stalled_now(self) -> bool:
         """More time is unlikely to buy anything: the best covering layout has not
         improved significantly within the stall window (`solver.budget.stall_window`).
-        Never with `options.stop: "limit"`, nor before a covering layout exists. Once
-        true, stays true until the next stage begins."""
+        Never with `options.stop: "limit"`, nor before a covering layout that passes the
+        checker exists. Once true, stays true until the next stage begins."""
         if self.stage_stalled:
             return True
         if (self.last_gain is None or self.stall_paused
@@ -165,6 +165,11 @@ class Run:
             return False
         now = time.monotonic()
         if now - self.last_gain > stall_window(now - self.started):
+            if self.passing_best() is None:
+                # Every covering layout so far breaks a hard constraint: none is an
+                # answer, so the search goes on, and looks again a window later.
+                self.last_gain = now
+                return False
             self.stage_stalled = True
             self.stalls += 1
         return self.stage_stalled

@@ -108,7 +108,17 @@ def test_layouts_compare_by_their_rooms_rectangles_within_the_snapping() -> None
     assert not same_layout(a, {"s": a["r"]})
 
 
-def test_the_stall_rule_counts_progress_in_a_window_of_the_time_spent() -> None:
+@pytest.fixture(scope="module")
+def apartment_rooms() -> dict[str, list[Box]]:
+    """apartment-5 as SCIP lays it out: a covering layout that passes the checker."""
+    events: list[SolveEvent] = []
+    assert solve(apartment(), on_event=events.append).report.valid
+    return last_incumbent(events)
+
+
+def test_the_stall_rule_counts_progress_in_a_window_of_the_time_spent(
+    apartment_rooms: dict[str, list[Box]],
+) -> None:
     assert stall_window(0.1) == pytest.approx(0.25)
     assert stall_window(10.0) == pytest.approx(3.0)
     assert significant_gain(10.0, 9.9) and not significant_gain(10.0, 9.99)
@@ -116,14 +126,33 @@ def test_the_stall_rule_counts_progress_in_a_window_of_the_time_spent() -> None:
     now = time.monotonic()
     run = Run(apartment(), now + 100, now - 20, None, None, end=now + 100)
     assert not run.stalled_now()  # no covering layout yet: nothing to stall on
+    run.bests = [apartment_rooms]
     run.last_gain = now - 10  # 10 s without progress after 20 s: more than 30 % of 20 s
     assert run.stalled_now() and run.ending() and not run.stopped()
     run.begin_stage()  # the next stage has its own window
     assert not run.stalled_now()
     limit = Run(apartment(stop="limit"), now + 100, now - 20, None, None, end=now + 100)
+    limit.bests = [apartment_rooms]
     limit.last_gain = now - 19
     assert not limit.stalled_now()
 
+
+
+def test_the_stall_rule_waits_for_a_layout_that_passes_the_checker(
+    apartment_rooms: dict[str, list[Box]],
+) -> None:
+    # Seen under load: a solve stalled on covering layouts that all broke a hard
+    # constraint (a room over an obstacle) and ended no_solution with time to spare.
+    first, second = sorted(apartment_rooms)[:2]
+    overlapping = {**apartment_rooms, first: apartment_rooms[second]}
+    assert not check_layout(apartment(), overlapping).valid
+    now = time.monotonic()
+    run = Run(apartment(), now + 100, now - 20, None, None, end=now + 100)
+    run.bests, run.last_gain = [overlapping], now - 10
+    assert not run.stalled_now() and not run.ending()
+    assert run.last_gain >= now  # looked again a window later, not at every step
+    run.bests, run.last_gain = [overlapping, apartment_rooms], now - 10
+    assert run.stalled_now()
 
 TWO_ROOMS_L = Problem.model_validate({
     "name": "l-and-square",
