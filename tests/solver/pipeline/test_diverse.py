@@ -117,7 +117,7 @@ def test_diverse_seeds_give_distinct_valid_plans_reported_against_the_brief() ->
     )
 
     problem = Problem.model_validate(APARTMENT)
-    layouts = [lay_out(LayoutTask(APARTMENT, seed, 2.0, good_enough=float("inf")))[1]
+    layouts = [lay_out(LayoutTask(APARTMENT, seed, 30.0, good_enough=float("inf")))[1]
                for seed in range(6)]
     assert all(lay.report.valid and lay.report.coverage >= 0.99 for lay in layouts)
     plans, _ = count_distinct(layouts)  # more than 5 % of the floor differs

@@ -49,8 +49,9 @@ TWO_WINGS: dict[str, Any] = {
     "obstacles": [{"x": 8, "y": 0, "width": 1, "depth": 4, "label": "wall"}],
     "rooms": [{"id": rid, "min_size": [2.5, 3], "max_size": [3.6, 4], "target_size": [3.6, 4],
                "positions": [[x, 2]]} for rid, x in (("a", 1), ("b", 7), ("c", 10), ("d", 16))],
-    # Level 1 must end with time left for the sub-domains, also on a slow, busy machine.
-    "options": {"time_limit": 5, "seed": 1},
+    # Far above the need (the stall rule ends the solve): level 1 ends with time left for
+    # the sub-domains on a busy machine too; 5 s once left none under load.
+    "options": {"time_limit": 30, "seed": 1},
 }
 
 
