@@ -92,3 +92,11 @@ def add_rect_vars(m: Model, spec: LevelSpec) -> dict[str, RectVars]:
                        ub=b.depth if b else spec.region.depth),
         )
     return rects
+
+
+def _slack(lm: LevelModel, name: str, value: Valuation) -> Variable:
+    """A slack variable of a soft constraint (metres), priced in the objective; `value`
+    is its least value that satisfies the constraint at given boxes."""
+    slack = lm.derive(lm.model.addVar(f"slack[{name}]", lb=0.0, ub=None), value)
+    lm.slacks.append(slack)
+    return slack
