@@ -195,7 +195,9 @@ def network_spec(
     """The IP for this floor: exits as sinks joined into one network, every cell along
     the network (a room in it opens onto a corridor), no corridors a cell
     apart, the travel cap less half a corridor (a door is on the corridor's side), the
-    dead-end cap less half a corridor (the corridor runs on past its last vertex).
+    dead-end cap less half a corridor (the corridor runs on past its last vertex), each
+    route as a pair of Eq. 7-8 between the grid vertices nearest its points, its walk
+    limit less the straight legs from the points to them.
     The cells in the floor's outer corners need no corridor on a side of their own
     (`_floor_corner`)."""
     free = problem.free_area()
@@ -203,6 +205,13 @@ def network_spec(
     mesh = replace(mesh, faces=[f for f in mesh.faces if not _floor_corner(mesh, f, free)])
     sinks = tuple(dict.fromkeys(mesh.nearest(e) for e in corridors.exits))
     half = corridors.width / 2
+    pairs, limits = [], []
+    for route in corridors.routes:
+        ends = [_route_vertex(mesh, p) for p in route.between]
+        pairs.append((ends[0], ends[1]))
+        # The walk from each point to its grid vertex comes off the limit.
+        legs = sum(math.dist(p, mesh.points[v]) for p, v in zip(route.between, ends, strict=True))
+        limits.append(None if route.max_walk is None else route.max_walk - legs)
     return NetworkSpec(
         mesh,
         sinks,
@@ -216,7 +225,21 @@ def network_spec(
         # Per mesh edge: equal weights then trade a metre of corridor against a metre of
         # mean walk, whatever the floor's size.
         lambda_distance=corridors.weights.travel / max(1, len(mesh.edges)),
+        point_pairs=tuple(pairs),
+        pair_lengths=tuple(limits),
     )
+
+
+def _route_vertex(mesh: Mesh, point: tuple[float, float]) -> int:
+    """The grid vertex a route's point is planned from: the nearest inside the floor
+    (two or more edges), as a corridor ending on the outline is a dead end; on a 30 x
+    12 m floor a route snapped to outline vertices could only be a pair of 6 m stubs
+    over the dead-end cap, and the IP was infeasible."""
+    incident = mesh.incident()
+    inner = [v for v in range(len(mesh.points)) if len(incident[v]) >= 2]
+    if not inner:
+        return mesh.nearest(point)
+    return min(inner, key=lambda v: math.dist(mesh.points[v], point))
 
 
 def _floor_corner(mesh: Mesh, sides: Sequence[int], free: BaseGeometry) -> bool:
@@ -265,7 +288,10 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     pitch, thinnest = walkable_pitch(problem, corridors, room_pitch(problem, corridors.width))
     spec = network_spec(problem, corridors, pitch, thinnest)
     seconds = min(NETWORK_SECONDS, time_limit * NETWORK_SHARE)
-    result = solve_network(spec, time_limit=seconds, seed=seed)
+    try:
+        result = solve_network(spec, time_limit=seconds, seed=seed)
+    except ValueError:  # a route no grid path of its length joins (Eq. 7-8)
+        return None
     if not result.found:
         return None
     free = problem.free_area()
