@@ -22,11 +22,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import shapely
-from shapely.geometry import LineString, Polygon
+from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 
 from floorplan.models import Corridors, Problem, Room
+from floorplan.models.corridors import EXIT_TOLERANCE
 from floorplan.solver.network import Feature, Mesh, NetworkSpec, grid_mesh, solve_network
 from floorplan.solver.network.measure import dead_ends, distances
 from floorplan.solver.network.mesh import cell_polygon
@@ -148,6 +149,24 @@ def room_pitch(problem: Problem, width: float) -> tuple[float, float]:
     return (min(MAX_PITCH, max(MIN_PITCH, px)), min(MAX_PITCH, max(MIN_PITCH, py)))
 
 
+def grid_anchors(problem: Problem, corridors: Corridors) -> list[tuple[float, float]]:
+    """The points the grid's lines run through: the exits first (the lines run from the
+    first one inside the floor), then two opposite corners of each obstacle an exit lies
+    on (a stair or lift core), so that the core's sides are grid lines where the cells
+    allow. Otherwise a core cut cells so that two beside it kept two sides each, each
+    facing an active edge across its neighbour (too close), and neither the start's
+    repair nor SCIP found a network (office-72-core). The sides of every obstacle
+    (mall-140's atria and stairs too) changed mall-140's grid and cost it 8-11 rooms'
+    doors (bench/NOTES.md, "Corridors")."""
+    corners: list[tuple[float, float]] = []
+    for obstacle in problem.obstacles:
+        box = obstacle.to_box()
+        if any(box.exterior.distance(Point(e)) <= EXIT_TOLERANCE for e in corridors.exits):
+            x0, y0, x1, y1 = box.bounds
+            corners += [(x0, y0), (x1, y1)]
+    return [*corridors.exits, *corners]
+
+
 def walkable_pitch(
     problem: Problem, corridors: Corridors, pitch: tuple[float, float]
 ) -> tuple[tuple[float, float], float]:
@@ -169,7 +188,7 @@ def walkable_pitch(
     )
     for sx, sy, thin in tries[:MESH_TRIES]:
         trial = (pitch[0] * sx, pitch[1] * sy)
-        mesh = grid_mesh(free, trial, anchors=corridors.exits, thinnest=thin)
+        mesh = grid_mesh(free, trial, anchors=grid_anchors(problem, corridors), thinnest=thin)
         if _walkable(mesh, corridors.exits, cap):
             return trial, thin
     return pitch, 0.5
@@ -201,7 +220,7 @@ def network_spec(
     The cells in the floor's outer corners need no corridor on a side of their own
     (`_floor_corner`)."""
     free = problem.free_area()
-    mesh = grid_mesh(free, pitch, anchors=corridors.exits, thinnest=thinnest)
+    mesh = grid_mesh(free, pitch, anchors=grid_anchors(problem, corridors), thinnest=thinnest)
     mesh = replace(mesh, faces=[f for f in mesh.faces if not _floor_corner(mesh, f, free)])
     sinks = tuple(dict.fromkeys(mesh.nearest(e) for e in corridors.exits))
     half = corridors.width / 2

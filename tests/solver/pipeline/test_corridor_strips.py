@@ -149,3 +149,22 @@ def test_rooms_are_dealt_by_how_their_depth_suits_a_strip() -> None:
     assert [r.id for r in dealt[2]] == ["c"]
     by_area = assign_to_parts(problem, problem.rooms, [shallow, deep, corner])
     assert {r.id[0] for r in by_area[0]} != {"s"}
+
+
+def test_a_cores_sides_are_grid_lines() -> None:
+    """A 48 x 24 m floor with a 6 x 4 m core at (21, 10) and an exit on its west side:
+    the planning grid has lines along all four sides of the core, so no cell is cut by
+    it (two cells cut by it each kept two sides, and no network was found)."""
+    problem = Problem.model_validate({
+        "name": "core",
+        "boundary": [[0, 0], [48, 0], [48, 24], [0, 24]],
+        "obstacles": [{"x": 21, "y": 10, "width": 6, "depth": 4, "label": "core"}],
+        "rooms": [{"id": "a", "type": "office", "target_size": [4.0, 3.1]}],
+        "corridors": {"exits": [[0, 12], [48, 12], [21, 12]], "width": 1.8},
+    })
+    assert problem.corridors is not None
+    mesh = network_spec(problem, problem.corridors, (4.8, 3.9)).mesh
+    for x in (21.0, 27.0):
+        assert any(abs(line - x) < 1e-9 for line in mesh.xs)
+    for y in (10.0, 14.0):
+        assert any(abs(line - y) < 1e-9 for line in mesh.ys)
