@@ -27,6 +27,8 @@ from floorplan.solver.pipeline.regions.corridors import (
 from floorplan.solver.verify.egress import door_travel
 
 CASES = Path(__file__).parent / "data" / "cases"
+#: Office floors of our own, each with its `corridors` brief (exits at cores and stairs).
+OWN = Path(__file__).parent / "data" / "corridors"
 #: The office floor's brief: exits at both ends of its long axis.
 OFFICE = {"exits": [[0, 15], [66, 15]], "width": 1.8, "max_travel": 45, "dead_ends": 6}
 #: A smaller office floor (32 x 18 m) with one exit at the middle of its south side.
@@ -78,6 +80,36 @@ def _measure(problem: Problem, layout: Layout, exits: list[list[float]]) -> dict
     }
 
 
+def _case(case: str, brief: dict[str, object] | None) -> tuple[dict[str, object],
+                                                               dict[str, object]]:
+    """The case's problem without corridors and its corridors brief (`brief`, else the
+    one the case carries: the floors of `OWN`)."""
+    own = OWN / f"{case}.json"
+    data = json.loads((own if own.exists() else CASES / f"{case}.json").read_text())
+    carried = data.pop("corridors", None)
+    return data, brief if brief is not None else carried
+
+
+def one(case: str, seed: int, mode: str) -> dict[str, object]:
+    """One solve (`mode` aisles or corridors) at `seed`, measured: what `--one` prints,
+    a line per run, so two trees can be run side by side on the same loaded machine."""
+    briefs = {"office-154": OFFICE, "mall-140": MALL, "office-40": OFFICE_40}
+    data, brief = _case(case, briefs.get(case))
+    data = {**data, "options": {**data.get("options", {}), "seed": seed}}  # type: ignore[dict-item]
+    problem = Problem.model_validate({**data, "corridors": brief} if mode == "corridors"
+                                     else data)
+    started = time.monotonic()
+    layout = solve(problem)
+    wall = round(time.monotonic() - started, 1)
+    head = {"case": case, "seed": seed, "mode": mode}
+    if not (layout.aisles or layout.corridors):
+        return {**head, "valid": layout.report.valid, "rooms": len(layout.rooms),
+                "failed": [c.detail for c in layout.report.constraints if not c.satisfied][:4],
+                "wall_seconds": wall}
+    return {**head, **_measure(problem, layout, list(brief["exits"])),  # type: ignore[arg-type]
+            "wall_seconds": wall}
+
+
 def aisles_against_corridors(case: str, brief: dict[str, object]) -> dict[str, object]:
     data = json.loads((CASES / f"{case}.json").read_text())
     today = Problem.model_validate(data)
@@ -97,11 +129,11 @@ def aisles_against_corridors(case: str, brief: dict[str, object]) -> dict[str, o
 
 
 def ip_against_search(
-    case: str, brief: dict[str, object], seconds: float, pitch: float | None = None
+    case: str, brief: dict[str, object] | None, seconds: float, pitch: float | None = None
 ) -> dict[str, object]:
     """The network IP and the stochastic search on the same spec, the same time; both
     judged by `measure.judge` (validity, Eq. 14's length and distance terms)."""
-    data = json.loads((CASES / f"{case}.json").read_text())
+    data, brief = _case(case, brief)
     problem = Problem.model_validate({**data, "corridors": brief})
     corridors = problem.corridors
     assert isinstance(corridors, Corridors)
@@ -167,7 +199,13 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--networks-only", action="store_true",
                         help="only the IP against the search; the layouts kept from the last run")
+    parser.add_argument("--one", nargs=3, metavar=("CASE", "SEED", "MODE"),
+                        help="one solve (MODE aisles or corridors), its measures as a JSON line")
     args = parser.parse_args()
+    if args.one:
+        case, seed, mode = args.one
+        print(json.dumps(one(case, int(seed), mode)), flush=True)
+        return
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     last = args.out / "corridors.json"
@@ -183,6 +221,7 @@ def main() -> None:
         ("office-154", OFFICE, 3.3),
         ("mall-140", MALL, None),
         ("office-40", OFFICE_40, None),
+        *((path.stem, None, None) for path in sorted(OWN.glob("*.json"))),
     ):
         networks.append(ip_against_search(case, brief, args.seconds, pitch))
         print(json.dumps(networks[-1], indent=1), flush=True)

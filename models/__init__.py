@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from .base import DEFAULT_MAX_ROOMS
-    from .corridors import Corridors, CorridorWeights
+    from .corridors import Corridors, CorridorWeights, Route
     from .layout import (
         OUTSIDE,
         Aisle,
@@ -54,7 +54,7 @@ _WHERE = {
         "Layout", "Rect", "Report", "RoomLayout", "Termination", "VariantInfo", "Window",
     ),
     ".base": ("DEFAULT_MAX_ROOMS",),
-    ".corridors": ("CorridorWeights", "Corridors"),
+    ".corridors": ("CorridorWeights", "Corridors", "Route"),
     ".options": ("Openings", "Options", "Weights"),
     ".parts": ("Adjacency", "Floor", "Obstacle", "Region", "Room", "VerticalRoom"),
     ".problem": ("Problem",),
@@ -93,6 +93,7 @@ __all__ = [
     "Report",
     "Room",
     "RoomLayout",
+    "Route",
     "Termination",
     "VariantInfo",
     "VerticalRoom",

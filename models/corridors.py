@@ -33,6 +33,22 @@ class CorridorWeights(StrictModel):
     )
 
 
+class Route(StrictModel):
+    """A walk the corridors must offer between two places (Peng et al. Eq. 7-8, their
+    point-to-point constraint): a reception and a lift lobby, two wings' stairs."""
+
+    between: tuple[Point, Point] = Field(
+        description="two points on the floor (inside the free area, or on the outline or "
+        "an obstacle's side) the corridors must join"
+    )
+    max_walk: PositiveLength | None = Field(
+        None,
+        description="the longest walk, metres, along the corridors from one point to the "
+        "other; null: the shortest way the planning grid offers, give or take two of its "
+        "cells",
+    )
+
+
 class Corridors(StrictModel):
     """The circulation a floor must provide, by what it does (Peng et al. Sec. 3)."""
 
@@ -56,6 +72,11 @@ class Corridors(StrictModel):
     weights: CorridorWeights = Field(default_factory=CorridorWeights)
     rooms_open_onto_corridor: bool = Field(
         True, description="every room must touch a corridor (and gets a door onto it)"
+    )
+    routes: Annotated[list[Route], Field(max_length=10)] = Field(
+        default_factory=list,
+        description="walks the corridors must offer between given points (each point "
+        "within half a corridor of one)",
     )
 
 
@@ -106,6 +127,32 @@ def corridor_errors(
                     "exit_off_outline",
                     f"exit {list(exit_point)} is neither on the outline nor on a side of an "
                     "obstacle (a stair or lift core)",
+                )
+            )
+    for k, route in enumerate(corridors.routes):
+        for end, point in enumerate(route.between):
+            if not free.buffer(EXIT_TOLERANCE).contains(ShapelyPoint(point)):
+                errors.append(
+                    field_error(
+                        ("corridors", "routes", k, "between", end),
+                        point,
+                        "route_off_floor",
+                        f"route point {list(point)} is not on the free floor (outside the "
+                        "outline or inside an obstacle)",
+                    )
+                )
+        (ax, ay), (bx, by) = route.between
+        # Corridors run along x and y: no walk between the points is shorter than this.
+        least = abs(ax - bx) + abs(ay - by)
+        if route.max_walk is not None and route.max_walk < least - EXIT_TOLERANCE:
+            errors.append(
+                field_error(
+                    ("corridors", "routes", k, "max_walk"),
+                    route.max_walk,
+                    "route_too_short",
+                    f"no corridor walk between {list(route.between[0])} and "
+                    f"{list(route.between[1])} is shorter than {least:g} m (corridors run "
+                    f"along x and y), so max_walk {route.max_walk:g} m cannot hold",
                 )
             )
     x0, y0, x1, y1 = free.bounds

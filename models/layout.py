@@ -110,6 +110,10 @@ class Egress(BaseModel):
         default_factory=list, description="rooms with no door onto a corridor")
     unreached_exits: list[str] = Field(
         default_factory=list, description="exits no corridor reaches, as 'x,y'")
+    routes: list[float | None] = Field(
+        default_factory=list, description="per route of `corridors.routes`, in order, "
+        "the walk between its points, metres (straight onto the nearest corridor floor at "
+        "each end, along it between); null: no corridor joins them")
 
 
 #: The `between` name of the world outside, for the front door.

@@ -63,6 +63,9 @@ class NetworkSpec:
     #: path between them plus `path_slack`.
     point_pairs: tuple[tuple[int, int], ...] = ()
     path_slack: int = 2
+    #: Per pair of `point_pairs` (when given), the longest such path in metres (None:
+    #: any of them); paths longer are not counted (ours: a walk limit on Eq. 7-8).
+    pair_lengths: tuple[float | None, ...] = ()
     t_junctions: Feature = Feature.ALLOW
     too_close: Feature = Feature.ALLOW
     lambda_length: float = 1.0
@@ -256,10 +259,8 @@ def point_to_point(nm: NetworkModel) -> None:
     spec = nm.spec
     if not spec.point_pairs:
         return
-    m, mesh = nm.model, spec.mesh
-    incident = mesh.incident()
-    for a, b in spec.point_pairs:
-        paths = list(hop_paths(mesh, incident, a, b, spec.path_slack))
+    m = nm.model
+    for (a, b), paths in zip(spec.point_pairs, pair_paths(spec), strict=True):
         if not paths:
             raise ValueError(f"point_pairs: no path joins vertices {a} and {b}")
         indicators = []
@@ -272,6 +273,24 @@ def point_to_point(nm: NetworkModel) -> None:
             m.addCons(total <= 0, f"eq7_hi_{a}_{b}_{k}")
             m.addCons(total >= 1 - len(edges), f"eq7_lo_{a}_{b}_{k}")
         m.addCons(quicksum(indicators) >= 1, f"eq8_{a}_{b}")
+
+
+def pair_paths(spec: NetworkSpec) -> list[list[list[int]]]:
+    """Per pair of `spec.point_pairs`, the edges of each path Eq. 7-8 counts: at most
+    (fewest edges + `path_slack`) edges (`hop_paths`) and no longer than the pair's
+    `pair_lengths`, shortest first."""
+    mesh = spec.mesh
+    incident = mesh.incident()
+    lengths = mesh.lengths
+    out = []
+    for k, (a, b) in enumerate(spec.point_pairs):
+        limit = spec.pair_lengths[k] if k < len(spec.pair_lengths) else None
+        paths = [
+            p for p in hop_paths(mesh, incident, a, b, spec.path_slack)
+            if limit is None or sum(lengths[x] for x in p) <= limit + 1e-9
+        ]
+        out.append(sorted(paths, key=lambda p: sum(lengths[x] for x in p)))
+    return out
 
 
 def hop_paths(

@@ -14,7 +14,7 @@ import math
 import time
 from collections.abc import Sequence
 
-from floorplan.solver.network.formulation import Feature, NetworkSpec
+from floorplan.solver.network.formulation import Feature, NetworkSpec, pair_paths
 from floorplan.solver.network.mesh import Mesh
 
 #: Toggles remembered and not undone.
@@ -24,8 +24,9 @@ TABU = 12
 class _Graph:
     """The mesh's lookups computed once (the search evaluates thousands of networks)."""
 
-    def __init__(self, mesh: Mesh) -> None:
+    def __init__(self, mesh: Mesh, routes: list[list[list[int]]] | None = None) -> None:
         self.mesh = mesh
+        self.routes = routes or []
         self.lengths = mesh.lengths
         self.incident = mesh.incident()
         self.ends = mesh.edges
@@ -64,6 +65,9 @@ def conflicts(spec: NetworkSpec, graph: _Graph, chosen: set[int]) -> float:
         for length in _dead_ends(graph, adjacent, chosen, set(spec.sinks)):
             if length > spec.dead_end + 1e-9:
                 bad += 1 + (length - spec.dead_end) / graph.pitch
+    # A route (Eq. 7-8) counts the edges its nearest admissible path lacks.
+    for paths in graph.routes:
+        bad += min((sum(1 for x in p if x not in chosen) for p in paths), default=0)
     return bad
 
 
@@ -75,7 +79,7 @@ def repaired_network(
     if not starts:
         return None
     began = time.monotonic()
-    graph = _Graph(spec.mesh)
+    graph = _Graph(spec.mesh, pair_paths(spec))
     scored = sorted((conflicts(spec, graph, set(s)), sorted(s)) for s in starts)
     bad, edges = scored[0]
     current = set(edges)

@@ -7,7 +7,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 
-from floorplan.solver.network.formulation import Feature, NetworkModel, NetworkSpec, last_leg
+from floorplan.solver.network.formulation import (
+    Feature,
+    NetworkModel,
+    NetworkSpec,
+    last_leg,
+    pair_paths,
+)
 from floorplan.solver.network.measure import distances, judge
 from floorplan.solver.network.mesh import Mesh
 from floorplan.solver.network.repair import repaired_network
@@ -29,11 +35,16 @@ def greedy_network(
         if all(v in sink_set or len(incident[v]) > 1 for v in (i, j))
     ]
 
+    routes = pair_paths(spec)
+
     def ok(trial: Sequence[int]) -> bool:
-        if spec.too_close is Feature.FORBID:
-            chosen = set(trial)
-            if any(a in chosen and b in chosen for a, b in mesh.opposite):
-                return False
+        chosen = set(trial)
+        if spec.too_close is Feature.FORBID and any(
+            a in chosen and b in chosen for a, b in mesh.opposite
+        ):
+            return False
+        if not routes_held(routes, chosen):
+            return False
         return judge(
             mesh,
             trial,
@@ -51,8 +62,9 @@ def greedy_network(
     covers = cover_sets(spec)
     candidates = [edges] if ok(edges) else []
     if not candidates:
-        # The whole mesh breaks a rule (too-close edges): try combs of lines instead.
-        combs = comb_networks(spec)
+        # The whole mesh breaks a rule (too-close edges): try combs of lines instead,
+        # each with the shortest path of every route.
+        combs = [sorted(set(c).union(*(p[0] for p in routes if p))) for c in comb_networks(spec)]
         candidates = sorted(
             (c for c in combs if ok(c)), key=lambda c: sum(mesh.lengths[x] for x in c)
         )
@@ -74,6 +86,12 @@ def greedy_network(
         if ok(trial) and _distances_fit(spec, trial):
             current.discard(x)
     return sorted(current)
+
+
+def routes_held(routes: Sequence[Sequence[Sequence[int]]], chosen: set[int]) -> bool:
+    """Every pair of Eq. 7-8 has one of its paths (`formulation.pair_paths`) wholly in
+    `chosen`."""
+    return all(any(all(x in chosen for x in p) for p in paths) for paths in routes)
 
 
 def comb_networks(spec: NetworkSpec) -> list[list[int]]:

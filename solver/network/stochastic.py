@@ -12,10 +12,10 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
-from floorplan.solver.network.formulation import Feature, NetworkSpec
+from floorplan.solver.network.formulation import Feature, NetworkSpec, pair_paths
 from floorplan.solver.network.measure import Judgement, judge
 from floorplan.solver.network.mesh import Mesh
-from floorplan.solver.network.start import cover_sets
+from floorplan.solver.network.start import cover_sets, routes_held
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,21 @@ def judge_spec(spec: NetworkSpec, edges: list[int],
         chosen = set(edges)
         if any(a in chosen and b in chosen for a, b in spec.mesh.opposite):
             return replace(verdict, valid=False)
+    if spec.point_pairs and verdict.valid and not routes_held(_routes(spec), set(edges)):
+        return replace(verdict, valid=False)
     return verdict
+
+
+_ROUTES: dict[int, tuple[NetworkSpec, list[list[list[int]]]]] = {}
+
+
+def _routes(spec: NetworkSpec) -> list[list[list[int]]]:
+    """`pair_paths` of `spec`, kept for the spec a search judges over and over."""
+    kept = _ROUTES.get(id(spec))
+    if kept is None or kept[0] is not spec:
+        _ROUTES.clear()
+        kept = _ROUTES[id(spec)] = (spec, pair_paths(spec))
+    return kept[1]
 
 
 def _moves(mesh: Mesh, incident: list[list[int]], active: set[int]) -> Iterator[frozenset[int]]:

@@ -22,10 +22,14 @@ XY = tuple[float, float]
 
 
 def walk_field(
-    corridors: BaseGeometry, exits: Sequence[XY], cell: float = CELL
+    corridors: BaseGeometry, exits: Sequence[XY], cell: float = CELL,
+    reach: float | None = None,
 ) -> tuple[np.ndarray, tuple[float, float, float]]:
     """Walking distance (metres) from the nearest exit to every raster cell of
-    `corridors` (inf off the corridors or unreached), and the raster's (x0, y0, cell)."""
+    `corridors` (inf off the corridors or unreached), and the raster's (x0, y0, cell).
+    An exit farther than `reach` (one raster cell by default) from the corridors is not
+    reached; within it, the walk starts with the straight way onto them."""
+    reach = cell if reach is None else reach
     x0, y0, x1, y1 = corridors.bounds
     nx, ny = max(1, math.ceil((x1 - x0) / cell)), max(1, math.ceil((y1 - y0) / cell))
     xs = x0 + (np.arange(nx) + 0.5) * cell
@@ -36,7 +40,7 @@ def walk_field(
     dist = np.full((nx, ny), np.inf)
     queue: list[tuple[float, int, int]] = []
     for ex, ey in exits:
-        if corridors.distance(Point(ex, ey)) > cell:
+        if corridors.distance(Point(ex, ey)) > reach:
             continue  # no corridor reaches this exit
         i, j = _nearest_inside(inside, x0, y0, cell, (ex, ey))
         if i is None:
@@ -97,3 +101,15 @@ def door_travel(
                 )
         out[room] = best
     return out
+
+
+def route_walk(corridors: BaseGeometry, a: XY, b: XY) -> float:
+    """The walk from `a` to `b` along `corridors`: straight onto the corridor floor
+    nearest each point, along it between (inf when no corridor joins them)."""
+    if corridors.is_empty:
+        return math.inf
+    dist, (x0, y0, cell) = walk_field(corridors, [a], reach=math.inf)
+    i, j = _nearest_inside(np.isfinite(dist), x0, y0, cell, b)
+    if i is None:
+        return math.inf
+    return float(dist[i, j]) + math.dist(b, (x0 + (i + 0.5) * cell, y0 + (j + 0.5) * cell))

@@ -290,3 +290,24 @@ def test_every_public_call_has_a_docstring() -> None:
                         and not member.__doc__:
                     missing.append(f"{name}.{attr}")
     assert missing == []
+
+
+def test_the_summary_line_tells_the_corridors_and_their_walks() -> None:
+    """A layout with corridors: `floorplan submit`'s last line gives their share, the
+    longest walk to an exit and each route's walk (none where no corridor joins it)."""
+    from types import SimpleNamespace
+    from typing import cast
+
+    from floorplan_client._client import Job
+    from floorplan_client.cli.display import summary_line
+    from floorplan_client.models import Layout
+
+    report = {"coverage": 1.0, "uncovered_area": 0.0, "valid": True,
+              "termination": "optimal", "solve_time": 1.0,
+              "egress": {"corridor_share": 0.251, "max_travel": 42.28,
+                         "routes": [36.04, None]}}
+    job = cast(Job, SimpleNamespace(id="j1"))
+    line = summary_line(job, Layout.model_validate({"name": "f", "report": report}))
+    assert "corridors 25.1%  longest walk 42.3 m  routes 36.0, none m" in line
+    plain = Layout.model_validate({"name": "f", "report": {**report, "egress": None}})
+    assert "corridors" not in summary_line(job, plain)

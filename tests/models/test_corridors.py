@@ -92,3 +92,30 @@ def test_corridors_with_regions_are_refused() -> None:
     assert (("corridors",), "corridors_with_regions") in _errors(
         {"exits": [[0, 6]]}, regions=regions
     )
+
+
+def test_routes_are_accepted_as_documented() -> None:
+    p = _problem({"exits": [[0, 6]], "routes": [
+        {"between": [[2, 2], [28, 10]], "max_walk": 40}, {"between": [[0, 6], [30, 6]]}]})
+    assert p.corridors is not None
+    first, second = p.corridors.routes
+    assert first.between == ((2, 2), (28, 10)) and first.max_walk == 40
+    assert second.max_walk is None
+    assert _problem({"exits": [[0, 6]]}).corridors.routes == []  # type: ignore[union-attr]
+
+
+def test_a_route_point_off_the_floor_or_in_an_obstacle_is_refused() -> None:
+    assert _errors({"exits": [[0, 6]], "routes": [{"between": [[15, 6], [40, 6]]}]}) == [
+        (("corridors", "routes", 0, "between", 0), "route_off_floor"),
+        (("corridors", "routes", 0, "between", 1), "route_off_floor"),
+    ]
+
+
+def test_a_route_shorter_than_its_points_allow_is_explained() -> None:
+    # 26 m along x and 8 along y: no walk along corridors is shorter than 34 m.
+    with pytest.raises(ValidationError) as caught:
+        _problem({"exits": [[0, 6]], "routes": [{"between": [[2, 2], [28, 10]],
+                                                  "max_walk": 30}]})
+    (error,) = caught.value.errors()
+    assert error["loc"] == ("corridors", "routes", 0, "max_walk")
+    assert error["type"] == "route_too_short" and "34 m" in error["msg"]

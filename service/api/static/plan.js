@@ -76,8 +76,9 @@ function addSegments(parent, segments, className) {
 }
 
 /**
- * Draws `problem` (outline, obstacles, entrance) and, when given, `layout` (rooms with
- * labels; doors and windows once final). `source` ("incumbent" or "result") is kept
+ * Draws `problem` (outline, obstacles, entrance, the corridors' exits and routes) and,
+ * when given, `layout` (corridors and aisles, rooms with labels; doors and windows once
+ * final). `source` ("incumbent" or "result") is kept
  * on the svg as data-source; data-drawn counts the drawings made.
  */
 export function drawPlan(svg, problem, layout = null, source = "problem") {
@@ -107,6 +108,15 @@ export function drawPlan(svg, problem, layout = null, source = "problem") {
     el("title", {}, g).textContent = o.label ?? "obstacle";
   }
 
+  // Circulation (corridors, aisles) is covered floor: drawn under the rooms.
+  const circulation = [...(layout?.corridors ?? []).map((c) => [c, "corridor"]),
+                       ...(layout?.aisles ?? []).map((a) => [a, "aisle"])];
+  for (const [shape, kind] of circulation) {
+    const g = el("g", { class: kind, "data-id": shape.id }, svg);
+    el("polygon", { points: pointsOf(shape.polygon), fill: PALETTE.corridor }, g);
+    el("title", {}, g).textContent = `${shape.id}, ${shape.area} m²`;
+  }
+
   const rooms = el("g", { class: "rooms" }, svg);
   for (const room of layout?.rooms ?? []) {
     const g = el("g", { class: "room", "data-room": room.id }, rooms);
@@ -118,6 +128,19 @@ export function drawPlan(svg, problem, layout = null, source = "problem") {
   // Openings after the walls: they are drawn in the wall they pierce.
   addSegments(svg, (layout?.windows ?? []).map((w) => w.segment), "window");
   addSegments(svg, (layout?.doors ?? []).map((d) => d.segment), "door");
+  // What the corridors must do: the exits, and each route as a dashed line.
+  for (const route of problem.corridors?.routes ?? []) {
+    const [[x1, y1], [x2, y2]] = route.between;
+    const g = el("g", { class: "route" }, svg);
+    el("line", { x1, y1: -y1, x2, y2: -y2 }, g);
+    el("title", {}, g).textContent = route.max_walk == null ? "route"
+      : `route, at most ${route.max_walk} m`;
+  }
+  for (const [x, y] of problem.corridors?.exits ?? []) {
+    const g = el("g", { class: "exit" }, svg);
+    el("rect", { x: x - pad / 4, y: -y - pad / 4, width: pad / 2, height: pad / 2 }, g);
+    el("title", {}, g).textContent = "exit";
+  }
   if (problem.entrance) {
     const [x, y] = problem.entrance;
     const g = el("g", { class: "entrance" }, svg);

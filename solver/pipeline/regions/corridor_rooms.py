@@ -23,7 +23,7 @@ from floorplan.models import (
 from floorplan.solver.geometry import boundary_edges
 from floorplan.solver.pipeline.regions.corridors import CorridorPlan, planned_dead_ends
 from floorplan.solver.verify.checker import SOFT_KINDS
-from floorplan.solver.verify.egress import door_travel
+from floorplan.solver.verify.egress import door_travel, route_walk
 
 #: Metres of slack on the travel and dead-end checks: the raster's own error.
 MEASURE_SLACK = 0.2
@@ -59,8 +59,10 @@ def no_corridors(problem: Problem, seconds: float) -> Layout:
         kind="corridors",
         rooms=[],
         satisfied=False,
-        detail="no corridor network meets the exits, travel distance "
-        "and dead-end limits (or none was found in the time)",
+        detail="no corridor network meets the exits, travel distance"
+        + (", dead-end and route" if problem.corridors and problem.corridors.routes
+           else " and dead-end")
+        + " limits (or none was found in the time)",
     )
     return Layout(
         name=problem.name,
@@ -111,6 +113,7 @@ def with_corridors(problem: Problem, layout: Layout, plan: CorridorPlan) -> Layo
     unreached = [
         f"{x:g},{y:g}" for x, y in corridors.exits if union.distance(shapely.Point(x, y)) > 1e-3
     ]
+    walks = [route_walk(union, *route.between) for route in corridors.routes]
     egress = Egress(
         max_travel=round(max(finite), 3) if finite else None,
         mean_travel=round(statistics.fmean(finite), 3) if finite else None,
@@ -120,6 +123,7 @@ def with_corridors(problem: Problem, layout: Layout, plan: CorridorPlan) -> Layo
         corridor_share=round(float(union.area) / free, 4) if free else 0.0,
         rooms_without_access=without,
         unreached_exits=unreached,
+        routes=[None if not math.isfinite(w) else round(w, 3) for w in walks],
     )
     checks = [_renamed(c) for c in layout.report.constraints]
     checks.append(
@@ -152,6 +156,20 @@ def with_corridors(problem: Problem, layout: Layout, plan: CorridorPlan) -> Layo
                 satisfied=not long,
                 detail=f"longest dead end {max(dead, default=0.0):.2f} m "
                 f"(limit {corridors.dead_ends:g} m)",
+            )
+        )
+    for route, walk in zip(corridors.routes, walks, strict=True):
+        (ax, ay), (bx, by) = route.between
+        limit = math.inf if route.max_walk is None else route.max_walk + MEASURE_SLACK
+        checks.append(
+            ConstraintCheck(
+                kind="route",
+                rooms=[],
+                satisfied=walk <= limit,
+                detail=f"walk from {ax:g},{ay:g} to {bx:g},{by:g} along the corridors "
+                + (f"{walk:.1f} m" if math.isfinite(walk) else "impossible: no corridor "
+                   "joins them")
+                + ("" if route.max_walk is None else f" (limit {route.max_walk:g} m)"),
             )
         )
     soft = SOFT_KINDS | (set() if corridors.rooms_open_onto_corridor else {"corridor_access"})

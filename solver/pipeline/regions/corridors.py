@@ -19,17 +19,20 @@ import itertools
 import math
 import statistics
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import shapely
-from shapely.geometry import LineString, Polygon
+from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
+from shapely.geometry.polygon import orient
 
-from floorplan.models import Corridors, Problem
+from floorplan.models import Corridors, Problem, Room
+from floorplan.models.corridors import EXIT_TOLERANCE
 from floorplan.solver.network import Feature, Mesh, NetworkSpec, grid_mesh, solve_network
 from floorplan.solver.network.measure import dead_ends, distances
 from floorplan.solver.network.mesh import cell_polygon
 from floorplan.solver.network.solve import NetworkResult
+from floorplan.solver.openings import CORNER_CLEARANCE
 from floorplan.solver.pipeline.regions.aisles import (
     NARROWEST_PART,
     SLIVER_AREA,
@@ -61,6 +64,14 @@ class CorridorPlan:
     #: The deepest a strip's row of rooms is planned (the larger cell side less half a
     #: corridor).
     depth: float = math.inf
+    #: Strips of one room (a floor's corner, `_corner_strip`), by their WKB.
+    singles: frozenset[bytes] = frozenset()
+    _axes: dict[bytes, tuple[int, float]] = field(default_factory=dict, repr=False,
+                                                  compare=False)
+
+    def most(self, part: Polygon) -> int | None:
+        """The most rooms `part` may be dealt: one for a corner's strip, else any."""
+        return 1 if part.wkb in self.singles else None
 
     def capacity(self, part: Polygon) -> float:
         """The floor a strip gives its rooms when dealt them: its area, but no deeper
@@ -70,10 +81,34 @@ class CorridorPlan:
         length = max(x1 - x0, y1 - y0, 1e-9)
         return min(float(part.area), length * self.depth)
 
+    def fit(self, part: Polygon, room: Room) -> float:
+        """How badly `room`'s target suits a strip, in E_size's terms (Eq. 6): the square
+        of its target side across the strip (depth along a row on a corridor running
+        along x, width along a column on one running along y) less the strip's depth,
+        which a row of rooms laid along its corridor takes. Dealt by area alone, rooms
+        3.5 m deep went to 2.76 m rows beside 3.13 m ones (bench/NOTES.md,
+        "Corridors")."""
+        if room.target_size is None:
+            return 0.0
+        axis, depth = self._across(part)
+        return (depth - room.target_size[axis]) ** 2
+
+    def _across(self, part: Polygon) -> tuple[int, float]:
+        """The axis across `part` (1: y, a row on a corridor along x; 0: x) and its
+        extent along it."""
+        key = part.wkb
+        if key not in self._axes:
+            along_x, along_y = _contact(part, self.shape.buffer(1e-4, join_style="mitre"))
+            x0, y0, x1, y1 = part.bounds
+            self._axes[key] = (1, y1 - y0) if along_x >= along_y else (0, x1 - x0)
+        return self._axes[key]
+
 
 #: Metres of corridor along a side that make a cell's piece a candidate for that side's
 #: strip (a corner cell on two corridors goes with the strip its neighbours form).
 CORNER_CONTACT = 1.0
+#: Metres a corner room's wall runs along the corridor beyond a door and its clearances.
+CORNER_MARGIN = 0.1
 #: Grids tried around the rooms' pitch for one that lets every cell reach an exit.
 MESH_TRIES = 60
 #: The share of the floor the corridors are expected to take when the rooms' sizes are
@@ -114,6 +149,24 @@ def room_pitch(problem: Problem, width: float) -> tuple[float, float]:
     return (min(MAX_PITCH, max(MIN_PITCH, px)), min(MAX_PITCH, max(MIN_PITCH, py)))
 
 
+def grid_anchors(problem: Problem, corridors: Corridors) -> list[tuple[float, float]]:
+    """The points the grid's lines run through: the exits first (the lines run from the
+    first one inside the floor), then two opposite corners of each obstacle an exit lies
+    on (a stair or lift core), so that the core's sides are grid lines where the cells
+    allow. Otherwise a core cut cells so that two beside it kept two sides each, each
+    facing an active edge across its neighbour (too close), and neither the start's
+    repair nor SCIP found a network (office-72-core). The sides of every obstacle
+    (mall-140's atria and stairs too) changed mall-140's grid and cost it 8-11 rooms'
+    doors (bench/NOTES.md, "Corridors")."""
+    corners: list[tuple[float, float]] = []
+    for obstacle in problem.obstacles:
+        box = obstacle.to_box()
+        if any(box.exterior.distance(Point(e)) <= EXIT_TOLERANCE for e in corridors.exits):
+            x0, y0, x1, y1 = box.bounds
+            corners += [(x0, y0), (x1, y1)]
+    return [*corridors.exits, *corners]
+
+
 def walkable_pitch(
     problem: Problem, corridors: Corridors, pitch: tuple[float, float]
 ) -> tuple[tuple[float, float], float]:
@@ -135,7 +188,7 @@ def walkable_pitch(
     )
     for sx, sy, thin in tries[:MESH_TRIES]:
         trial = (pitch[0] * sx, pitch[1] * sy)
-        mesh = grid_mesh(free, trial, anchors=corridors.exits, thinnest=thin)
+        mesh = grid_mesh(free, trial, anchors=grid_anchors(problem, corridors), thinnest=thin)
         if _walkable(mesh, corridors.exits, cap):
             return trial, thin
     return pitch, 0.5
@@ -161,11 +214,23 @@ def network_spec(
     """The IP for this floor: exits as sinks joined into one network, every cell along
     the network (a room in it opens onto a corridor), no corridors a cell
     apart, the travel cap less half a corridor (a door is on the corridor's side), the
-    dead-end cap less half a corridor (the corridor runs on past its last vertex)."""
+    dead-end cap less half a corridor (the corridor runs on past its last vertex), each
+    route as a pair of Eq. 7-8 between the grid vertices nearest its points, its walk
+    limit less the straight legs from the points to them.
+    The cells in the floor's outer corners need no corridor on a side of their own
+    (`_floor_corner`)."""
     free = problem.free_area()
-    mesh = grid_mesh(free, pitch, anchors=corridors.exits, thinnest=thinnest)
+    mesh = grid_mesh(free, pitch, anchors=grid_anchors(problem, corridors), thinnest=thinnest)
+    mesh = replace(mesh, faces=[f for f in mesh.faces if not _floor_corner(mesh, f, free)])
     sinks = tuple(dict.fromkeys(mesh.nearest(e) for e in corridors.exits))
     half = corridors.width / 2
+    pairs, limits = [], []
+    for route in corridors.routes:
+        ends = [_route_vertex(mesh, p) for p in route.between]
+        pairs.append((ends[0], ends[1]))
+        # The walk from each point to its grid vertex comes off the limit.
+        legs = sum(math.dist(p, mesh.points[v]) for p, v in zip(route.between, ends, strict=True))
+        limits.append(None if route.max_walk is None else route.max_walk - legs)
     return NetworkSpec(
         mesh,
         sinks,
@@ -179,7 +244,59 @@ def network_spec(
         # Per mesh edge: equal weights then trade a metre of corridor against a metre of
         # mean walk, whatever the floor's size.
         lambda_distance=corridors.weights.travel / max(1, len(mesh.edges)),
+        point_pairs=tuple(pairs),
+        pair_lengths=tuple(limits),
     )
+
+
+def _route_vertex(mesh: Mesh, point: tuple[float, float]) -> int:
+    """The grid vertex a route's point is planned from: the nearest inside the floor
+    (two or more edges), as a corridor ending on the outline is a dead end; on a 30 x
+    12 m floor a route snapped to outline vertices could only be a pair of 6 m stubs
+    over the dead-end cap, and the IP was infeasible."""
+    incident = mesh.incident()
+    inner = [v for v in range(len(mesh.points)) if len(incident[v]) >= 2]
+    if not inner:
+        return mesh.nearest(point)
+    return min(inner, key=lambda v: math.dist(mesh.points[v], point))
+
+
+def _floor_corner(mesh: Mesh, sides: Sequence[int], free: BaseGeometry) -> bool:
+    """Whether the cell of `sides` sits in a corner of the floor's outline: two of its
+    sides are mesh edges meeting inside the floor, the other two lie along the outline
+    (not an obstacle). Covering such a cell took a corridor stub to the wall on each of
+    office-154's four corners (a dead end, 32 m2, 1.6 % of the floor); without one the
+    cell's piece and the end of a strip beside it make the place of one room with a
+    door past the corridor's end (`_corner_strip`; bench/NOTES.md, "Corridors")."""
+    if len(sides) != 2:
+        return False
+    (a, b), (c, d) = (mesh.edges[x] for x in sides)
+    inner = {a, b} & {c, d}
+    if len(inner) != 1:
+        return False
+    v = inner.pop()
+    p, q, o = mesh.points[a + b - v], mesh.points[c + d - v], mesh.points[v]
+    corner = (p[0] + q[0] - o[0], p[1] + q[1] - o[1])
+    if not isinstance(free, Polygon):
+        return False
+    wall = free.exterior
+    return all(
+        wall.distance(LineString([corner, end])) <= 1e-6 for end in (p, q)
+    )
+
+
+def _corner_points(free: BaseGeometry) -> list[tuple[float, float]]:
+    """The convex corners of the free floor's outline: where a cell may have two sides
+    along the outline and no corridor of its own (`_floor_corner`)."""
+    if not isinstance(free, Polygon):
+        return []
+    ring = list(orient(free, 1.0).exterior.coords)[:-1]
+    out = []
+    for k, (x, y) in enumerate(ring):
+        (ax, ay), (bx, by) = ring[k - 1], ring[(k + 1) % len(ring)]
+        if (x - ax) * (by - y) - (y - ay) * (bx - x) > 1e-9:
+            out.append((float(x), float(y)))
+    return out
 
 
 def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> CorridorPlan | None:
@@ -190,20 +307,29 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     pitch, thinnest = walkable_pitch(problem, corridors, room_pitch(problem, corridors.width))
     spec = network_spec(problem, corridors, pitch, thinnest)
     seconds = min(NETWORK_SECONDS, time_limit * NETWORK_SHARE)
-    result = solve_network(spec, time_limit=seconds, seed=seed)
+    try:
+        result = solve_network(spec, time_limit=seconds, seed=seed)
+    except ValueError:  # a route no grid path of its length joins (Eq. 7-8)
+        return None
     if not result.found:
         return None
     free = problem.free_area()
     shape = clean_shape(cell_polygon(spec.mesh, result.edges, corridors.width, free))
     blocks: dict[str, Polygon] = {}
     narrow: list[BaseGeometry] = []
+    singles: list[Polygon] = []
+    half = corridors.width / 2
+    corner = CornerRoom(problem.openings.door_width + 2 * CORNER_CLEARANCE + CORNER_MARGIN,
+                        (spec.mesh.pitch[0] - half, spec.mesh.pitch[1] - half),
+                        tuple(_corner_points(free)))
     for piece in polygon_pieces(clean_shape(free.difference(shape))):
         if piece.area <= SLIVER_AREA:
             continue
         if piece.buffer(-NARROWEST_PART / 2 + 1e-6, join_style="mitre").is_empty:
             narrow.append(piece)  # too thin for a room: corridor floor
         else:
-            strips, floor = _strips(piece, spec.mesh, shape, NARROWEST_PART)
+            strips, floor = _strips(piece, spec.mesh, shape, NARROWEST_PART,
+                                    corner=corner, singles=singles)
             narrow += floor
             for strip in strips:
                 blocks[f"block-{len(blocks) + 1}"] = strip
@@ -211,11 +337,13 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     pieces = aisle_pieces([shape], free, blocks)
     network = AisleNetwork(pieces, {b: [p] for b, p in blocks.items()})
     depth = max(spec.mesh.pitch) - corridors.width / 2
-    return CorridorPlan(spec.mesh, spec.sinks, result, shape, blocks, network, depth)
+    return CorridorPlan(spec.mesh, spec.sinks, result, shape, blocks, network, depth,
+                        frozenset(p.wkb for p in singles))
 
 
 def _strips(
-    block: Polygon, mesh: Mesh, corridors: BaseGeometry, narrowest: float
+    block: Polygon, mesh: Mesh, corridors: BaseGeometry, narrowest: float,
+    corner: CornerRoom | None = None, singles: list[Polygon] | None = None,
 ) -> tuple[list[Polygon], list[Polygon]]:
     """A block cut into strips one cell deep along its corridors, so one row of rooms
     laid out in a strip opens onto its corridor: the block's pieces in each grid cell,
@@ -228,7 +356,10 @@ def _strips(
     than `narrowest` metres) are corridor floor where they touch a corridor (returned
     second), else left out (slicing made a 0.25 m lip above mall-140's stairs a room of
     its own). Cutting a whole block one way cut an L-shaped block (a column along a wall
-    joined to a row) across its column's rooms."""
+    joined to a row) across its column's rooms. With `corner` and `singles`, a piece in
+    a floor's corner that touches no corridor takes the end of a strip beside it past
+    the corridor's end, as a strip of one room (`_corner_strip`), appended to `singles`
+    as well."""
     grown = corridors.buffer(1e-4, join_style="mitre")
     x0, y0, x1, y1 = block.bounds
     xs = [x for x in mesh.xs if x0 + 1e-6 < x < x1 - 1e-6]
@@ -246,7 +377,8 @@ def _strips(
             for sliver in polygon_pieces(clean_shape(cell.difference(opened))):
                 if sliver.area > SLIVER_AREA and sliver.intersects(grown):
                     floor.append(sliver)
-            for piece in polygon_pieces(clean_shape(opened)):
+            for piece in (q for whole in polygon_pieces(clean_shape(opened))
+                          for q in _at_corridor_end(whole, grown, corridors, corner)):
                 if piece.area <= SLIVER_AREA:
                     continue
                 along_x, along_y = _contact(piece, grown)
@@ -277,10 +409,104 @@ def _strips(
     thin = [p for p in out if p.buffer(-NARROWEST_PART / 2 + 1e-6, join_style="mitre").is_empty]
     out = [p for p in out if not any(p is t for t in thin)] or out
     for piece in [*loose, *(t for t in thin if not any(t is p for p in out))]:
+        taken = None if corner is None else _corner_strip(piece, out, grown, corner)
+        if taken is not None and singles is not None:
+            k, rest, strip = taken
+            out[k] = rest
+            out.append(strip)
+            singles.append(strip)
+            continue
         k = max(range(len(out)), key=lambda k: out[k].intersection(piece.buffer(1e-4)).area)
         joined = polygon_pieces(clean_shape(shapely.union_all([out[k], piece])))
         out[k] = max(joined, key=lambda p: p.area)
     return out, floor
+
+
+@dataclass(frozen=True)
+class CornerRoom:
+    """What a room in a floor's corner needs (`_corner_strip`): `reach` metres of wall
+    on the corridor (a door and its clearances), and the room's planned size."""
+
+    reach: float
+    size: tuple[float, float]
+    #: The free floor's convex corners (`_corner_points`).
+    corners: tuple[tuple[float, float], ...] = ()
+
+
+def _corner_strip(
+    piece: Polygon, strips: list[Polygon], grown: BaseGeometry, corner: CornerRoom
+) -> tuple[int, Polygon, Polygon] | None:
+    """For a piece in a floor's corner with no corridor of its own (`_floor_corner`):
+    of the strips beside it whose corridor ends level with it, the one whose end up to
+    `corner.reach` past the corridor's end makes with the piece a room's place nearest
+    `corner.size`; that strip's index, the strip less its end, and the piece with that
+    end. None when no strip beside it serves.
+    Joined to a whole strip, the corner's room was sliced off the corridor (office-154
+    and mall-140 lost a room's door in each corner; bench/NOTES.md, "Corridors")."""
+    best = None
+    reach = corner.reach
+    for k, strip in enumerate(strips):
+        shared = strip.intersection(piece.buffer(1e-4, join_style="mitre")).area
+        if shared <= 1e-6:
+            continue
+        contact = strip.boundary.intersection(grown)
+        if contact.is_empty:
+            continue
+        c0, d0, c1, d1 = contact.bounds
+        x0, y0, x1, y1 = strip.bounds
+        px0, py0, px1, py1 = piece.bounds
+        if c1 - c0 >= d1 - d0:  # a row on a corridor along x
+            if px1 <= c0 + 1e-6:
+                cut = shapely.box(x0 - 1, y0 - 1, c0 + reach, y1 + 1)
+            elif px0 >= c1 - 1e-6:
+                cut = shapely.box(c1 - reach, y0 - 1, x1 + 1, y1 + 1)
+            else:
+                continue
+        elif py1 <= d0 + 1e-6:
+            cut = shapely.box(x0 - 1, y0 - 1, x1 + 1, d0 + reach)
+        elif py0 >= d1 - 1e-6:
+            cut = shapely.box(x0 - 1, d1 - reach, x1 + 1, y1 + 1)
+        else:
+            continue
+        end = clean_shape(strip.intersection(cut))
+        rest = polygon_pieces(clean_shape(strip.difference(cut)))
+        joined = polygon_pieces(clean_shape(shapely.union_all([end, piece])))
+        if len(rest) != 1 or len(joined) != 1 or rest[0].area < 2 * end.area:
+            continue
+        jx0, jy0, jx1, jy1 = joined[0].bounds
+        misfit = (jx1 - jx0 - corner.size[0]) ** 2 + (jy1 - jy0 - corner.size[1]) ** 2
+        if best is None or misfit < best[0]:
+            best = (misfit, k, rest[0], joined[0])
+    return None if best is None else best[1:]
+
+
+def _at_corridor_end(piece: Polygon, grown: BaseGeometry, corridors: BaseGeometry,
+                     corner: CornerRoom | None) -> list[Polygon]:
+    """`piece` cut along the corridors' sides that end inside it, when it holds a corner
+    of the floor (`corner.corners`) and touches the corridors for less than
+    `CORNER_CONTACT` either way: a cell in a floor's corner (no corridor
+    of its own, `_floor_corner`) wraps round a corridor's end, and sliced whole it gave a
+    0.9 m room beside that end; cut, its part level with the corridor joins the column
+    along the cross corridor, the rest the row (bench/NOTES.md, "Corridors")."""
+    if corner is None or not any(
+        piece.distance(shapely.Point(c)) <= 1e-6 for c in corner.corners
+    ):
+        return [piece]
+    along_x, along_y = _contact(piece, grown)
+    if max(along_x, along_y) >= CORNER_CONTACT:
+        return [piece]
+    x0, y0, x1, y1 = piece.bounds
+    near = corridors.intersection(shapely.box(x0 - 1e-3, y0 - 1e-3, x1 + 1e-3, y1 + 1e-3))
+    points = shapely.get_coordinates(near)
+    xs = sorted({round(x, 9) for x, _ in points if x0 + 1e-6 < x < x1 - 1e-6})
+    ys = sorted({round(y, 9) for _, y in points if y0 + 1e-6 < y < y1 - 1e-6})
+    if not xs and not ys:
+        return [piece]
+    out = []
+    for a, b in itertools.pairwise([x0, *xs, x1]):
+        for c, d in itertools.pairwise([y0, *ys, y1]):
+            out += polygon_pieces(clean_shape(piece.intersection(shapely.box(a, c, b, d))))
+    return out
 
 
 def _contact(piece: Polygon, grown: BaseGeometry) -> tuple[float, float]:

@@ -87,12 +87,19 @@ def _on_edge(sub: object, building: object) -> bool:
 
 
 def assign_to_parts(problem: Problem, rooms: Sequence[Room], parts: Sequence[Polygon],
-                    capacity: Callable[[Polygon], float] | None = None) -> list[list[Room]]:
+                    capacity: Callable[[Polygon], float] | None = None,
+                    fit: Callable[[Polygon, Room], float] | None = None,
+                    most: Callable[[Polygon], int | None] | None = None) -> list[list[Room]]:
     """Share out `rooms` among region parts in proportion to their area (or
     `capacity`, the floor a part can give its rooms): units of rooms
     joined by adjacencies stay together; units with a guide point go to the part holding
     it (else the nearest), then the others, largest first, to the part with the most area
-    left, among those touching an exterior wall the unit asks for when there are any."""
+    left, among those touching an exterior wall the unit asks for when there are any.
+    With `fit` (how badly a room's target suits a part, 0 at best), a unit goes to the
+    part it fits best among those with its area left, the most area left breaking ties.
+    With `most` (the most rooms a part may take, None: any), a part that has them is
+    passed over, and a part of one room is dealt the largest unit of one room that
+    fits its area first."""
     if len(parts) <= 1:
         return [list(rooms)] if parts else []
     typical = typical_area(problem)
@@ -110,18 +117,41 @@ def assign_to_parts(problem: Problem, rooms: Sequence[Room], parts: Sequence[Pol
     def area_of(unit: Sequence[Room]) -> float:
         return sum(room_area(r, typical) for r in unit)
 
+    limits = [most(p) if most is not None else None for p in parts]
+
+    def full(k: int) -> bool:
+        return limits[k] is not None and len(out[k]) >= limits[k]  # type: ignore[operator]
+
     pinned = [u for u in units if any(r.positions for r in u)]
+    for k, limit in enumerate(limits):
+        # A one-room part first gets the largest single room its floor holds.
+        if limit == 1:
+            taken = {id(r) for w in out for r in w}
+            lone = [u for u in units if len(u) == 1 and u not in pinned
+                    and area_of(u) <= free[k] and id(u[0]) not in taken]
+            if lone:
+                unit = max(lone, key=area_of)
+                out[k] += unit
+                free[k] -= area_of(unit)
     for unit in sorted(pinned, key=area_of, reverse=True):
         point = Point(next(q for r in unit for q in r.positions))
         k = min(range(len(parts)), key=lambda k: (parts[k].distance(point), -free[k]))
         out[k] += unit
         free[k] -= area_of(unit)
-    for unit in sorted((u for u in units if u not in pinned), key=area_of, reverse=True):
+    given = {id(r) for w in out for r in w}
+    for unit in sorted((u for u in units if u not in pinned and id(u[0]) not in given),
+                       key=area_of, reverse=True):
         named = [e for r in unit for e in edges_named(problem, edges, r.boundary)]
         facing = [k for k, p in enumerate(parts) if any(
             p.boundary.intersection(LineString([e.start, e.end])).length > 1e-3 for e in named)]
-        roomy = [k for k in facing if free[k] >= area_of(unit) / 2]
-        k = max(roomy or range(len(parts)), key=lambda k: free[k])
+        open_ = [k for k in range(len(parts)) if not full(k)] or list(range(len(parts)))
+        roomy = [k for k in facing if free[k] >= area_of(unit) / 2 and k in open_]
+        if fit is not None and not roomy:
+            fitting = [k for k in open_ if free[k] >= area_of(unit)]
+            k = min(fitting, key=lambda k: (sum(fit(parts[k], r) for r in unit), -free[k]),
+                    default=max(open_, key=lambda k: free[k]))
+        else:
+            k = max(roomy or open_, key=lambda k: free[k])
         out[k] += unit
         free[k] -= area_of(unit)
     return out
@@ -129,6 +159,8 @@ def assign_to_parts(problem: Problem, rooms: Sequence[Room], parts: Sequence[Pol
 
 def region_jobs(problem: Problem, region_ids: Sequence[str], given: Sequence[Region],
                 network: AisleNetwork, capacity: Callable[[Polygon], float] | None = None,
+                fit: Callable[[Polygon, Room], float] | None = None,
+                most: Callable[[Polygon], int | None] | None = None,
                 ) -> list[tuple[str, Polygon, list[Room]]]:
     """The room sub-problems: per region part, its rooms. The user's regions (`given`)
     keep their rooms, dealt over that region's own parts; an automatic partition is only
@@ -138,13 +170,15 @@ def region_jobs(problem: Problem, region_ids: Sequence[str], given: Sequence[Reg
     hold what they were dealt (`_dealt`)."""
     if problem.regions is None:
         parts = [(g, part) for g in region_ids for part in network.parts[g]]
-        return _dealt(problem, problem.rooms, parts, capacity)
+        return _dealt(problem, problem.rooms, parts, capacity, fit, most)
     return [job for g in given for job in _dealt(
         problem, [problem.room(r) for r in g.rooms], [(g.id, p) for p in network.parts[g.id]])]
 
 
 def _dealt(problem: Problem, rooms: Sequence[Room], parts: Sequence[tuple[str, Polygon]],
            capacity: Callable[[Polygon], float] | None = None,
+           fit: Callable[[Polygon, Room], float] | None = None,
+           most: Callable[[Polygon], int | None] | None = None,
            ) -> list[tuple[str, Polygon, list[Room]]]:
     """`rooms` dealt over `parts` (region id, part) by area (`assign_to_parts`); a part
     that cannot hold what it was dealt (`find_impossibilities`: too narrow for a room's
@@ -154,7 +188,7 @@ def _dealt(problem: Problem, rooms: Sequence[Room], parts: Sequence[tuple[str, P
     parts = list(parts)
     jobs: list[tuple[str, Polygon, list[Room]]] = []
     for _ in range(DEAL_ROUNDS):
-        dealt = assign_to_parts(problem, rooms, [p for _, p in parts], capacity)
+        dealt = assign_to_parts(problem, rooms, [p for _, p in parts], capacity, fit, most)
         jobs = [(g, part, dealt_rooms)
                 for (g, part), dealt_rooms in zip(parts, dealt, strict=True) if dealt_rooms]
         cannot = [k for k, (_, part, dealt_rooms) in enumerate(jobs)

@@ -177,7 +177,9 @@ def solve_regions(
             levels = laid.report.levels
         network = _aisles(problem, given, shapes, progress)
     jobs = region_jobs(problem, list(shapes), given, network,
-                       plan.capacity if plan is not None else None)
+                       plan.capacity if plan is not None else None,
+                       plan.fit if plan is not None else None,
+                       plan.most if plan is not None else None)
     placed: dict[str, list[Box]] = {}
     owner: dict[str, str] = {}
     left_rooms = len(problem.rooms)

@@ -329,3 +329,32 @@ def test_variants_pick_fix_rooms_edit_a_target_resolve_compare_and_undo(
     expect(page.locator("#locked-count")).to_have_text("3")
     page.click("#undo")  # and before the target's change
     expect(page.locator("#undo")).to_be_disabled()
+
+
+def test_corridors_their_exits_and_routes_are_drawn(page: Any, server: Server) -> None:
+    """A brief with `corridors`: its exits and route are drawn from the brief before any
+    solve; the result's corridors are drawn as covered floor, one shape per corridor of
+    the layout the API returns."""
+    brief = {
+        "name": "corridor-page",
+        "boundary": [[0, 0], [30, 0], [30, 12], [0, 12]],
+        "rooms": [{"id": f"o{k}", "type": "office", "target_size": [3.6, 3.2],
+                   "min_size": [2.0, 2.0]} for k in range(10)],
+        "corridors": {"exits": [[0, 6], [30, 6]], "width": 1.8, "max_travel": 30,
+                      "routes": [{"between": [[2, 2], [28, 10]]}]},
+    }
+    page.goto(server.url)
+    page.click("#json-view summary")
+    page.fill("#problem", json.dumps(brief))
+    plan = page.locator("#plan")
+    expect(plan.locator(".exit")).to_have_count(2)
+    expect(plan.locator(".route")).to_have_count(1)
+    page.fill("#time-limit", "20")
+    page.click("#submit")
+    expect(page.locator("#status")).to_have_text("succeeded", timeout=2 * JOB_TIMEOUT_MS)
+    expect(plan).to_have_attribute("data-source", "result")
+    listed = httpx.get(f"{server.url}/v1/layouts", timeout=10).json()["data"]
+    layout = httpx.get(f"{server.url}/v1/layouts/{listed[0]['id']}/result", timeout=10).json()
+    assert layout["corridors"]
+    expect(plan.locator(".corridor")).to_have_count(len(layout["corridors"]))
+    expect(plan.locator(".exit")).to_have_count(2)

@@ -256,3 +256,34 @@ def test_point_to_point_pairs_are_joined_by_a_short_path() -> None:
     joined = _solve(NetworkSpec(mesh, (sink,), point_pairs=((a, b),), **base))
     assert hops(joined) is not None and hops(joined) <= 4 + 2
     assert hops(free) is None or hops(free) > 4 + 2
+
+
+def _between(mesh: Mesh, edges: list[int], a: int, b: int) -> float:
+    """The shortest walk from a to b over `edges` (Bellman-Ford from a)."""
+    return _walk(mesh, edges, [a]).get(b, math.inf)
+
+
+def test_a_route_walk_limit_counts_only_paths_within_it() -> None:
+    """Eq. 7-8 with a walk limit (`pair_lengths`): a network joining the pair only by a
+    21 m detour (7 edges, within the fewest 5 + 2) holds the pair by edges alone but is
+    refused under a 15 m limit, by SCIP and by the judge alike; solved under the limit,
+    the network's own walk between the pair is within it; a limit below every path is
+    an error."""
+    from floorplan.solver.network.stochastic import judge_spec
+
+    mesh = _mesh(15, 12)
+    sink = _vertex(mesh, (0, 6))
+    a, b = _vertex(mesh, (3, 3)), _vertex(mesh, (12, 9))
+    detour = _edges_of(
+        mesh, (0, 6), (3, 6), (6, 6), (6, 3), (3, 3)
+    ) + _edges_of(mesh, (3, 6), (3, 9), (12, 9))
+    assert _between(mesh, detour, a, b) == pytest.approx(21.0)
+    by_hops = NetworkSpec(mesh, (sink,), point_pairs=((a, b),))
+    limited = NetworkSpec(mesh, (sink,), point_pairs=((a, b),), pair_lengths=(15.0,))
+    assert judge_spec(by_hops, detour).valid and not _refused(by_hops, detour)
+    assert not judge_spec(limited, detour).valid and _refused(limited, detour)
+    covered = NetworkSpec(mesh, (sink,), coverage=3.0 + 1e-6, point_pairs=((a, b),),
+                          pair_lengths=(15.0,))
+    assert _between(mesh, _solve(covered), a, b) <= 15.0 + 1e-6
+    with pytest.raises(ValueError, match="no path"):
+        build_network(NetworkSpec(mesh, (sink,), point_pairs=((a, b),), pair_lengths=(14.0,)))

@@ -23,6 +23,18 @@ def test_grid_lines_run_from_an_exit_inside_the_floor() -> None:
     assert any(math.dist(p, (7.0, 0.0)) < 1e-9 for p in mesh.points)
 
 
+def test_every_exit_gets_a_grid_line_where_the_cells_allow() -> None:
+    """Exits at x = 7 and x = 15.5 (a core's side) both lie on grid lines, and so do
+    their points (the sinks are the exits themselves); no cell is thinner than half a
+    pitch. With lines from the first exit only, x = 15.5 lay 1.5 m off every line."""
+    mesh = grid_mesh(box(0, 0, 20, 9), (3.0, 3.0), anchors=[(7.0, 0.0), (15.5, 9.0)])
+    for x in (7.0, 15.5):
+        assert any(abs(line - x) < 1e-9 for line in mesh.xs)
+    sizes = [b - a for a, b in itertools.pairwise(mesh.xs)]
+    assert all(1.5 - 1e-9 <= s <= 4.5 + 1e-9 for s in sizes)
+    assert any(math.dist(p, (15.5, 9.0)) < 1e-9 for p in mesh.points)
+
+
 def test_repair_makes_a_valid_network_from_the_whole_mesh() -> None:
     """From every edge active (every cell's opposite sides both on: too close) the
     toggles end at a network with no pair too close, every cell along it, both exits

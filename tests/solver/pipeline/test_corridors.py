@@ -96,3 +96,57 @@ def test_corridors_from_their_specification() -> None:
     check = {c.kind: c for c in layout.report.constraints}
     assert check["max_travel"].satisfied == (max(egress.travel.values()) <= 30.2)
     assert check["dead_ends"].satisfied == all(d <= 6.2 for d in egress.dead_ends)
+
+
+def _walk_between(corridors: Polygon, a: tuple[float, float], b: tuple[float, float]) -> float:
+    """Four-neighbour raster walk from the corridor cell nearest `a` to the one nearest
+    `b`, plus the straight legs onto them."""
+    x0, y0, x1, y1 = corridors.bounds
+    nx, ny = math.ceil((x1 - x0) / CELL), math.ceil((y1 - y0) / CELL)
+    gx, gy = np.meshgrid(
+        x0 + (np.arange(nx) + 0.5) * CELL, y0 + (np.arange(ny) + 0.5) * CELL, indexing="ij"
+    )
+    inside = shapely.contains_xy(corridors, gx, gy)
+    cells = np.argwhere(inside)
+
+    def nearest(p: tuple[float, float]) -> tuple[int, int, float]:
+        d = np.hypot(gx[inside] - p[0], gy[inside] - p[1])
+        k = int(np.argmin(d))
+        return int(cells[k][0]), int(cells[k][1]), float(d[k])
+
+    (ai, aj, leg_a), (bi, bj, leg_b) = nearest(a), nearest(b)
+    steps = np.full((nx, ny), -1)
+    steps[ai, aj] = 0
+    queue = deque([(ai, aj)])
+    while queue:
+        i, j = queue.popleft()
+        for p, q in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
+            if 0 <= p < nx and 0 <= q < ny and inside[p, q] and steps[p, q] < 0:
+                steps[p, q] = steps[i, j] + 1
+                queue.append((p, q))
+    if steps[bi, bj] < 0:
+        return math.inf
+    return float(steps[bi, bj]) * CELL + leg_a + leg_b
+
+
+@pytest.mark.slow
+def test_a_route_is_planned_measured_and_checked() -> None:
+    """`corridors.routes` (Eq. 7-8 with a walk limit): the report's walk between the
+    route's points agrees with a raster walk of our own over the corridor polygons,
+    and the `route` check says whether it is within `max_walk`."""
+    a, b = (1.0, 11.0), (29.0, 1.0)
+    data = _problem().model_dump(mode="json", exclude_none=True)
+    data["corridors"]["routes"] = [{"between": [list(a), list(b)], "max_walk": 44}]
+    layout: Layout = solve(Problem.model_validate(data))
+    assert layout.corridors
+    egress = layout.report.egress
+    assert egress is not None and len(egress.routes) == 1
+    union = shapely.union_all([Polygon(c.polygon) for c in layout.corridors])
+    mine = _walk_between(union, a, b)
+    reported = egress.routes[0]
+    assert reported is not None and math.isfinite(mine)
+    # The report walks eight neighbours, ours four: never shorter, at most sqrt(2) more.
+    assert reported <= mine + 0.5
+    assert mine <= reported * math.sqrt(2) + 1.0
+    (check,) = [c for c in layout.report.constraints if c.kind == "route"]
+    assert check.satisfied == (reported <= 44.2)

@@ -47,9 +47,20 @@ def submit_failed(problem: str, err: Exception) -> int:
 
 
 def summary_line(job: Job, layout: Layout) -> str:
-    """E.g. ``2 rooms  coverage 100.0%  termination optimal  valid yes  job 1f0c...``."""
+    """E.g. ``2 rooms  coverage 100.0%  termination optimal  valid yes  job 1f0c...``;
+    with corridors, what they take and how far people walk (``corridors 25.1%  longest
+    walk 42.3 m  routes 36.0 m``: each route's walk, ``none`` where no corridor joins
+    its points)."""
     r = layout.report
-    return (f"{len(layout.all_rooms)} rooms  coverage {r.coverage:.1%}  "
+    egress = ""
+    if r.egress is not None:
+        egress = f"corridors {r.egress.corridor_share:.1%}  "
+        if r.egress.max_travel is not None:
+            egress += f"longest walk {r.egress.max_travel:.1f} m  "
+        if r.egress.routes:
+            walks = ", ".join("none" if w is None else f"{w:.1f}" for w in r.egress.routes)
+            egress += f"routes {walks} m  "
+    return (f"{len(layout.all_rooms)} rooms  coverage {r.coverage:.1%}  {egress}"
             f"termination {r.termination.value}  valid {'yes' if r.valid else 'no'}  "
             f"job {job.id}")
 
