@@ -11,12 +11,8 @@ from shapely.geometry import LineString, box
 
 from floorplan.models import Problem, Room
 from floorplan.solver.network import Mesh, grid_mesh
-from floorplan.solver.pipeline.regions.corridors import (
-    CornerRoom,
-    _strips,
-    network_spec,
-    walkable_pitch,
-)
+from floorplan.solver.pipeline.regions.corridor_strips import CornerRoom, _strips
+from floorplan.solver.pipeline.regions.corridors import network_spec, walkable_pitch
 from floorplan.solver.pipeline.regions.parts import assign_to_parts
 
 
