@@ -1,5 +1,6 @@
 """Edits around fixed rooms (docs/problem.md, "Fixed rooms"): when most rooms of a brief
-are fixed, only the free ones are laid out, as one small sub-domain.
+are fixed, or some are and a previous layout is the start, only the free ones are laid
+out, as one small sub-domain.
 
 The pinned path (`solver.pipeline.fixed.pinned_problem`) keeps every fixed room a room
 of each MIQP and runs the whole pipeline (window schedule, neighbourhood search,
@@ -17,7 +18,10 @@ floor and SCIP stopped improving for a moment, or the gap closed; the skipped st
 leaves gaps goes through the hierarchy's refinement and its last gap absorption,
 restricted to the free rooms. The answer is checked against the whole problem
 (`solver.pipeline.fixed.fixed_layout`); when the edit finds no valid layout, the caller
-falls back on the pinned path, which also explains an infeasible edit.
+falls back on the pinned path, which also explains an infeasible edit. When that finds
+nothing either, the edit runs again as a last resort with all the time left
+(`solver.pipeline.fixed.last_edit`): it holds L-shaped fixed rooms whole, which the
+pinned path cannot.
 
 A `start` (room id -> rectangles, `Options.start`) warm-starts the free rooms: a room
 that was several rectangles gets as many (up to its allowance), and the start is
@@ -33,6 +37,7 @@ from dataclasses import dataclass, field, replace
 import shapely
 
 from floorplan.models import Problem, Termination
+from floorplan.solver.budget import stall_window
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import Box, Domain, boundary_edges, rectangles_of
 from floorplan.solver.heuristics.level_one import (
@@ -74,6 +79,9 @@ START_SHARE = 0.25
 STALL_SECONDS = 0.15
 #: ... or as soon as its own gap (primal - dual over |primal|, at least 1) is this small.
 EDIT_GAP = 0.02
+#: A search that found layouts leaving gaps ends this long after its last better one
+#: at the earliest (`EditStop`).
+UNCOVERED_STALL = 1.0
 #: A start's rectangle narrower than this (metres) is no arm of its room: a sliver.
 START_ARM = 0.5
 #: Marks the name of a fixed room's rectangle in the edit's MIQP.
@@ -83,7 +91,10 @@ FIXED_MARK = "~fixed"
 @dataclass
 class EditStop:
     """When the edit's SCIP search is good enough: the free rooms cover `goal` of their
-    floor and the search stalled for `STALL_SECONDS`, or its gap closed to `EDIT_GAP`."""
+    floor and the search stalled for `STALL_SECONDS`, or its gap closed to `EDIT_GAP`.
+    A search whose layouts leave gaps (the hierarchy fills them) ends when it has not
+    improved for `solver.budget.stall_window` of its time and `UNCOVERED_STALL` seconds:
+    only a long search (the last resort's) gets there."""
 
     domain: Domain
     free: frozenset[str]
@@ -92,25 +103,34 @@ class EditStop:
     covered_at: float | None = None
     improved_at: float = field(default_factory=time.monotonic)
     gap: float = float("inf")
+    began: float = field(default_factory=time.monotonic)
+    found: bool = False
 
     def incumbent(self, found: Incumbent) -> None:
         now = time.monotonic()
         self.improved_at = now
+        self.found = True
         rooms = {n: [b] for n, b in found.rects.items() if FIXED_MARK not in n}
         if self.covered_at is None and covered(self.domain, rooms) >= self.goal:
             self.covered_at = now
         self.gap = (found.objective - found.dual_bound) / max(abs(found.objective), 1.0)
 
     def __call__(self) -> bool:
+        now = time.monotonic()
         if self.covered_at is None:
-            return False
-        return self.gap <= EDIT_GAP or time.monotonic() - self.improved_at >= STALL_SECONDS
+            return self.found and now - self.improved_at >= max(
+                UNCOVERED_STALL, stall_window(self.improved_at - self.began))
+        return self.gap <= EDIT_GAP or now - self.improved_at >= STALL_SECONDS
 
 
 def edit_applies(problem: Problem) -> bool:
-    """Whether `problem` (one floor) has most of its rooms fixed, and some free."""
+    """Whether `problem` (one floor) is an edit: some rooms free, and most of them fixed
+    or some fixed with a previous layout as `options.start` (an edit of that layout,
+    whose kept rooms the pinned path would hold by their largest rectangles only)."""
     fixed = sum(room.fixed is not None for room in problem.rooms)
-    return fixed < len(problem.rooms) and fixed >= EDIT_SHARE * len(problem.rooms)
+    if not 0 < fixed < len(problem.rooms):
+        return False
+    return fixed >= EDIT_SHARE * len(problem.rooms) or problem.options.start is not None
 
 
 def edit_domain(problem: Problem, fixed: Mapping[str, list[Box]]) -> Domain | None:
@@ -200,12 +220,15 @@ def solve_edit(
     start: Mapping[str, list[Box]] | None = None,
     on_event: EventSink | None = None,
     should_stop: StopFlag | None = None,
+    seconds: float = EDIT_SECONDS,
 ) -> EditResult:
     """Lay out the free rooms of `problem` around the `fixed` rooms' rectangles, by
     `deadline` (monotonic): one MIQP of the free rooms, stopped when good enough, then
     the hierarchy's refinement and gap absorption when it leaves gaps. A room that
     cannot be one rectangle in what the fixed rooms leave gets wings: the shapes of
-    `start`, then an L for every free room, then up to a T (`wing_plans`)."""
+    `start`, then an L for every free room, then up to a T (`wing_plans`). The MIQPs
+    take `seconds` at most (the hierarchy after them `EDIT_END_SECONDS -
+    EDIT_SECONDS` more): a quick first try, or all the time left as a last resort."""
     started = time.monotonic()
     demanded = connection_demands(problem)
     sub = free_problem(demanded)
@@ -216,17 +239,25 @@ def solve_edit(
     # cover exactly their polygons.
     allowed = domain.area - (1 - COVERAGE_GOAL - COVER_MARGIN) * problem.free_area().area
     start = {r: boxes for r, boxes in (start or {}).items() if r in {x.id for x in sub.rooms}}
-    end = min(deadline, started + EDIT_SECONDS)
+    end = min(deadline, started + seconds)
     run = Run(sub, end, started, _with_fixed(on_event, fixed), should_stop, asked=sub,
               end=end)
+    # The hierarchy after the MIQPs ends this much later.
+    refined = min(deadline, started + seconds + EDIT_END_SECONDS - EDIT_SECONDS)
     run.emit(Phase.LEVEL, detail=f"edit: {len(sub.rooms)} free room(s) around "
              f"{len(fixed)} fixed")
     best: tuple[float, EditResult] | None = None  # the most floor covered, and by what
     status = "no attempt"
-    for wings in wing_plans(sub, start):
-        if time.monotonic() >= end or run.stopped():
+    plans = wing_plans(sub, start)
+    for k, wings in enumerate(plans):
+        now = time.monotonic()
+        if now >= end or run.stopped():
             break
-        result = _attempt(run, demanded, sub, domain, fixed, wings, start, allowed, deadline)
+        # Each plan left gets its share of the time, at least `EDIT_SECONDS`: one MIQP
+        # that neither finds nor refutes a layout leaves the other shapes their turn.
+        run.deadline = min(end, now + max(EDIT_SECONDS, (end - now) / (len(plans) - k)))
+        result = _attempt(run, demanded, sub, domain, fixed, wings, start, allowed,
+                          max(refined, run.deadline))
         status = result.status
         if result.rooms is None:
             continue
@@ -255,9 +286,9 @@ def wing_plans(sub: Problem, start: Mapping[str, list[Box]]) -> list[dict[str, i
 
 def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
              fixed: Mapping[str, list[Box]], wings: dict[str, int],
-             start: Mapping[str, list[Box]], allowed: float, deadline: float) -> EditResult:
-    """One MIQP of the free rooms with `wings`, and the hierarchy after it when it
-    leaves more floor uncovered than `allowed`."""
+             start: Mapping[str, list[Box]], allowed: float, refined: float) -> EditResult:
+    """One MIQP of the free rooms with `wings`, and the hierarchy after it (until
+    `refined`, monotonic) when it leaves more floor uncovered than `allowed`."""
     run.wings = wings
     end = run.deadline
     rects = _start_rects(start, wings)
@@ -290,7 +321,7 @@ def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
     levels = 1
     if covered(domain, room_boxes(pieces)) < allowed:
         # Gaps: the hierarchy grows the free rooms into them, then the last absorption.
-        run.deadline = min(deadline, run.started + EDIT_END_SECONDS)
+        run.deadline = refined
         pieces, levels = refine(run, domain, pieces)
         pieces = absorb_gaps(sub, domain, pieces)
         run.deadline = end

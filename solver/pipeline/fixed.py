@@ -21,6 +21,8 @@ infeasibility report; its conflict names a fixed room by its polygon
 
 The search takes the time limit times the share of free rooms (at least
 `MIN_TIME_SHARE` of it): an edit of a plan with most rooms fixed comes back sooner.
+When the pinned problem finds no layout, the edit's MIQP (`solver.pipeline.edit`),
+which holds an L-shaped fixed room whole, gets the time left (`last_edit`).
 """
 
 from __future__ import annotations
@@ -129,6 +131,7 @@ def solve_fixed(
     if start is None:
         start = start_boxes(problem)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
+    until = started + limit
     if edit_applies(problem):
         kept = start_layout(problem, start, started)
         if kept is not None and time.monotonic() >= started + limit:
@@ -165,6 +168,11 @@ def solve_fixed(
     share = max(1 - len(fixed) / len(problem.rooms), MIN_TIME_SHARE)
     pinned = pinned_problem(problem).with_options(time_limit=max(limit * share, MIN_SECONDS))
     layout = solve(pinned, on_event=on_event, should_stop=should_stop, subdomains=subdomains)
+    shaped = [r for r, boxes in fixed_boxes(problem).items() if len(boxes) > 1]
+    if not layout.rooms and (shaped or layout.report.termination is not Termination.INFEASIBLE):
+        edited = last_edit(problem, start, until, started, on_event, should_stop)
+        if edited is not None:
+            return edited
     if not layout.rooms:
         why = layout.report.infeasibility
         termination = layout.report.termination
@@ -173,7 +181,6 @@ def solve_fixed(
                 "reason": f"{why.reason} (rooms fixed: {', '.join(fixed)}; each is held "
                 "at its fixed polygon, by its size and two opposite corners)",
                 "conflict": fixed_conflict(problem, why.conflict)})
-        shaped = [r for r, boxes in fixed_boxes(problem).items() if len(boxes) > 1]
         if termination is Termination.INFEASIBLE and shaped and why is not None and not (
                 why.findings):
             # Held by its largest rectangle, an L-shaped fixed room offers its neighbours
@@ -184,6 +191,29 @@ def solve_fixed(
         return layout.model_copy(update={"report": layout.report.model_copy(
             update={"infeasibility": why, "termination": termination})})
     return relaid(problem, layout)
+
+
+def last_edit(problem: Problem, start: Mapping[str, list[Box]], until: float, started: float,
+              on_event: EventSink | None, should_stop: StopFlag | None) -> Layout | None:
+    """The pinned path found no layout (unproved, or proved only for fixed rooms held
+    by their largest rectangles): the edit's MIQP, which holds each fixed room whole,
+    with all the time left until `until` (monotonic). Its layout when valid, else None."""
+    if time.monotonic() >= until or (should_stop is not None and should_stop()):
+        return None
+    _told(on_event, started, "edit: the whole pipeline found no layout; the free rooms "
+          "alone around the fixed ones, in the time left")
+    result = solve_edit(problem, fixed_boxes(problem), deadline=until, start=start,
+                        on_event=on_event, should_stop=should_stop,
+                        seconds=until - time.monotonic())
+    if result.rooms is None:
+        return None
+    report = Report(coverage=0.0, uncovered_area=0.0, levels=result.levels,
+                    termination=result.termination, valid=True)
+    layout = fixed_layout(problem, result.rooms, report, started)
+    if not layout.report.valid:
+        return None
+    _done(on_event, layout, started)
+    return layout
 
 
 def start_layout(problem: Problem, start: Mapping[str, list[Box]],
