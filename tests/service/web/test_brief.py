@@ -317,15 +317,10 @@ def test_an_edit_moves_only_rooms_touching_it_and_undo_redo_restore_everything(
     # The edit's end, after the page's one retry with more rooms free if need be.
     expect(page.locator("#edit-note")).to_contain_text(
         re.compile("rooms changed|This edit found no layout"), timeout=400_000)
-    if example == "house-13" and "This edit found no layout" in page.inner_text("#edit-note"):
-        # Seen under load (three test processes on two cores): the re-solve around the
-        # kept rooms found no layout within its limit (issue 46's closing note). The page
-        # says so, and Undo takes the size change back.
-        expect(page.locator("#compare")).to_be_hidden()
-        while page.locator("#undo").is_enabled():
-            page.click("#undo")
-        assert page.input_value("#problem") == brief_before
-        return
+    # The edit finds a layout: when the quick edit and the pinned path find none, the
+    # edit's MIQP gets the time left (tests/solver/pipeline/test_edit.py has layouts
+    # where that was needed).
+    assert "This edit found no layout" not in page.inner_text("#edit-note")
     expect(page.locator("#compare")).to_be_visible()
     expect(page.locator("#status")).to_have_text("succeeded")
     after = layout_json(page)
@@ -382,8 +377,6 @@ def test_a_templated_brief_edits_like_a_plain_one(page: Any, server: Server) -> 
     page.fill("#target-width", f"{width + 0.3:.2f}")
     page.click("#apply-target")
     page.click("#resolve")
-    # What this test is about is the brief the page sends for a templated brief; whether
-    # the edit finds a layout with the rooms it keeps is the other edit test's.
     # The edit's end, after the page's one retry with more rooms free if need be.
     expect(page.locator("#edit-note")).to_contain_text(
         re.compile("rooms changed|This edit found no layout"), timeout=400_000)
@@ -393,8 +386,7 @@ def test_a_templated_brief_edits_like_a_plain_one(page: Any, server: Server) -> 
     assert "living" in fixed and "kitchen" not in fixed, fixed
     kitchen = next(r for r in sent["rooms"] if r["id"] == "kitchen")
     assert kitchen["target_size"][0] == pytest.approx(width + 0.3, abs=0.01)
-    if "This edit found no layout" in page.inner_text("#edit-note"):
-        return  # said so, with what to try: the plan before stays, to undo to
+    assert "This edit found no layout" not in page.inner_text("#edit-note")
     expect(page.locator("#compare")).to_be_visible()
     expect(page.locator("#status")).to_have_text("succeeded")
     living = page.locator("#plan .room[data-room='living']")
