@@ -27,7 +27,10 @@ import httpx2 as httpx
 from playwright.sync_api import expect, sync_playwright
 from shapely.geometry import Polygon
 
-CHROMIUM = "/usr/bin/chromium"
+# The page's helpers shared with its browser tests (tests/browser.py).
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from tests.browser import CHROMIUM, click_plan
+
 ROWS = "[data-testid=room-row]"
 SOLVE_TIMEOUT_MS = 300_000
 
@@ -57,19 +60,6 @@ def serve(data_dir: Path) -> tuple[subprocess.Popen[bytes], str]:
         time.sleep(0.2)
     process.terminate()
     raise SystemExit("the server did not become ready")
-
-
-def click_plan(tab: Any, x: float, y: float) -> None:
-    """A click on the plan at (x, y) metres, y north."""
-    tab.locator("#plan").scroll_into_view_if_needed()
-    at = tab.evaluate("""([x, y]) => {
-      const svg = document.getElementById("plan");
-      const p = svg.createSVGPoint();
-      p.x = x; p.y = -y;
-      const s = p.matrixTransform(svg.getScreenCTM());
-      return [s.x, s.y];
-    }""", [x, y])
-    tab.mouse.click(*at)
 
 
 def solve(tab: Any) -> None:
@@ -183,7 +173,7 @@ def main() -> None:
         process, url = serve(Path(data))
         try:
             with sync_playwright() as playwright:
-                browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True)
+                browser = playwright.chromium.launch(executable_path=str(CHROMIUM), headless=True)
                 try:
                     context = browser.new_context(viewport={"width": 1280, "height": 860},
                                                   accept_downloads=True)

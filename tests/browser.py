@@ -42,3 +42,17 @@ def headless_chromium() -> Iterator[Any]:
             yield chromium
         finally:
             chromium.close()
+
+
+def click_plan(tab: Any, x: float, y: float) -> None:
+    """Clicks the web page's plan at the point (x, y) in metres (y north), through the
+    drawing's own transform (the browser tests and scripts/web_screenshots.py)."""
+    tab.locator("#plan").scroll_into_view_if_needed()
+    at = tab.evaluate("""([x, y]) => {
+      const svg = document.getElementById("plan");
+      const p = svg.createSVGPoint();
+      p.x = x; p.y = -y;
+      const s = p.matrixTransform(svg.getScreenCTM());
+      return [s.x, s.y];
+    }""", [x, y])
+    tab.mouse.click(*at)

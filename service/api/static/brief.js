@@ -63,7 +63,8 @@ function fillForm(brief) {
   $("outline-depth").value = outline.d ?? "";
   $("cut-width").value = outline.cx ?? "";
   $("cut-depth").value = outline.cy ?? "";
-  $("entrance-side").value = sideOf(brief.entrance, brief.boundary) || "";
+  $("north").value = String(brief.north ?? 0);
+  $("entrance-side").value = sideOf(brief.entrance, brief.boundary, brief.north) || "";
   $("use-template").checked = Boolean(brief.template);
   showShape();
   fillObstacles(brief.obstacles, formChanged);
@@ -229,9 +230,18 @@ function outlineOfForm() {
   return outlineOf(shape, w, d, Number($("cut-width").value) || cx, Number($("cut-depth").value) || cy);
 }
 
-function entranceOfForm(side, boundary) {
+function entranceOfForm(side, boundary, north) {
   if (side === "custom") return state.brief?.entrance;
-  return entranceOf(side, boundary);
+  return entranceOf(side, boundary, north);
+}
+
+/** The north field as the brief's `north`: a number (0 left out, as the default), or
+ * the text as typed for the service to refuse, naming the field. */
+function northOfForm() {
+  const text = $("north").value.trim();
+  if (text === "") return undefined;
+  const north = Number(text);
+  return Number.isFinite(north) ? north : text;
 }
 
 /** The brief as the form has it, over the last brief (its other fields kept). */
@@ -239,7 +249,10 @@ function briefOfForm() {
   const brief = { ...(state.brief ?? {}) };
   brief.boundary = outlineOfForm();
   if (!brief.boundary) delete brief.boundary;
-  const entrance = entranceOfForm($("entrance-side").value, brief.boundary);
+  const north = northOfForm();
+  if (north) brief.north = north;
+  else delete brief.north;
+  const entrance = entranceOfForm($("entrance-side").value, brief.boundary, brief.north);
   if (entrance) brief.entrance = entrance;
   else delete brief.entrance;
   if ($("use-template").checked) brief.template = "residential";
@@ -362,9 +375,10 @@ function placeOf(error) {
     return { box: obstacle.querySelector(".field-errors"), input,
              label: input ? input.closest("label").firstChild.textContent : "Obstacle" };
   }
-  if (path[0] === "boundary" || path[0] === "entrance") {
-    return { box: $("outline-errors"), input: $(path[0] === "boundary" ? "outline-width" : "entrance-side"),
-             label: path[0] === "boundary" ? "Outline" : "Entrance" };
+  if (path[0] === "boundary" || path[0] === "entrance" || path[0] === "north") {
+    const [input, label] = { boundary: ["outline-width", "Outline"],
+                             entrance: ["entrance-side", "Entrance"], north: ["north", "North"] }[path[0]];
+    return { box: $("outline-errors"), input: $(input), label };
   }
   return null;
 }

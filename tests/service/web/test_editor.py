@@ -12,6 +12,7 @@ from typing import Any
 
 import pytest
 
+from tests.browser import click_plan
 from tests.servers import Server
 from tests.service.web.conftest import expect, screenshot
 
@@ -20,20 +21,6 @@ ROWS = "[data-testid=room-row]"
 
 def brief(tab: Any) -> dict[str, Any]:
     return json.loads(tab.input_value("#problem"))
-
-
-def click_plan(tab: Any, x: float, y: float) -> None:
-    """Clicks the plan at the point (x, y) in metres (y north), through the drawing's own
-    transform."""
-    tab.locator("#plan").scroll_into_view_if_needed()
-    at = tab.evaluate("""([x, y]) => {
-      const svg = document.getElementById("plan");
-      const p = svg.createSVGPoint();
-      p.x = x; p.y = -y;
-      const s = p.matrixTransform(svg.getScreenCTM());
-      return [s.x, s.y];
-    }""", [x, y])
-    tab.mouse.click(*at)
 
 
 @pytest.mark.slow
@@ -140,3 +127,46 @@ def test_outlines_entrance_obstacles_drawing_and_the_adjacency_matrix_make_a_val
     assert brief(page)["boundary"] == [[0, 0], [6, 0], [6, 4], [0, 4]]
     expect(page.locator("[data-testid=outline-shape]")).to_have_value("rectangle")
     expect(page.locator("[data-testid=outline-width]")).to_have_value("6")
+
+
+@pytest.mark.slow
+def test_north_is_set_in_the_editor_turns_the_arrow_and_the_sides_and_is_checked(
+        page: Any, server: Server) -> None:
+    page.goto(server.url)
+    page.select_option("#example", "template:flat-6")
+    expect(page.locator(ROWS)).to_have_count(6)
+    page.select_option("[data-testid=outline-shape]", "rectangle")
+    page.fill("[data-testid=outline-width]", "10")
+    page.fill("[data-testid=outline-depth]", "8")
+    arrow = page.locator("#plan g.north")
+    expect(arrow).to_have_attribute("data-north", "0")
+    assert "north" not in brief(page)  # the default is left out
+    page.select_option("#entrance-side", "north")
+    assert brief(page)["entrance"] == [5, 8]
+
+    # North along the plan's +x: the brief says so, the arrow turns a quarter clockwise,
+    # and the entrance "in the middle of the north side" moves to the plan's east side.
+    page.fill("[data-testid=north]", "90")
+    assert brief(page)["north"] == 90
+    expect(arrow).to_have_attribute("data-north", "90")
+    assert (arrow.get_attribute("transform") or "").startswith("rotate(90 ")
+    assert brief(page)["entrance"] == [10, 4]
+    page.click("#validate")
+    expect(page.locator("#messages")).to_contain_text("No problem found")
+    page.reload()  # read back from the JSON view: the field and the side as they were
+    page.select_option("#example", "template:flat-6")
+    page.click("#json-view summary")
+    page.fill("#problem", json.dumps({**brief(page), "boundary": [[0, 0], [10, 0], [10, 8],
+                                      [0, 8]], "north": 90, "entrance": [10, 4]}))
+    expect(page.locator("[data-testid=north]")).to_have_value("90")
+    expect(page.locator("#entrance-side")).to_have_value("north")
+
+    # Out of a turn: refused as you type, on the field, saying what to write.
+    page.fill("[data-testid=north]", "400")
+    expect(page.locator("[data-testid=north]")).to_have_attribute("aria-invalid", "true",
+                                                                  timeout=10_000)
+    expect(page.locator("#outline-errors")).to_contain_text("360")
+    page.fill("[data-testid=north]", "330")
+    expect(page.locator("[data-testid=north]")).not_to_have_attribute("aria-invalid", "true",
+                                                                      timeout=10_000)
+    assert brief(page)["north"] == 330
