@@ -159,7 +159,7 @@ function addRow(room = {}, adjacency = []) {
   const next = adjacency.filter((a) => a.a === room.id && a.b).map((a) => a.b);
   field(row, "name", "Name", input("text", room.id, { placeholder: "from type", size: 8 }));
   field(row, "type", "Type", select(ROOM_TYPES.map((t) => [t, t]), room.type ?? "room"));
-  field(row, "area", "Target m²", input("number", area, { min: 0, step: "any", placeholder: "template" }));
+  field(row, "area", "Target m² or w x d", input("text", area, { placeholder: "template", size: 6 }));
   field(row, "min", "Min side m", input("text", sizeText(room.min_size), { placeholder: "template", size: 5 }));
   field(row, "max", "Max side m", input("text", sizeText(room.max_size), { placeholder: "template", size: 5 }));
   field(row, "next", "Next to", input("text", next.join(", "), { placeholder: "names", size: 10 }));
@@ -203,8 +203,9 @@ function roomOfRow({ row, room, area }) {
   const result = name ? { id: name } : {};
   Object.assign(result, out);
   result.type = value("type");
-  const typed = value("area");
+  const typed = value("area").trim();
   if (typed === "") delete result.target_size;
+  else if (/[x×*]|\d\s+\d/.test(typed)) result.target_size = parseSize(typed); // width x depth
   else if (Number(typed) !== area || !room.target_size) {
     const side = round(Math.sqrt(Number(typed)));
     result.target_size = [side, side]; // a square of that area; the template fits the shape
@@ -386,10 +387,25 @@ function placeOf(error) {
 /** Wires the form; `onChange(brief, origin)` after every change of the brief. */
 export function setupBrief(onChange) {
   state.onChange = onChange;
+  $("add-type").replaceChildren(...ROOM_TYPES.map((t) => new Option(t, t)));
+  $("add-type").value = "bedroom";
   $("add-room").addEventListener("click", () => {
-    const row = addRow({ type: "bedroom" });
+    // A programme line: that many rooms of that type; several are named type1, type2, ...
+    // (past the names taken), one is left to be named.
+    const type = $("add-type").value;
+    const count = Math.min(20, Math.max(1, Math.round(Number($("add-count").value) || 1)));
+    const taken = new Set(state.rows.map(({ row }) => nameOf(row)));
+    const rows = [];
+    for (let k = 1; rows.length < count; k++) {
+      if (count === 1) {
+        rows.push(addRow({ type }));
+      } else if (!taken.has(`${type}${k}`)) {
+        rows.push(addRow({ id: `${type}${k}`, type }));
+      }
+    }
+    $("add-count").value = "1";
     formChanged();
-    row.querySelector("[data-field='name']").focus();
+    rows[0].querySelector("[data-field='name']").focus();
   });
   $("add-obstacle").addEventListener("click", () => {
     // A metre square in the middle of the outline's box, to move and size from there.
@@ -401,7 +417,7 @@ export function setupBrief(onChange) {
     row.querySelector("input").focus();
   });
   $("brief-form").addEventListener("input", (event) => {
-    if (event.target.closest("#adjacency-matrix, #place-box")) return; // their own handlers
+    if (event.target.closest("#adjacency-matrix, #place-box, .add-rooms")) return; // their own handlers
     if (event.target.id === "outline-shape") showShape();
     formChanged();
   });

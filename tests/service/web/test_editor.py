@@ -170,3 +170,33 @@ def test_north_is_set_in_the_editor_turns_the_arrow_and_the_sides_and_is_checked
     expect(page.locator("[data-testid=north]")).not_to_have_attribute("aria-invalid", "true",
                                                                       timeout=10_000)
     assert brief(page)["north"] == 330
+
+
+@pytest.mark.slow
+def test_a_programme_line_adds_that_many_rooms_and_a_target_takes_an_area_or_a_size(
+        page: Any, server: Server) -> None:
+    page.goto(server.url)
+    page.select_option("#example", "template:flat-6")
+    expect(page.locator(ROWS)).to_have_count(6)
+    page.select_option("[data-testid=add-type]", "bedroom")
+    page.fill("[data-testid=add-count]", "2")
+    page.click("[data-testid=add-room]")
+    expect(page.locator(ROWS)).to_have_count(8)
+    rooms = brief(page)["rooms"]
+    assert [(r["id"], r["type"]) for r in rooms[6:]] == [("bedroom1", "bedroom"),
+                                                        ("bedroom2", "bedroom")]
+    expect(page.locator("[data-testid=add-count]")).to_have_value("1")
+    page.select_option("[data-testid=add-type]", "study")
+    page.click("[data-testid=add-room]")  # one: left for its name
+    expect(page.locator(ROWS)).to_have_count(9)
+    assert brief(page)["rooms"][8]["type"] == "study" and "id" not in brief(page)["rooms"][8]
+    page.locator(ROWS).nth(8).locator("[data-testid=room-name]").fill("study")
+
+    # A target as width x depth is sent as such; an area as a square the template shapes.
+    page.locator(ROWS).nth(6).locator("[data-testid=room-area]").fill("3.2 x 4")
+    page.locator(ROWS).nth(7).locator("[data-testid=room-area]").fill("12.25")
+    rooms = brief(page)["rooms"]
+    assert rooms[6]["target_size"] == [3.2, 4] and rooms[7]["target_size"] == [3.5, 3.5]
+    page.fill("[data-testid=outline-width]", "14")
+    page.click("#validate")
+    expect(page.locator("#messages")).to_contain_text("No problem found")
