@@ -6,6 +6,7 @@
 // does not show are kept.
 // Blank sizes are left to the residential template, which the server expands.
 
+import { drawBubbles } from "./bubbles.js";
 import { drawMatrix } from "./matrix.js";
 import { addObstacleRow, entranceOf, fillObstacles, obstaclesOfForm, outlineOf, round, SHAPES,
          setupPlacing, shapeOf, sideOf, SIDES } from "./outline.js";
@@ -102,6 +103,17 @@ function showMatrix() {
   const pairs = state.rows.flatMap(({ row }) => listOf(nextInput(row).value)
     .map((b) => [nameOf(row), b]));
   drawMatrix(names, pairs, togglePair);
+  const rooms = state.rows.map(({ row }, k) => ({
+    name: names[k], type: row.querySelector("[data-field='type']").value,
+    area: areaOfTarget(row.querySelector("[data-field='area']").value) }));
+  drawBubbles(rooms, pairs, togglePair);
+}
+
+/** The area a row's target asks for (m²): the number, or width times depth; else null. */
+function areaOfTarget(text) {
+  const size = parseSize(String(text ?? ""));
+  if (!size || size.some((v) => !(v > 0))) return null;
+  return /[x×*]|\d\s+\d/.test(text) ? size[0] * size[1] : size[0];
 }
 
 /** A pair ticked (written in a's "Next to") or unticked (taken out of both rooms'). */

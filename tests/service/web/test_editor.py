@@ -200,3 +200,42 @@ def test_a_programme_line_adds_that_many_rooms_and_a_target_takes_an_area_or_a_s
     page.fill("[data-testid=outline-width]", "14")
     page.click("#validate")
     expect(page.locator("#messages")).to_contain_text("No problem found")
+
+
+@pytest.mark.slow
+def test_the_bubble_diagram_pairs_rooms_like_the_matrix_by_mouse_and_by_keyboard(
+        page: Any, server: Server) -> None:
+    page.goto(server.url)
+    page.select_option("#example", "template:flat-6")
+    expect(page.locator(ROWS)).to_have_count(6)
+    bubbles = page.locator("[data-testid=bubble]")
+    expect(bubbles).to_have_count(6)
+    bed1, bath = (page.locator(f"[data-testid=bubble][data-room={n}]") for n in ("bed1", "bath"))
+    # A bigger target, a bigger bubble.
+    page.locator(ROWS).nth(1).locator("[data-testid=room-area]").fill("40")
+    page.locator(ROWS).nth(5).locator("[data-testid=room-area]").fill("4")
+    living = float(page.locator("[data-room=living] circle").get_attribute("r"))
+    assert living > float(bath.locator("circle").get_attribute("r"))
+
+    bed1.click()
+    expect(bed1).to_have_attribute("aria-pressed", "true")
+    bath.click()
+    assert {"a": "bed1", "b": "bath"} in brief(page)["adjacency"]
+    expect(page.locator("[data-testid=adjacency-pair][data-a=bed1][data-b=bath]")).to_be_checked()
+    expect(page.locator("#bubbles .bond[data-pair='bath|bed1']")).to_have_count(1)
+    expect(page.locator("#bubble-note")).to_contain_text("bed1 and bath paired")
+
+    # By keyboard: Enter on bath, then on bed1, unpairs them; the focus stays on bed1.
+    bath.focus()
+    page.keyboard.press("Enter")
+    page.locator("[data-testid=bubble][data-room=bed1]").focus()
+    page.keyboard.press("Enter")
+    assert {"a": "bed1", "b": "bath"} not in brief(page).get("adjacency", [])
+    expect(page.locator("[data-testid=adjacency-pair][data-a=bed1][data-b=bath]")).not_to_be_checked()
+    expect(page.locator("#bubbles .bond[data-pair='bath|bed1']")).to_have_count(0)
+    assert page.evaluate("document.activeElement.dataset.room") == "bed1"
+    # A tick in the matrix is a line between the bubbles.
+    page.locator("[data-testid=adjacency-pair][data-a=kitchen][data-b=bed2]").check()
+    expect(page.locator("#bubbles .bond[data-pair='bed2|kitchen']")).to_have_count(1)
+    page.set_viewport_size({"width": 390, "height": 844})
+    assert page.evaluate("document.documentElement.scrollWidth") <= 390
