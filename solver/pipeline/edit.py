@@ -47,7 +47,9 @@ from floorplan.solver.heuristics.level_one import (
     wing_names,
     wings_wanted,
 )
+from floorplan.solver.heuristics.variety import pull_centres
 from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.model import LevelModel
 from floorplan.solver.miqp.scip_run import (
     Incumbent,
     LevelResult,
@@ -84,6 +86,10 @@ EDIT_GAP = 0.02
 UNCOVERED_STALL = 1.0
 #: A start's rectangle narrower than this (metres) is no arm of its room: a sliver.
 START_ARM = 0.5
+#: Weight of the edit's stability term per metre a free room's centre moves from the
+#: start (Eq. 12 is in m²): it breaks near-ties toward the plan as it was, and outweighs
+#: no real gain in coverage or size.
+STAY_WEIGHT = 0.25
 #: Marks the name of a fixed room's rectangle in the edit's MIQP.
 FIXED_MARK = "~fixed"
 
@@ -293,6 +299,7 @@ def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
     end = run.deadline
     rects = _start_rects(start, wings)
     lm = build_level(_fit_start(edit_spec(demanded, sub, domain, fixed, wings), rects))
+    stay_near_start(lm, rects)
     if start:
         # A start that places every free rectangle is a full solution in closed form.
         # One with fewer rectangles than the wings tried, or without some room, leaves
@@ -330,6 +337,17 @@ def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
              Termination.STALLED if result.status is LevelStatus.INTERRUPTED else
              Termination.TIME_LIMIT)
     return EditResult(room_boxes(pieces), ended, levels, str(result.status))
+
+
+def stay_near_start(lm: LevelModel, rects: Mapping[str, Box],
+                    weight: float = STAY_WEIGHT) -> None:
+    """Stability as part of the edit's objective: each free room's main rectangle is
+    pulled toward where the start had it, `weight` times the L1 distance (metres) of its
+    centre to the start's (`solver.heuristics.variety.pull_centres`), so that of layouts
+    nearly as good the one moving the rooms least wins; a room the start lacks is free."""
+    points = {r.name: ((b.x0 + b.x1) / 2, (b.y0 + b.y1) / 2) for r in free_rects(lm.spec)
+              if r.name == r.room and (b := rects.get(r.name)) is not None}
+    pull_centres(lm, points, weight=weight, tag="stay")
 
 
 def _start_rects(start: Mapping[str, list[Box]], wings: Mapping[str, int]) -> dict[str, Box]:

@@ -181,3 +181,26 @@ def test_an_edit_around_l_shaped_kept_rooms_finds_a_layout(ring: int) -> None:
     master = next(r for r in layout.rooms if r.id == "master")
     xs = [x for x, _ in master.polygon]
     assert max(xs) - min(xs) >= width - 0.01
+
+
+@pytest.mark.parametrize("b_east", [True, False])
+def test_stability_is_part_of_the_edits_objective(b_east: bool) -> None:
+    # A 10 x 3 m strip: `a` fixed on its west 4 m, `b` and `c` 3 m each in the rest, in
+    # either order equally good by Eq. 12. The start had them 2.9 and 3.1 m wide (no
+    # longer allowed: it does not hold); the edit keeps each on the side it was.
+    east, west = (6.9, 10.0), (4.0, 6.9)
+    b, c = (east, (4.0, 6.9)) if b_east else (west, (6.9, 10.0))
+    problem = Problem.model_validate({
+        "boundary": [[0, 0], [10, 0], [10, 3], [0, 3]],
+        "rooms": [{"id": "a", "fixed": [[0, 0], [4, 0], [4, 3], [0, 3]]},
+                  *({"id": r, "min_size": [3, 3], "max_size": [3, 3], "target_size": [3, 3]}
+                    for r in ("b", "c"))],
+        "options": {"time_limit": 60, "start": {
+            "b": [{"x": b[0], "y": 0, "width": b[1] - b[0], "depth": 3}],
+            "c": [{"x": c[0], "y": 0, "width": c[1] - c[0], "depth": 3}]}},
+    })
+    assert edit_applies(problem)  # one room of three fixed, and a start
+    layout = solve(problem)
+    assert layout.report.valid, layout.report
+    x = {r.id: min(p[0] for p in r.polygon) for r in layout.rooms}
+    assert (x["b"] > x["c"]) is b_east, x
