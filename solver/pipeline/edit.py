@@ -129,6 +129,12 @@ class EditStop:
         return self.gap <= EDIT_GAP or now - self.improved_at >= STALL_SECONDS
 
 
+def most_fixed(problem: Problem) -> bool:
+    """Whether at least `EDIT_SHARE` of the rooms of `problem` (one floor) are fixed."""
+    return sum(room.fixed is not None for room in problem.rooms) >= EDIT_SHARE * len(
+        problem.rooms)
+
+
 def edit_applies(problem: Problem) -> bool:
     """Whether `problem` (one floor) is an edit: some rooms free, and most of them fixed
     or some fixed with a previous layout as `options.start` (an edit of that layout,
@@ -136,7 +142,7 @@ def edit_applies(problem: Problem) -> bool:
     fixed = sum(room.fixed is not None for room in problem.rooms)
     if not 0 < fixed < len(problem.rooms):
         return False
-    return fixed >= EDIT_SHARE * len(problem.rooms) or problem.options.start is not None
+    return most_fixed(problem) or problem.options.start is not None
 
 
 def edit_domain(problem: Problem, fixed: Mapping[str, list[Box]]) -> Domain | None:
@@ -227,6 +233,7 @@ def solve_edit(
     on_event: EventSink | None = None,
     should_stop: StopFlag | None = None,
     seconds: float = EDIT_SECONDS,
+    first: bool = False,
 ) -> EditResult:
     """Lay out the free rooms of `problem` around the `fixed` rooms' rectangles, by
     `deadline` (monotonic): one MIQP of the free rooms, stopped when good enough, then
@@ -234,7 +241,8 @@ def solve_edit(
     cannot be one rectangle in what the fixed rooms leave gets wings: the shapes of
     `start`, then an L for every free room, then up to a T (`wing_plans`). The MIQPs
     take `seconds` at most (the hierarchy after them `EDIT_END_SECONDS -
-    EDIT_SECONDS` more): a quick first try, or all the time left as a last resort."""
+    EDIT_SECONDS` more): a quick first try, or all the time left as a last resort, which
+    takes the `first` layout found rather than trying further shapes for more floor."""
     started = time.monotonic()
     demanded = connection_demands(problem)
     sub = free_problem(demanded)
@@ -268,7 +276,7 @@ def solve_edit(
         if result.rooms is None:
             continue
         area = covered(domain, result.rooms)
-        if area >= allowed:
+        if area >= allowed or first:
             return result
         if best is None or area > best[0]:
             best = (area, result)
