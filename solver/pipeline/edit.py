@@ -37,7 +37,7 @@ from dataclasses import dataclass, field, replace
 import shapely
 
 from floorplan.models import Problem, Termination
-from floorplan.solver.budget import stall_window
+from floorplan.solver.budget import significant_gain, stall_window
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import Box, Domain, boundary_edges, rectangles_of
 from floorplan.solver.heuristics.level_one import (
@@ -111,10 +111,15 @@ class EditStop:
     gap: float = float("inf")
     began: float = field(default_factory=time.monotonic)
     found: bool = False
+    best: float | None = None
 
     def incumbent(self, found: Incumbent) -> None:
         now = time.monotonic()
-        self.improved_at = now
+        if self.best is None or significant_gain(self.best, found.objective):
+            # Only a gain a user would see restarts the stall clock: the stability term
+            # (`stay_near_start`) improves by centimetres long after the plan is set.
+            self.improved_at = now
+        self.best = found.objective if self.best is None else min(self.best, found.objective)
         self.found = True
         rooms = {n: [b] for n, b in found.rects.items() if FIXED_MARK not in n}
         if self.covered_at is None and covered(self.domain, rooms) >= self.goal:
@@ -307,17 +312,23 @@ def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
     end = run.deadline
     rects = _start_rects(start, wings)
     lm = build_level(_fit_start(edit_spec(demanded, sub, domain, fixed, wings), rects))
-    stay_near_start(lm, rects)
     if start:
         # A start that places every free rectangle is a full solution in closed form.
         # One with fewer rectangles than the wings tried, or without some room, leaves
         # rectangles to place: only a SCIP solve around the placed ones completes it.
-        began = (add_start(lm, rects) if all(r.name in rects for r in free_rects(lm.spec))
+        full = all(r.name in rects for r in free_rects(lm.spec))
+        began = (add_start(lm, rects) if full
                  else complete_start(lm, rects,
                                      time_limit=(end - time.monotonic()) * START_SHARE))
         run.emit(Phase.LEVEL, detail="edit: the start " + (
             "holds, SCIP starts from it" if began.values is not None
             else f"does not hold ({began.status}), SCIP starts afresh"))
+        if full and began.values is None:
+            # Searching afresh, SCIP is pulled toward the plan as it was. (A start that
+            # holds needs no pull: SCIP starts from it, and with the pull's variables
+            # it no longer reports that start as its first incumbent, so the edit's
+            # stop rule, which waits for one, would wait for its limit.)
+            stay_near_start(lm, rects)
     stop = EditStop(domain, frozenset(r.id for r in sub.rooms), allowed)
 
     def on_incumbent(found: Incumbent) -> None:
@@ -352,7 +363,9 @@ def stay_near_start(lm: LevelModel, rects: Mapping[str, Box],
     """Stability as part of the edit's objective: each free room's main rectangle is
     pulled toward where the start had it, `weight` times the L1 distance (metres) of its
     centre to the start's (`solver.heuristics.variety.pull_centres`), so that of layouts
-    nearly as good the one moving the rooms least wins; a room the start lacks is free."""
+    nearly as good the one moving the rooms least wins; a room the start lacks is free.
+    For a start that no longer holds (a room's size changed): one that holds is SCIP's
+    start, and moves nothing."""
     points = {r.name: ((b.x0 + b.x1) / 2, (b.y0 + b.y1) / 2) for r in free_rects(lm.spec)
               if r.name == r.room and (b := rects.get(r.name)) is not None}
     pull_centres(lm, points, weight=weight, tag="stay")
