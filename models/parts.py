@@ -11,6 +11,7 @@ carries).
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any, Literal, Self
 
 from pydantic import (
@@ -46,6 +47,8 @@ MAX_ROOM_RECTS = 4
 MAX_FIXED_VERTICES = 100
 #: Default aisle width between regions (metres): two people pass, a wheelchair turns.
 DEFAULT_AISLE_WIDTH = 1.8
+#: Degrees in a turn: `ProblemFields.north` is below it.
+FULL_TURN = 360.0
 #: Narrowest and widest aisle accepted (metres).
 MIN_AISLE_WIDTH = 0.8
 MAX_AISLE_WIDTH = 10.0
@@ -243,11 +246,28 @@ class ProblemFields(StrictModel):
         None, description="the circulation the floor must provide (exits, width, travel "
         "distance, dead ends): a corridor network is planned for it and the rooms laid "
         "out around it, instead of aisles between regions")
+    north: float = Field(
+        0.0, description="where true north points on the plan: degrees clockwise from "
+        "the plan's +y (0, the default: y grows north; 90: north is +x), 0 to 360. The "
+        "compass words of `boundary` lists name the sides facing that north; the SVG's "
+        "arrow, the GeoJSON on a map and the IFC's TrueNorth follow it")
 
     @field_validator("boundary", mode="before")
     @classmethod
     def _drop_closing_vertex(cls, value: Any) -> Any:
         return open_ring(value)
+
+    @field_validator("north", mode="before")
+    @classmethod
+    def _north_is_a_bearing(cls, value: Any) -> Any:
+        if isinstance(value, bool) or not isinstance(value, int | float) or not (
+                math.isfinite(value) and 0 <= value < FULL_TURN):
+            raise PydanticCustomError(
+                "north_bearing", "north is the angle in degrees, clockwise from the plan's "
+                "+y, at which true north points: a number from 0 to less than 360 (e.g. "
+                "330 for north 30 degrees to the left of the plan's up), not {value}",
+                {"value": repr(value)})
+        return float(value)
 
     @field_validator("rooms", mode="before")
     @classmethod

@@ -64,6 +64,7 @@ def floor_data(problem: PlainFields, index: int) -> dict[str, Any]:
         "weights": problem.weights,
         "options": problem.options,
         "openings": problem.openings,
+        "north": problem.north,
     }
 
 

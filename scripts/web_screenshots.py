@@ -4,11 +4,12 @@ Debian's headless Chromium through Playwright, as the browser tests drive it.
 
     python scripts/web_screenshots.py [docs/]
 
-Steps: a T-shaped outline by its dimensions with the entrance clicked on it and a shaft
-dropped on the plan; an outline being drawn on the grid; the rooms with the adjacency
-matrix; the solved plan with its verdict and room table; the variants side by side with
-a favourite starred and named; an edit (the bath fixed, bed2 widened by 0.3 m)
-re-solved beside the plan before; the phone width.
+Steps: a T-shaped outline by its dimensions with the entrance clicked on it, a shaft
+dropped on the plan and north turned 15 degrees; an outline being drawn on the grid; the
+rooms with the adjacency matrix and the bubble diagram; the solved plan with its verdict
+and room table; the variants side by side with a favourite starred and named; an edit
+(the bath fixed, bed2's east wall dragged 0.3 m out) re-solved beside the plan before;
+the phone width.
 It prints what each step measured (rooms changed by the edit, the page's width at 390 px).
 """
 
@@ -27,7 +28,10 @@ import httpx2 as httpx
 from playwright.sync_api import expect, sync_playwright
 from shapely.geometry import Polygon
 
-CHROMIUM = "/usr/bin/chromium"
+# The page's helpers shared with its browser tests (tests/browser.py).
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from tests.browser import CHROMIUM, click_plan, plan_point
+
 ROWS = "[data-testid=room-row]"
 SOLVE_TIMEOUT_MS = 300_000
 
@@ -57,19 +61,6 @@ def serve(data_dir: Path) -> tuple[subprocess.Popen[bytes], str]:
         time.sleep(0.2)
     process.terminate()
     raise SystemExit("the server did not become ready")
-
-
-def click_plan(tab: Any, x: float, y: float) -> None:
-    """A click on the plan at (x, y) metres, y north."""
-    tab.locator("#plan").scroll_into_view_if_needed()
-    at = tab.evaluate("""([x, y]) => {
-      const svg = document.getElementById("plan");
-      const p = svg.createSVGPoint();
-      p.x = x; p.y = -y;
-      const s = p.matrixTransform(svg.getScreenCTM());
-      return [s.x, s.y];
-    }""", [x, y])
-    tab.mouse.click(*at)
 
 
 def solve(tab: Any) -> None:
@@ -126,6 +117,7 @@ def steps(tab: Any, url: str, out: Path) -> None:
     click_plan(tab, 11.2, 8.4)
     tab.select_option("[data-testid=place-mode]", "")
     tab.locator("[data-testid=obstacle-label]").fill("shaft")
+    tab.fill("[data-testid=north]", "15")  # true north 15 degrees right of the plan's up
     tab.evaluate("window.scrollTo(0, 0)")
     shoot(tab, out, "web-1-outline.png")
 
@@ -135,8 +127,10 @@ def steps(tab: Any, url: str, out: Path) -> None:
     shoot(tab, out, "web-2-draw.png", "#plan")
     tab.click("#cancel-drawing")
 
-    for a, b in (("kitchen", "living"), ("bed1", "bath"), ("hall", "living")):
+    for a, b in (("kitchen", "living"), ("hall", "living")):
         tab.locator(f"[data-testid=adjacency-pair][data-pair='{min(a, b)}|{max(a, b)}']").check()
+    for room in ("bed1", "bath"):  # a pair in the bubble diagram: one bubble, then the other
+        tab.locator(f"[data-testid=bubble][data-room={room}]").click()
     tab.locator(ROWS).nth(1).locator("[data-testid=room-area]").fill("30")
     shoot(tab, out, "web-3-rooms.png", "#rooms-box")
 
@@ -160,9 +154,17 @@ def steps(tab: Any, url: str, out: Path) -> None:
     before = shown_layout(tab, url)
     tab.click("#plan .room[data-room='bath']")
     tab.select_option("#edit-room", "bed2")
-    width = float(tab.input_value("#target-width"))
-    tab.fill("#target-width", f"{width + 0.3:.2f}")  # at least that wide ("at least" ticked)
-    tab.click("#apply-target")
+    # Its east wall dragged 0.3 m out: at least that wide ("at least" ticked).
+    bed2 = next(r for r in before["rooms"] if r["id"] == "bed2")
+    east = max(x for x, _ in bed2["polygon"])
+    middle = sum(y for _, y in bed2["polygon"]) / len(bed2["polygon"])
+    tab.locator("#plan").scroll_into_view_if_needed()
+    handle = tab.locator("#plan .handles .handle.east").bounding_box()
+    tab.mouse.move(handle["x"] + handle["width"] / 2, handle["y"] + handle["height"] / 2)
+    tab.mouse.down()
+    tab.mouse.move(*plan_point(tab, east + 0.31, middle), steps=4)
+    tab.mouse.up()
+    print("bed2 set to:", tab.input_value("#target-width"), "x", tab.input_value("#target-depth"))
     tab.click("#resolve")
     # Done when the note no longer says it is re-solving (a layout, or none found).
     expect(tab.locator("#edit-note")).not_to_contain_text("Re-solving", timeout=SOLVE_TIMEOUT_MS)
@@ -183,7 +185,7 @@ def main() -> None:
         process, url = serve(Path(data))
         try:
             with sync_playwright() as playwright:
-                browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True)
+                browser = playwright.chromium.launch(executable_path=str(CHROMIUM), headless=True)
                 try:
                     context = browser.new_context(viewport={"width": 1280, "height": 860},
                                                   accept_downloads=True)

@@ -42,3 +42,23 @@ def headless_chromium() -> Iterator[Any]:
             yield chromium
         finally:
             chromium.close()
+
+
+def plan_point(tab: Any, x: float, y: float) -> tuple[float, float]:
+    """Where the web page's plan shows the point (x, y) in metres (y north), in the
+    viewport's pixels, through the drawing's own transform."""
+    at = tab.evaluate("""([x, y]) => {
+      const svg = document.getElementById("plan");
+      const p = svg.createSVGPoint();
+      p.x = x; p.y = -y;
+      const s = p.matrixTransform(svg.getScreenCTM());
+      return [s.x, s.y];
+    }""", [x, y])
+    return float(at[0]), float(at[1])
+
+
+def click_plan(tab: Any, x: float, y: float) -> None:
+    """Clicks the web page's plan at the point (x, y) in metres (y north) (the browser
+    tests and scripts/web_screenshots.py)."""
+    tab.locator("#plan").scroll_into_view_if_needed()
+    tab.mouse.click(*plan_point(tab, x, y))

@@ -2,8 +2,8 @@
 are the problem's own frame (metres, x east, y north: the "local" profile of
 docs/exports.md, which RFC 7946 section 4 leaves to an arrangement between the parties);
 no `crs` member, which RFC 7946 removed. With an origin (latitude, longitude) the plan's
-(0, 0) is put there, +y due north, and every coordinate becomes WGS84 longitude and
-latitude."""
+(0, 0) is put there, turned so that its true north (`Problem.north`; 0: +y) is due
+north, and every coordinate becomes WGS84 longitude and latitude."""
 
 from __future__ import annotations
 
@@ -27,25 +27,29 @@ def to_geojson(problem: Problem, layout: Layout,
     (latitude, longitude of the plan's (0, 0)) is given."""
     collection = _local_geojson(problem, layout)
     if origin is not None:
-        to_degrees = _degrees_from(*origin)
+        to_degrees = _degrees_from(*origin, north=problem.north)
         for feature in collection["features"]:
             geometry = feature["geometry"]
             geometry["coordinates"] = _mapped(geometry["coordinates"], to_degrees)
     return collection
 
 
-def _degrees_from(lat0: float, lon0: float) -> Any:
-    """Local metres (x east, y north) to (longitude, latitude) about the point (lat0,
-    lon0): the ellipsoid's radii of curvature there (meridian M, prime vertical N), which
-    are exact to a millimetre over the few hundred metres of a building."""
+def _degrees_from(lat0: float, lon0: float, north: float = 0.0) -> Any:
+    """Local metres to (longitude, latitude) about the point (lat0, lon0): the plan
+    turned so that true north, `north` degrees clockwise from its +y (`Problem.north`),
+    is due north, then the ellipsoid's radii of curvature there (meridian M, prime
+    vertical N), which are exact to a millimetre over the few hundred metres of a
+    building."""
     phi = math.radians(lat0)
     w = 1.0 - WGS84_E2 * math.sin(phi) ** 2
     meridian = WGS84_A * (1.0 - WGS84_E2) / w ** 1.5
     prime = WGS84_A / math.sqrt(w)
+    cos, sin = math.cos(math.radians(north)), math.sin(math.radians(north))
 
     def to_degrees(x: float, y: float) -> list[float]:
-        lon = lon0 + math.degrees(x / (prime * math.cos(phi)))
-        lat = lat0 + math.degrees(y / meridian)
+        east, north_m = x * cos - y * sin, x * sin + y * cos
+        lon = lon0 + math.degrees(east / (prime * math.cos(phi)))
+        lat = lat0 + math.degrees(north_m / meridian)
         return [round(lon, DEGREE_DIGITS), round(lat, DEGREE_DIGITS)]
 
     return to_degrees

@@ -71,7 +71,7 @@ def to_ifc(problem: Problem, layout: Layout, *,
     """The layout as an IFC4 file (STEP text): storeys `storey_height` metres apart,
     spaces, walls, doors, windows and obstacles, as the module docstring says."""
     ExportOptions(storey_height=storey_height)  # refuses a height out of range
-    model = _Model.start(problem.name, storey_height)
+    model = _Model.start(problem.name, storey_height, problem.north)
     if layout.floors is not None and problem.floors is not None:
         verticals = {v.id: spanned_floors(problem, v) for v in problem.vertical}
         order = [f.id for f in problem.floors]
@@ -103,11 +103,15 @@ class _Model:
     types: dict[tuple[str, float, float, float], Any] = field(default_factory=dict)
 
     @classmethod
-    def start(cls, name: str, height: float) -> _Model:
+    def start(cls, name: str, height: float, north: float = 0.0) -> _Model:
         f = ifcopenshell.api.project.create_file(version="IFC4")
         project = ifcopenshell.api.root.create_entity(f, ifc_class="IfcProject", name=name)
         ifcopenshell.api.unit.assign_unit(f, length={"is_metric": True, "raw": "METERS"})
         model = ifcopenshell.api.context.add_context(f, context_type="Model")
+        # True north in the plan's frame (`Problem.north`, clockwise from +y), as IFC4
+        # wants it: a 2D direction in the model context's xy-plane.
+        turn = math.radians(north)
+        model.TrueNorth = f.createIfcDirection((_ratio(math.sin(turn)), _ratio(math.cos(turn))))
         body = ifcopenshell.api.context.add_context(
             f, context_type="Model", context_identifier="Body", target_view="MODEL_VIEW",
             parent=model)
@@ -369,3 +373,9 @@ class _Model:
 
 def _kind(wall: WallSegment) -> str:
     return "facade" if wall.exterior else "partition"
+
+
+def _ratio(value: float) -> float:
+    """A direction ratio rounded to 1e-12, so that north 0 or 90 is exactly (0, 1) or
+    (1, 0)."""
+    return round(value, 12) + 0.0

@@ -123,7 +123,7 @@ def render_svg(problem: Problem, layout: Layout, *, scale: float = 40.0) -> str:
         _add_entrance(svg, frame, problem)
     _add_title(svg, problem.name)
     _add_scale_bar(svg, frame, max_x - min_x, frame.top + plan_h + SCALE_BAND / 2)
-    _add_north_arrow(svg, width - MARGIN - 10, MARGIN)
+    _add_north_arrow(svg, width - MARGIN - 10, MARGIN, problem.north)
     _indent(svg)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(svg, encoding="unicode")
 
@@ -300,9 +300,13 @@ def _add_swing(parent: ET.Element, frame: _Frame, segment: Sequence[tuple[float,
     })
 
 
-def _add_north_arrow(svg: ET.Element, x: float, y: float) -> None:
-    """North is up: y grows north in the problem's frame."""
-    group = ET.SubElement(svg, "g", {"class": "north-arrow"})
+def _add_north_arrow(svg: ET.Element, x: float, y: float, north: float = 0.0) -> None:
+    """An arrow with its tip at (x, y), turned `north` degrees clockwise about its middle
+    (`Problem.north`; 0: the problem's y grows north, up the page)."""
+    attrs = {"class": "north-arrow"}
+    if north:
+        attrs["transform"] = f"rotate({_num(north)} {_num(x)} {_num(y + 17)})"
+    group = ET.SubElement(svg, "g", attrs)
     ET.SubElement(group, "polygon", {
         "points": f"{_num(x)},{_num(y)} {_num(x - 7)},{_num(y + 20)} {_num(x)},{_num(y + 15)} "
                   f"{_num(x + 7)},{_num(y + 20)}",

@@ -122,12 +122,31 @@ def boundary_edges(boundary: Sequence[tuple[float, float]]) -> tuple[Edge, ...]:
     return tuple(edges)
 
 
+#: Bearings of the plan's sides (north up) and of the compass words, degrees clockwise.
+BEARINGS: dict[str, float] = {"north": 0.0, "east": 90.0, "south": 180.0, "west": 270.0}
+
+
+def compass_words(edge: Edge, north: float) -> frozenset[str]:
+    """The compass words an edge faces with true north `north` degrees clockwise from the
+    plan's +y (`Problem.north`): the words within 45 degrees of its outward normal's
+    bearing, two where it lies halfway between them.
+
+    >>> e = boundary_edges([(0, 0), (4, 0), (4, 3), (0, 3)])[1]  # the plan's east side
+    >>> sorted(compass_words(e, 0)), sorted(compass_words(e, 90)), sorted(compass_words(e, 45))
+    (['east'], ['north'], ['east', 'north'])
+    """
+    bearing = (BEARINGS[edge.facing] - north) % 360.0
+    return frozenset(word for word, b in BEARINGS.items()
+                     if min((bearing - b) % 360.0, (b - bearing) % 360.0) <= 45.0 + 1e-9)
+
+
 def edges_named(problem: Problem, edges: Sequence[Edge], names: Iterable[int | str]) -> list[Edge]:
-    """The edges a room's `boundary` list names: indices, or every edge facing a compass word."""
+    """The edges a room's `boundary` list names: indices, or every edge facing a compass
+    word (true north as `problem.north` gives it)."""
     chosen: dict[int, Edge] = {}
     for name in names:
         for edge in edges:
-            if edge.index == name or edge.facing == name:
+            if edge.index == name or name in compass_words(edge, problem.north):
                 chosen[edge.index] = edge
     return [chosen[k] for k in sorted(chosen)]
 

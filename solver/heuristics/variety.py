@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 import random
 import zlib
+from collections.abc import Mapping
 from functools import partial
 
 from pyscipopt import quicksum
@@ -206,20 +207,32 @@ def pull_to_anchors(lm: LevelModel, seed: int, *, weight: float = ANCHOR_WEIGHT)
     SCIP may stop the model at a gap of `ANCHOR_GAP`."""
     rng = random.Random(f"anchors:{seed}")
     region = lm.spec.region
+    points = {r.name: (rng.uniform(region.x0, region.x1), rng.uniform(region.y0, region.y1))
+              for r in free_rects(lm.spec) if r.name == r.room}
+    if pull_centres(lm, points, weight=weight, tag="anchor"):
+        lm.gap = ANCHOR_GAP
+
+
+def pull_centres(lm: LevelModel, points: Mapping[str, tuple[float, float]], *, weight: float,
+                 tag: str) -> bool:
+    """Add to `lm`'s objective the L1 distance of each named free rectangle's centre to
+    its point of `points` (rectangle name -> (x, y)), times `weight`: two variables and
+    four rows a rectangle, each variable with its value at given boxes (a start).
+    Whether any term was added."""
     m = lm.model
     terms = []
     for r in free_rects(lm.spec):
-        if r.name != r.room:  # a room's extra rectangles follow its main one
+        if r.name not in points:
             continue
         v = lm.rects[r.name]
-        px, py = rng.uniform(region.x0, region.x1), rng.uniform(region.y0, region.y1)
+        px, py = points[r.name]
         for axis, centre, point in (("x", v.x + 0.5 * v.w, px), ("y", v.y + 0.5 * v.d, py)):
             # At given boxes: the centre's distance to the point along the axis.
-            far = lm.derive(m.addVar(lb=0.0, name=f"anchor_{axis}[{r.name}]"),
+            far = lm.derive(m.addVar(lb=0.0, name=f"{tag}_{axis}[{r.name}]"),
                             partial(_centre_off, r.name, axis, point))
-            m.addCons(far >= centre - point, name=f"anchor_{axis}_above[{r.name}]")
-            m.addCons(far >= point - centre, name=f"anchor_{axis}_below[{r.name}]")
+            m.addCons(far >= centre - point, name=f"{tag}_{axis}_above[{r.name}]")
+            m.addCons(far >= point - centre, name=f"{tag}_{axis}_below[{r.name}]")
             terms.append(far)
     if terms:
         m.setObjective(m.getObjective() + weight * quicksum(terms), "minimize")
-        lm.gap = ANCHOR_GAP
+    return bool(terms)

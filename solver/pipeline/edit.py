@@ -1,5 +1,6 @@
 """Edits around fixed rooms (docs/problem.md, "Fixed rooms"): when most rooms of a brief
-are fixed, only the free ones are laid out, as one small sub-domain.
+are fixed, or some are and a previous layout is the start, only the free ones are laid
+out, as one small sub-domain.
 
 The pinned path (`solver.pipeline.fixed.pinned_problem`) keeps every fixed room a room
 of each MIQP and runs the whole pipeline (window schedule, neighbourhood search,
@@ -17,7 +18,10 @@ floor and SCIP stopped improving for a moment, or the gap closed; the skipped st
 leaves gaps goes through the hierarchy's refinement and its last gap absorption,
 restricted to the free rooms. The answer is checked against the whole problem
 (`solver.pipeline.fixed.fixed_layout`); when the edit finds no valid layout, the caller
-falls back on the pinned path, which also explains an infeasible edit.
+falls back on the pinned path, which also explains an infeasible edit. When that finds
+nothing either, the edit runs again as a last resort with all the time left
+(`solver.pipeline.fixed.last_edit`): it holds L-shaped fixed rooms whole, which the
+pinned path cannot.
 
 A `start` (room id -> rectangles, `Options.start`) warm-starts the free rooms: a room
 that was several rectangles gets as many (up to its allowance), and the start is
@@ -33,6 +37,7 @@ from dataclasses import dataclass, field, replace
 import shapely
 
 from floorplan.models import Problem, Termination
+from floorplan.solver.budget import significant_gain, stall_window
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import Box, Domain, boundary_edges, rectangles_of
 from floorplan.solver.heuristics.level_one import (
@@ -42,7 +47,9 @@ from floorplan.solver.heuristics.level_one import (
     wing_names,
     wings_wanted,
 )
+from floorplan.solver.heuristics.variety import pull_centres
 from floorplan.solver.miqp.formulation import build_level
+from floorplan.solver.miqp.model import LevelModel
 from floorplan.solver.miqp.scip_run import (
     Incumbent,
     LevelResult,
@@ -74,8 +81,15 @@ START_SHARE = 0.25
 STALL_SECONDS = 0.15
 #: ... or as soon as its own gap (primal - dual over |primal|, at least 1) is this small.
 EDIT_GAP = 0.02
+#: A search that found layouts leaving gaps ends this long after its last better one
+#: at the earliest (`EditStop`).
+UNCOVERED_STALL = 1.0
 #: A start's rectangle narrower than this (metres) is no arm of its room: a sliver.
 START_ARM = 0.5
+#: Weight of the edit's stability term per metre a free room's centre moves from the
+#: start (Eq. 12 is in m²): it breaks near-ties toward the plan as it was, and outweighs
+#: no real gain in coverage or size.
+STAY_WEIGHT = 0.25
 #: Marks the name of a fixed room's rectangle in the edit's MIQP.
 FIXED_MARK = "~fixed"
 
@@ -83,7 +97,10 @@ FIXED_MARK = "~fixed"
 @dataclass
 class EditStop:
     """When the edit's SCIP search is good enough: the free rooms cover `goal` of their
-    floor and the search stalled for `STALL_SECONDS`, or its gap closed to `EDIT_GAP`."""
+    floor and the search stalled for `STALL_SECONDS`, or its gap closed to `EDIT_GAP`.
+    A search whose layouts leave gaps (the hierarchy fills them) ends when it has not
+    improved for `solver.budget.stall_window` of its time and `UNCOVERED_STALL` seconds:
+    only a long search (the last resort's) gets there."""
 
     domain: Domain
     free: frozenset[str]
@@ -92,25 +109,45 @@ class EditStop:
     covered_at: float | None = None
     improved_at: float = field(default_factory=time.monotonic)
     gap: float = float("inf")
+    began: float = field(default_factory=time.monotonic)
+    found: bool = False
+    best: float | None = None
 
     def incumbent(self, found: Incumbent) -> None:
         now = time.monotonic()
-        self.improved_at = now
+        if self.best is None or significant_gain(self.best, found.objective):
+            # Only a gain a user would see restarts the stall clock: the stability term
+            # (`stay_near_start`) improves by centimetres long after the plan is set.
+            self.improved_at = now
+        self.best = found.objective if self.best is None else min(self.best, found.objective)
+        self.found = True
         rooms = {n: [b] for n, b in found.rects.items() if FIXED_MARK not in n}
         if self.covered_at is None and covered(self.domain, rooms) >= self.goal:
             self.covered_at = now
         self.gap = (found.objective - found.dual_bound) / max(abs(found.objective), 1.0)
 
     def __call__(self) -> bool:
+        now = time.monotonic()
         if self.covered_at is None:
-            return False
-        return self.gap <= EDIT_GAP or time.monotonic() - self.improved_at >= STALL_SECONDS
+            return self.found and now - self.improved_at >= max(
+                UNCOVERED_STALL, stall_window(self.improved_at - self.began))
+        return self.gap <= EDIT_GAP or now - self.improved_at >= STALL_SECONDS
+
+
+def most_fixed(problem: Problem) -> bool:
+    """Whether at least `EDIT_SHARE` of the rooms of `problem` (one floor) are fixed."""
+    return sum(room.fixed is not None for room in problem.rooms) >= EDIT_SHARE * len(
+        problem.rooms)
 
 
 def edit_applies(problem: Problem) -> bool:
-    """Whether `problem` (one floor) has most of its rooms fixed, and some free."""
+    """Whether `problem` (one floor) is an edit: some rooms free, and most of them fixed
+    or some fixed with a previous layout as `options.start` (an edit of that layout,
+    whose kept rooms the pinned path would hold by their largest rectangles only)."""
     fixed = sum(room.fixed is not None for room in problem.rooms)
-    return fixed < len(problem.rooms) and fixed >= EDIT_SHARE * len(problem.rooms)
+    if not 0 < fixed < len(problem.rooms):
+        return False
+    return most_fixed(problem) or problem.options.start is not None
 
 
 def edit_domain(problem: Problem, fixed: Mapping[str, list[Box]]) -> Domain | None:
@@ -200,12 +237,17 @@ def solve_edit(
     start: Mapping[str, list[Box]] | None = None,
     on_event: EventSink | None = None,
     should_stop: StopFlag | None = None,
+    seconds: float = EDIT_SECONDS,
+    first: bool = False,
 ) -> EditResult:
     """Lay out the free rooms of `problem` around the `fixed` rooms' rectangles, by
     `deadline` (monotonic): one MIQP of the free rooms, stopped when good enough, then
     the hierarchy's refinement and gap absorption when it leaves gaps. A room that
     cannot be one rectangle in what the fixed rooms leave gets wings: the shapes of
-    `start`, then an L for every free room, then up to a T (`wing_plans`)."""
+    `start`, then an L for every free room, then up to a T (`wing_plans`). The MIQPs
+    take `seconds` at most (the hierarchy after them `EDIT_END_SECONDS -
+    EDIT_SECONDS` more): a quick first try, or all the time left as a last resort, which
+    takes the `first` layout found rather than trying further shapes for more floor."""
     started = time.monotonic()
     demanded = connection_demands(problem)
     sub = free_problem(demanded)
@@ -216,22 +258,30 @@ def solve_edit(
     # cover exactly their polygons.
     allowed = domain.area - (1 - COVERAGE_GOAL - COVER_MARGIN) * problem.free_area().area
     start = {r: boxes for r, boxes in (start or {}).items() if r in {x.id for x in sub.rooms}}
-    end = min(deadline, started + EDIT_SECONDS)
+    end = min(deadline, started + seconds)
     run = Run(sub, end, started, _with_fixed(on_event, fixed), should_stop, asked=sub,
               end=end)
+    # The hierarchy after the MIQPs ends this much later.
+    refined = min(deadline, started + seconds + EDIT_END_SECONDS - EDIT_SECONDS)
     run.emit(Phase.LEVEL, detail=f"edit: {len(sub.rooms)} free room(s) around "
              f"{len(fixed)} fixed")
     best: tuple[float, EditResult] | None = None  # the most floor covered, and by what
     status = "no attempt"
-    for wings in wing_plans(sub, start):
-        if time.monotonic() >= end or run.stopped():
+    plans = wing_plans(sub, start)
+    for k, wings in enumerate(plans):
+        now = time.monotonic()
+        if now >= end or run.stopped():
             break
-        result = _attempt(run, demanded, sub, domain, fixed, wings, start, allowed, deadline)
+        # Each plan left gets its share of the time, at least `EDIT_SECONDS`: one MIQP
+        # that neither finds nor refutes a layout leaves the other shapes their turn.
+        run.deadline = min(end, now + max(EDIT_SECONDS, (end - now) / (len(plans) - k)))
+        result = _attempt(run, demanded, sub, domain, fixed, wings, start, allowed,
+                          max(refined, run.deadline))
         status = result.status
         if result.rooms is None:
             continue
         area = covered(domain, result.rooms)
-        if area >= allowed:
+        if area >= allowed or first:
             return result
         if best is None or area > best[0]:
             best = (area, result)
@@ -255,9 +305,9 @@ def wing_plans(sub: Problem, start: Mapping[str, list[Box]]) -> list[dict[str, i
 
 def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
              fixed: Mapping[str, list[Box]], wings: dict[str, int],
-             start: Mapping[str, list[Box]], allowed: float, deadline: float) -> EditResult:
-    """One MIQP of the free rooms with `wings`, and the hierarchy after it when it
-    leaves more floor uncovered than `allowed`."""
+             start: Mapping[str, list[Box]], allowed: float, refined: float) -> EditResult:
+    """One MIQP of the free rooms with `wings`, and the hierarchy after it (until
+    `refined`, monotonic) when it leaves more floor uncovered than `allowed`."""
     run.wings = wings
     end = run.deadline
     rects = _start_rects(start, wings)
@@ -266,12 +316,19 @@ def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
         # A start that places every free rectangle is a full solution in closed form.
         # One with fewer rectangles than the wings tried, or without some room, leaves
         # rectangles to place: only a SCIP solve around the placed ones completes it.
-        began = (add_start(lm, rects) if all(r.name in rects for r in free_rects(lm.spec))
+        full = all(r.name in rects for r in free_rects(lm.spec))
+        began = (add_start(lm, rects) if full
                  else complete_start(lm, rects,
                                      time_limit=(end - time.monotonic()) * START_SHARE))
         run.emit(Phase.LEVEL, detail="edit: the start " + (
             "holds, SCIP starts from it" if began.values is not None
             else f"does not hold ({began.status}), SCIP starts afresh"))
+        if full and began.values is None:
+            # Searching afresh, SCIP is pulled toward the plan as it was. (A start that
+            # holds needs no pull: SCIP starts from it, and with the pull's variables
+            # it no longer reports that start as its first incumbent, so the edit's
+            # stop rule, which waits for one, would wait for its limit.)
+            stay_near_start(lm, rects)
     stop = EditStop(domain, frozenset(r.id for r in sub.rooms), allowed)
 
     def on_incumbent(found: Incumbent) -> None:
@@ -290,7 +347,7 @@ def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
     levels = 1
     if covered(domain, room_boxes(pieces)) < allowed:
         # Gaps: the hierarchy grows the free rooms into them, then the last absorption.
-        run.deadline = min(deadline, run.started + EDIT_END_SECONDS)
+        run.deadline = refined
         pieces, levels = refine(run, domain, pieces)
         pieces = absorb_gaps(sub, domain, pieces)
         run.deadline = end
@@ -299,6 +356,19 @@ def _attempt(run: Run, demanded: Problem, sub: Problem, domain: Domain,
              Termination.STALLED if result.status is LevelStatus.INTERRUPTED else
              Termination.TIME_LIMIT)
     return EditResult(room_boxes(pieces), ended, levels, str(result.status))
+
+
+def stay_near_start(lm: LevelModel, rects: Mapping[str, Box],
+                    weight: float = STAY_WEIGHT) -> None:
+    """Stability as part of the edit's objective: each free room's main rectangle is
+    pulled toward where the start had it, `weight` times the L1 distance (metres) of its
+    centre to the start's (`solver.heuristics.variety.pull_centres`), so that of layouts
+    nearly as good the one moving the rooms least wins; a room the start lacks is free.
+    For a start that no longer holds (a room's size changed): one that holds is SCIP's
+    start, and moves nothing."""
+    points = {r.name: ((b.x0 + b.x1) / 2, (b.y0 + b.y1) / 2) for r in free_rects(lm.spec)
+              if r.name == r.room and (b := rects.get(r.name)) is not None}
+    pull_centres(lm, points, weight=weight, tag="stay")
 
 
 def _start_rects(start: Mapping[str, list[Box]], wings: Mapping[str, int]) -> dict[str, Box]:

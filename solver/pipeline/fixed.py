@@ -21,6 +21,8 @@ infeasibility report; its conflict names a fixed room by its polygon
 
 The search takes the time limit times the share of free rooms (at least
 `MIN_TIME_SHARE` of it): an edit of a plan with most rooms fixed comes back sooner.
+When the pinned problem finds no layout, the edit's MIQP (`solver.pipeline.edit`),
+which holds an L-shaped fixed room whole, gets the time left (`last_edit`).
 """
 
 from __future__ import annotations
@@ -45,10 +47,10 @@ from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import Box, domain_lines, rectangles_of, snap_rooms
 from floorplan.solver.openings import connection_demands
 from floorplan.solver.pipeline.assemble import drawn_rooms, remade_report
-from floorplan.solver.pipeline.edit import edit_applies, solve_edit
+from floorplan.solver.pipeline.edit import edit_applies, most_fixed, solve_edit
 from floorplan.solver.pipeline.run import OUTPUT_SNAP
 from floorplan.solver.pipeline.subdomains import SubdomainExecutor
-from floorplan.solver.verify.checker import check_layout
+from floorplan.solver.verify.checker import COVERAGE_GOAL, check_layout
 
 #: The fields a pinned room's conflict items name: all of them its `fixed` polygon.
 PINNED_FIELDS = frozenset({"min_size", "max_size", "target_size", "positions"})
@@ -129,6 +131,8 @@ def solve_fixed(
     if start is None:
         start = start_boxes(problem)
     limit = problem.options.time_limit or default_time_limit(len(problem.rooms))
+    until = started + limit
+    short: Layout | None = None  # the edit's valid layout short of the coverage goal
     if edit_applies(problem):
         kept = start_layout(problem, start, started)
         if kept is not None and time.monotonic() >= started + limit:
@@ -149,8 +153,12 @@ def solve_fixed(
             # start back (SCIP may hand its warm start over as found) as something new.
             better = kept is None or layout.report.objective < kept.report.objective - 1e-9
             if better and (layout.report.valid or (stopped and kept is None)):
-                _done(on_event, layout, started)
-                return layout
+                if stopped or covers(layout) or most_fixed(problem):
+                    _done(on_event, layout, started)
+                    return layout
+                # Few rooms fixed: the whole pipeline has room to do better; the
+                # better of the two is the answer.
+                short = layout
         if kept is not None:
             # The start still holds every constraint: it is the answer rather than seconds
             # more of the whole pipeline, which may end with nothing (or, its fixed L
@@ -160,11 +168,26 @@ def solve_fixed(
             _done(on_event, kept, started)
             return kept
         limit -= time.monotonic() - started
-        _told(on_event, started, f"edit: {result.status}, no valid layout; the whole "
-              "pipeline around the fixed rooms")
+        _told(on_event, started, f"edit: {result.status}, " + (
+            "a valid layout short of the coverage goal; the whole pipeline around the "
+            "fixed rooms, the better of the two kept" if short is not None else
+            "no valid layout; the whole pipeline around the fixed rooms"))
     share = max(1 - len(fixed) / len(problem.rooms), MIN_TIME_SHARE)
     pinned = pinned_problem(problem).with_options(time_limit=max(limit * share, MIN_SECONDS))
     layout = solve(pinned, on_event=on_event, should_stop=should_stop, subdomains=subdomains)
+    if short is not None:
+        whole = relaid(problem, layout) if layout.rooms else None
+        if whole is not None and _rank(whole) > _rank(short):
+            return whole
+        _told(on_event, started, "edit: the whole pipeline did no better; the edit's "
+              "layout is the answer")
+        _done(on_event, short, started)
+        return short
+    shaped = [r for r, boxes in fixed_boxes(problem).items() if len(boxes) > 1]
+    if not layout.rooms and (shaped or layout.report.termination is not Termination.INFEASIBLE):
+        edited = last_edit(problem, start, until, started, on_event, should_stop)
+        if edited is not None:
+            return edited
     if not layout.rooms:
         why = layout.report.infeasibility
         termination = layout.report.termination
@@ -173,7 +196,6 @@ def solve_fixed(
                 "reason": f"{why.reason} (rooms fixed: {', '.join(fixed)}; each is held "
                 "at its fixed polygon, by its size and two opposite corners)",
                 "conflict": fixed_conflict(problem, why.conflict)})
-        shaped = [r for r, boxes in fixed_boxes(problem).items() if len(boxes) > 1]
         if termination is Termination.INFEASIBLE and shaped and why is not None and not (
                 why.findings):
             # Held by its largest rectangle, an L-shaped fixed room offers its neighbours
@@ -184,6 +206,39 @@ def solve_fixed(
         return layout.model_copy(update={"report": layout.report.model_copy(
             update={"infeasibility": why, "termination": termination})})
     return relaid(problem, layout)
+
+
+def covers(layout: Layout) -> bool:
+    """Whether `layout` meets the coverage goal (`COVERAGE_GOAL` of the free floor)."""
+    return layout.report.coverage >= COVERAGE_GOAL - 1e-9
+
+
+def _rank(layout: Layout) -> tuple[bool, bool, float]:
+    """Valid first, then covering the goal, then the lower Eq. 12."""
+    return layout.report.valid, covers(layout), -(layout.report.objective or 0.0)
+
+
+def last_edit(problem: Problem, start: Mapping[str, list[Box]], until: float, started: float,
+              on_event: EventSink | None, should_stop: StopFlag | None) -> Layout | None:
+    """The pinned path found no layout (unproved, or proved only for fixed rooms held
+    by their largest rectangles): the edit's MIQP, which holds each fixed room whole,
+    with all the time left until `until` (monotonic). Its layout when valid, else None."""
+    if time.monotonic() >= until or (should_stop is not None and should_stop()):
+        return None
+    _told(on_event, started, "edit: the whole pipeline found no layout; the free rooms "
+          "alone around the fixed ones, in the time left")
+    result = solve_edit(problem, fixed_boxes(problem), deadline=until, start=start,
+                        on_event=on_event, should_stop=should_stop,
+                        seconds=until - time.monotonic(), first=True)
+    if result.rooms is None:
+        return None
+    report = Report(coverage=0.0, uncovered_area=0.0, levels=result.levels,
+                    termination=result.termination, valid=True)
+    layout = fixed_layout(problem, result.rooms, report, started)
+    if not layout.report.valid:
+        return None
+    _done(on_event, layout, started)
+    return layout
 
 
 def start_layout(problem: Problem, start: Mapping[str, list[Box]],

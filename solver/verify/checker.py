@@ -28,6 +28,7 @@ from floorplan.solver.geometry import (
     Box,
     GeometryError,
     boundary_edges,
+    compass_words,
     contact_length,
     domain_lines,
     edges_named,
@@ -321,7 +322,7 @@ def check_boundary(problem: Problem, placed: Placed, tol: float) -> list[Constra
         contact = {e.index: p.snapped.boundary.intersection(LineString([e.start, e.end])).length
                    for e in named}
         best = max(contact, key=contact.__getitem__)
-        edge = f"edge {best} ({edges[best].facing})"
+        edge = f"edge {best} ({'/'.join(sorted(compass_words(edges[best], problem.north)))})"
         if contact[best] > tol:
             return True, f"{contact[best]:.2f} m along {edge}"
         return False, f"touches none of edges {', '.join(map(str, contact))}"

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 from floorplan.models import ConflictItem, Problem
-from floorplan.solver.geometry import EPS, Domain, Edge, edges_named
+from floorplan.solver.geometry import EPS, Domain, Edge, compass_words, edges_named
 
 
 class Kind(StrEnum):
@@ -129,8 +129,9 @@ def describe(g: Group, problem: Problem, domain: Domain) -> ConflictItem:
                          "the front-door room (require_connected)")
         case Kind.BOUNDARY:
             edges = edges_named(problem, domain.edges, room.boundary)
-            sides = " or ".join(f"edge {e.index} ({e.facing}, {_m(_edge_length(e))} m)"
-                                for e in edges)
+            sides = " or ".join(
+                f"edge {e.index} ({'/'.join(sorted(compass_words(e, problem.north)))}, "
+                f"{_m(_edge_length(e))} m)" for e in edges)
             return _item(f"{path}.boundary", g.kind, [name],
                          f"{name}.boundary={','.join(str(b) for b in room.boundary)}",
                          f"'{name}' must lie along {sides}")

@@ -212,6 +212,19 @@ def test_an_unknown_compass_word_is_refused() -> None:
     assert errors and all(tuple(e["loc"][:4]) == ("rooms", 0, "boundary", 0) for e in errors)
 
 
+@pytest.mark.parametrize("north", [360, -30, 1e400, "north", True, None])
+def test_north_outside_a_turn_is_refused_saying_what_to_write(north: Any) -> None:
+    errors = _refusal(_problem(north=north))
+    assert [(tuple(e["loc"]), e["type"]) for e in errors] == [(("north",), "north_bearing")]
+    assert "0 to less than 360" in errors[0]["msg"] and "330" in errors[0]["msg"]
+
+
+def test_north_is_zero_unless_given_and_any_bearing_of_a_turn_is_kept() -> None:
+    assert Problem.model_validate(_problem()).north == 0.0
+    assert Problem.model_validate(_problem(north=0)).north == 0.0
+    assert Problem.model_validate(_problem(north=359.5)).north == 359.5
+
+
 @pytest.mark.parametrize("adjacency", [
     {"a": "living", "b": "living"},
     {"a": "living", "any_of": ["living"]},

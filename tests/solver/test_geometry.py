@@ -7,7 +7,16 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from floorplan.solver.geometry import Box, rectangles_of, unusable_space, wall_moves, walls_moved
+from floorplan.models import Problem
+from floorplan.solver.geometry import (
+    Box,
+    boundary_edges,
+    edges_named,
+    rectangles_of,
+    unusable_space,
+    wall_moves,
+    walls_moved,
+)
 
 REGION = Box(0, 0, 10, 10)
 
@@ -88,3 +97,21 @@ def test_a_rectangle_scip_stopped_just_short_of_a_notch_is_cut_round_it() -> Non
     floor = shapely.union_all([p.to_polygon() for p in parts])
     assert floor.intersection(shaft.to_polygon()).area < 1e-9
     assert floor.area == pytest.approx(bed1.to_polygon().area - 1.2, abs=1e-4)
+
+
+def test_compass_words_name_the_sides_facing_the_problems_north() -> None:
+    # An L: edges 0 south, 1 east, 2 north (the cut), 3 east (the cut), 4 north, 5 west.
+    ring = [(0, 0), (6, 0), (6, 3), (4, 3), (4, 5), (0, 5)]
+    edges = boundary_edges(ring)
+
+    def named(north: float, words: list[str | int]) -> list[int]:
+        problem = Problem.model_validate({"boundary": ring, "rooms": [{"id": "a"}],
+                                          "north": north})
+        return [e.index for e in edges_named(problem, edges, words)]
+
+    assert named(0, ["north"]) == [2, 4] and named(0, ["east"]) == [1, 3]
+    assert named(90, ["north"]) == [1, 3]  # north along +x: the plan's east sides
+    assert named(90, ["south"]) == [5] and named(90, ["west"]) == [2, 4]
+    assert named(180, ["north"]) == [0]
+    assert named(45, ["north"]) == [1, 2, 3, 4]  # halfway: both words name the side
+    assert named(30, ["north", 0]) == [0, 2, 4]  # indices stay indices

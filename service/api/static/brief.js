@@ -6,6 +6,7 @@
 // does not show are kept.
 // Blank sizes are left to the residential template, which the server expands.
 
+import { drawBubbles } from "./bubbles.js";
 import { drawMatrix } from "./matrix.js";
 import { addObstacleRow, entranceOf, fillObstacles, obstaclesOfForm, outlineOf, round, SHAPES,
          setupPlacing, shapeOf, sideOf, SIDES } from "./outline.js";
@@ -63,7 +64,8 @@ function fillForm(brief) {
   $("outline-depth").value = outline.d ?? "";
   $("cut-width").value = outline.cx ?? "";
   $("cut-depth").value = outline.cy ?? "";
-  $("entrance-side").value = sideOf(brief.entrance, brief.boundary) || "";
+  $("north").value = String(brief.north ?? 0);
+  $("entrance-side").value = sideOf(brief.entrance, brief.boundary, brief.north) || "";
   $("use-template").checked = Boolean(brief.template);
   showShape();
   fillObstacles(brief.obstacles, formChanged);
@@ -101,6 +103,17 @@ function showMatrix() {
   const pairs = state.rows.flatMap(({ row }) => listOf(nextInput(row).value)
     .map((b) => [nameOf(row), b]));
   drawMatrix(names, pairs, togglePair);
+  const rooms = state.rows.map(({ row }, k) => ({
+    name: names[k], type: row.querySelector("[data-field='type']").value,
+    area: areaOfTarget(row.querySelector("[data-field='area']").value) }));
+  drawBubbles(rooms, pairs, togglePair);
+}
+
+/** The area a row's target asks for (m²): the number, or width times depth; else null. */
+function areaOfTarget(text) {
+  const size = parseSize(String(text ?? ""));
+  if (!size || size.some((v) => !(v > 0))) return null;
+  return /[x×*]|\d\s+\d/.test(text) ? size[0] * size[1] : size[0];
 }
 
 /** A pair ticked (written in a's "Next to") or unticked (taken out of both rooms'). */
@@ -158,7 +171,7 @@ function addRow(room = {}, adjacency = []) {
   const next = adjacency.filter((a) => a.a === room.id && a.b).map((a) => a.b);
   field(row, "name", "Name", input("text", room.id, { placeholder: "from type", size: 8 }));
   field(row, "type", "Type", select(ROOM_TYPES.map((t) => [t, t]), room.type ?? "room"));
-  field(row, "area", "Target m²", input("number", area, { min: 0, step: "any", placeholder: "template" }));
+  field(row, "area", "Target m² or w x d", input("text", area, { placeholder: "template", size: 6 }));
   field(row, "min", "Min side m", input("text", sizeText(room.min_size), { placeholder: "template", size: 5 }));
   field(row, "max", "Max side m", input("text", sizeText(room.max_size), { placeholder: "template", size: 5 }));
   field(row, "next", "Next to", input("text", next.join(", "), { placeholder: "names", size: 10 }));
@@ -202,8 +215,9 @@ function roomOfRow({ row, room, area }) {
   const result = name ? { id: name } : {};
   Object.assign(result, out);
   result.type = value("type");
-  const typed = value("area");
+  const typed = value("area").trim();
   if (typed === "") delete result.target_size;
+  else if (/[x×*]|\d\s+\d/.test(typed)) result.target_size = parseSize(typed); // width x depth
   else if (Number(typed) !== area || !room.target_size) {
     const side = round(Math.sqrt(Number(typed)));
     result.target_size = [side, side]; // a square of that area; the template fits the shape
@@ -229,9 +243,18 @@ function outlineOfForm() {
   return outlineOf(shape, w, d, Number($("cut-width").value) || cx, Number($("cut-depth").value) || cy);
 }
 
-function entranceOfForm(side, boundary) {
+function entranceOfForm(side, boundary, north) {
   if (side === "custom") return state.brief?.entrance;
-  return entranceOf(side, boundary);
+  return entranceOf(side, boundary, north);
+}
+
+/** The north field as the brief's `north`: a number (0 left out, as the default), or
+ * the text as typed for the service to refuse, naming the field. */
+function northOfForm() {
+  const text = $("north").value.trim();
+  if (text === "") return undefined;
+  const north = Number(text);
+  return Number.isFinite(north) ? north : text;
 }
 
 /** The brief as the form has it, over the last brief (its other fields kept). */
@@ -239,7 +262,10 @@ function briefOfForm() {
   const brief = { ...(state.brief ?? {}) };
   brief.boundary = outlineOfForm();
   if (!brief.boundary) delete brief.boundary;
-  const entrance = entranceOfForm($("entrance-side").value, brief.boundary);
+  const north = northOfForm();
+  if (north) brief.north = north;
+  else delete brief.north;
+  const entrance = entranceOfForm($("entrance-side").value, brief.boundary, brief.north);
   if (entrance) brief.entrance = entrance;
   else delete brief.entrance;
   if ($("use-template").checked) brief.template = "residential";
@@ -362,9 +388,10 @@ function placeOf(error) {
     return { box: obstacle.querySelector(".field-errors"), input,
              label: input ? input.closest("label").firstChild.textContent : "Obstacle" };
   }
-  if (path[0] === "boundary" || path[0] === "entrance") {
-    return { box: $("outline-errors"), input: $(path[0] === "boundary" ? "outline-width" : "entrance-side"),
-             label: path[0] === "boundary" ? "Outline" : "Entrance" };
+  if (path[0] === "boundary" || path[0] === "entrance" || path[0] === "north") {
+    const [input, label] = { boundary: ["outline-width", "Outline"],
+                             entrance: ["entrance-side", "Entrance"], north: ["north", "North"] }[path[0]];
+    return { box: $("outline-errors"), input: $(input), label };
   }
   return null;
 }
@@ -372,10 +399,25 @@ function placeOf(error) {
 /** Wires the form; `onChange(brief, origin)` after every change of the brief. */
 export function setupBrief(onChange) {
   state.onChange = onChange;
+  $("add-type").replaceChildren(...ROOM_TYPES.map((t) => new Option(t, t)));
+  $("add-type").value = "bedroom";
   $("add-room").addEventListener("click", () => {
-    const row = addRow({ type: "bedroom" });
+    // A programme line: that many rooms of that type; several are named type1, type2, ...
+    // (past the names taken), one is left to be named.
+    const type = $("add-type").value;
+    const count = Math.min(20, Math.max(1, Math.round(Number($("add-count").value) || 1)));
+    const taken = new Set(state.rows.map(({ row }) => nameOf(row)));
+    const rows = [];
+    for (let k = 1; rows.length < count; k++) {
+      if (count === 1) {
+        rows.push(addRow({ type }));
+      } else if (!taken.has(`${type}${k}`)) {
+        rows.push(addRow({ id: `${type}${k}`, type }));
+      }
+    }
+    $("add-count").value = "1";
     formChanged();
-    row.querySelector("[data-field='name']").focus();
+    rows[0].querySelector("[data-field='name']").focus();
   });
   $("add-obstacle").addEventListener("click", () => {
     // A metre square in the middle of the outline's box, to move and size from there.
@@ -387,7 +429,7 @@ export function setupBrief(onChange) {
     row.querySelector("input").focus();
   });
   $("brief-form").addEventListener("input", (event) => {
-    if (event.target.closest("#adjacency-matrix, #place-box")) return; // their own handlers
+    if (event.target.closest("#adjacency-matrix, #place-box, .add-rooms")) return; // their own handlers
     if (event.target.id === "outline-shape") showShape();
     formChanged();
   });

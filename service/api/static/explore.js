@@ -3,8 +3,10 @@
 // Tab and Enter, are fixed; a room's target size is changed in place; "Re-solve" sends
 // the edit through the service's edit API as it is (the kept rooms' polygons as `fixed`,
 // the shown layout as `options.start`). With "keep" on, every room that does not touch
-// a changed room is sent fixed too, so an edit stays local. Each view on screen (job,
-// report, plan, brief, downloads) is one state, and Undo / Redo step between them.
+// a changed room is sent fixed too, so an edit stays local. The room chosen for a size
+// has handles on its sides: dragging one (or Shift + an arrow key on the focused room)
+// sets its width or depth. Each view on screen (job, report, plan, brief, downloads) is
+// one state, and Undo / Redo step between them.
 
 import { drawPlan } from "./plan.js";
 import { drawVariantsTable, favourite } from "./variants.js";
@@ -14,6 +16,11 @@ const $ = (id) => document.getElementById(id);
 /** Walls closer than this (m) are one wall; a shared stretch shorter is a corner. */
 const TOUCH_M = 0.01;
 const MIN_CONTACT_M = 0.05;
+/** A wall dragged or stepped by keyboard moves by multiples of this (m) ... */
+const RESIZE_STEP_M = 0.1;
+/** ... and leaves the room at least this wide and deep (m). */
+const MIN_SIDE_M = 0.5;
+const SVG_NS = "http://www.w3.org/2000/svg";
 
 const state = {
   view: null,      // {job, info, problem, layouts, picked, locked, edited, previous, briefText}
@@ -38,12 +45,21 @@ export function setupExplore(hooks) {
   });
   plan.addEventListener("keydown", (event) => {
     const room = event.target.closest?.(".room");
-    if (!room || !shown() || (event.key !== "Enter" && event.key !== " ")) return;
-    event.preventDefault();
-    toggleLock(room.dataset.room);
-    $("plan").querySelector(`.room[data-room='${CSS.escape(room.dataset.room)}']`)?.focus();
+    if (!room || !shown()) return;
+    const id = room.dataset.room;
+    if (event.shiftKey && ARROWS[event.key]) {
+      event.preventDefault();
+      resizeByKey(id, ARROWS[event.key]);
+    } else if (event.key === "Enter" || event.key === " ") {
+      event.preventDefault();
+      toggleLock(id);
+    } else {
+      return;
+    }
+    $("plan").querySelector(`.room[data-room='${CSS.escape(id)}']`)?.focus();
   });
-  $("edit-room").addEventListener("change", showTarget);
+  plan.addEventListener("pointerdown", startDrag);
+  $("edit-room").addEventListener("change", () => { showTarget(); drawHandles(); });
   $("apply-target").addEventListener("click", applyTarget);
   $("resolve").addEventListener("click", resolve);
   $("undo").addEventListener("click", undo);
@@ -99,6 +115,7 @@ function render(source = "explore") {
   drawVariantsTable(state.view, pick, drawThumbnails);
   drawShown(source);
   fillRoomList();
+  drawHandles();
   drawComparison();
   $("undo").disabled = state.history.length === 0;
   $("redo").disabled = state.future.length === 0;
@@ -149,6 +166,123 @@ function pick(k) {
 function drawShown(source) {
   drawPlan($("plan"), state.view.problem, shown(), source);
   markLocks();
+}
+
+// Sizes on the plan: the chosen room's bounding box with a handle on each side.
+
+/** Shift + arrow: the side that moves and which way (+1 out, -1 in). */
+const ARROWS = { ArrowRight: ["east", 1], ArrowLeft: ["east", -1],
+                 ArrowUp: ["north", 1], ArrowDown: ["north", -1] };
+
+function svgEl(name, attributes, parent) {
+  const node = document.createElementNS(SVG_NS, name);
+  for (const [key, value] of Object.entries(attributes)) node.setAttribute(key, value);
+  parent.append(node);
+  return node;
+}
+
+/** The chosen room's bounding box on the plan, [x0, y0, x1, y1] in metres. */
+function boxOfRoom(id) {
+  const placed = shown()?.rooms.find((r) => r.id === id);
+  if (!placed) return null;
+  const xs = placed.polygon.map((p) => p[0]);
+  const ys = placed.polygon.map((p) => p[1]);
+  return [Math.min(...xs), Math.min(...ys), Math.max(...xs), Math.max(...ys)];
+}
+
+/** The room chosen in "Room" outlined on the plan, a handle on each side to drag. */
+function drawHandles() {
+  const svg = $("plan");
+  svg.querySelector("g.handles")?.remove();
+  const id = $("edit-room").value;
+  const b = boxOfRoom(id);
+  if (!b || !state.view) return;
+  const outline = state.view.problem.boundary ?? [];
+  const span = Math.max(...outline.map((p) => p[0])) - Math.min(...outline.map((p) => p[0]));
+  const size = Math.max(0.15, 0.025 * span);
+  const g = svgEl("g", { class: "handles", "data-room": id }, svg);
+  svgEl("rect", { class: "size-box", x: b[0], y: -b[3], width: b[2] - b[0],
+                  height: b[3] - b[1] }, g);
+  const mid = [(b[0] + b[2]) / 2, (b[1] + b[3]) / 2];
+  const at = { east: [b[2], mid[1]], west: [b[0], mid[1]], north: [mid[0], b[3]],
+               south: [mid[0], b[1]] };
+  for (const [side, [x, y]] of Object.entries(at)) {
+    const handle = svgEl("rect", { class: `handle ${side}`, "data-side": side,
+                                   x: x - size / 2, y: -y - size / 2, width: size, height: size }, g);
+    svgEl("title", {}, handle).textContent = `drag to move ${id}'s ${side} wall`;
+  }
+}
+
+/** Metres on the plan under a pointer event. */
+function planPointOf(event) {
+  const svg = $("plan");
+  const p = svg.createSVGPoint();
+  p.x = event.clientX;
+  p.y = event.clientY;
+  const m = p.matrixTransform(svg.getScreenCTM().inverse());
+  return [m.x, -m.y];
+}
+
+const snap = (v) => Math.round(v / RESIZE_STEP_M) * RESIZE_STEP_M;
+
+/** A handle dragged: the box follows the pointer, and on release the room's width or
+ * depth is set to the box's (an undo step, as "Set size" is). */
+function startDrag(event) {
+  const handle = event.target.closest?.(".handle");
+  if (!handle || !shown()) return;
+  event.preventDefault();
+  const id = $("edit-room").value;
+  const side = handle.dataset.side;
+  const b = boxOfRoom(id);
+  const box = $("plan").querySelector("g.handles .size-box");
+  const [x0, y0] = planPointOf(event);
+  let moved = 0;
+  handle.setPointerCapture(event.pointerId);
+  const move = (e) => {
+    const [x, y] = planPointOf(e);
+    const along = side === "east" || side === "west" ? x - x0 : y - y0;
+    const out = side === "east" || side === "north" ? along : -along;
+    const full = side === "east" || side === "west" ? b[2] - b[0] : b[3] - b[1];
+    moved = Math.max(snap(out), MIN_SIDE_M - full);
+    const nb = [...b];
+    if (side === "east") nb[2] += moved;
+    if (side === "west") nb[0] -= moved;
+    if (side === "north") nb[3] += moved;
+    if (side === "south") nb[1] -= moved;
+    box.setAttribute("x", nb[0]);
+    box.setAttribute("y", -nb[3]);
+    box.setAttribute("width", nb[2] - nb[0]);
+    box.setAttribute("height", nb[3] - nb[1]);
+  };
+  const up = () => {
+    handle.removeEventListener("pointermove", move);
+    handle.removeEventListener("pointerup", up);
+    handle.removeEventListener("pointercancel", up);
+    if (Math.abs(moved) > 1e-9) resize(id, side, moved);
+    else drawHandles();
+  };
+  handle.addEventListener("pointermove", move);
+  handle.addEventListener("pointerup", up);
+  handle.addEventListener("pointercancel", up);
+}
+
+/** Shift + an arrow key on a room: its east wall (or north) a step out or in. */
+function resizeByKey(id, [side, sign]) {
+  if ($("edit-room").value !== id) {
+    $("edit-room").value = id;
+    showTarget();
+  }
+  resize(id, side, sign * RESIZE_STEP_M);
+}
+
+/** The room's width (east, west) or depth (north, south) changed by `delta` metres from
+ * what the size boxes say, then set as "Set size" sets it. */
+function resize(id, side, delta) {
+  const key = side === "east" || side === "west" ? "target-width" : "target-depth";
+  const now = Number($(key).value);
+  if (!(now > 0)) return;
+  $(key).value = Math.max(MIN_SIDE_M, now + delta).toFixed(2);
+  applyTarget();
 }
 
 /** Fixed rooms drawn as fixed; every room a keyboard stop that says what it is. */
@@ -232,6 +366,8 @@ function applyTarget() {
   view.briefText = state.hooks.briefText(view.problem);
   state.view = view;
   render();
+  $("target-width").value = w.toFixed(2); // as set, not the plan's size before
+  $("target-depth").value = d.toFixed(2);
   $("edit-note").textContent = `${id}: ${held ? "at least" : "target"} ${w} × ${d} m; `
     + "Re-solve to see it.";
 }

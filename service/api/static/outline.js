@@ -74,11 +74,23 @@ export function shapeOf(boundary) {
 
 const edgesOf = (ring) => ring.map((p, k) => [p, ring[(k + 1) % ring.length]]);
 
-/** The middle of the longest stretch of the outline on its bounding box's `side`. */
-export function entranceOf(side, boundary) {
+const BEARINGS = { north: 0, east: 90, south: 180, west: 270 };
+const PLAN_SIDES = ["north", "east", "south", "west"]; // by bearing, north up
+
+/** The side of the plan (named as drawn, north up) nearest to facing the compass `side`
+ * when true north is `north` degrees clockwise from the plan's up (the brief's `north`). */
+export function planSide(side, north = 0) {
+  const bearing = (((BEARINGS[side] + Number(north || 0)) % 360) + 360) % 360;
+  return PLAN_SIDES[Math.round(bearing / 90) % 4];
+}
+
+/** The middle of the longest stretch of the outline on its bounding box's side facing
+ * `side` (true north `north` degrees clockwise from the plan's up). */
+export function entranceOf(side, boundary, north = 0) {
   if (!boundary?.length || !SIDES.includes(side)) return undefined;
   const b = boxOf(boundary);
-  const line = { south: [1, b.y0], north: [1, b.y1], west: [0, b.x0], east: [0, b.x1] }[side];
+  const line = { south: [1, b.y0], north: [1, b.y1], west: [0, b.x0], east: [0, b.x1] }[
+    planSide(side, north)];
   const on = edgesOf(boundary).filter(([p, q]) => p[line[0]] === line[1] && q[line[0]] === line[1]);
   if (!on.length) return undefined;
   const length = ([p, q]) => Math.abs(p[0] - q[0]) + Math.abs(p[1] - q[1]);
@@ -87,9 +99,10 @@ export function entranceOf(side, boundary) {
 }
 
 /** The side whose middle the entrance is at ("custom" elsewhere, kept as it is). */
-export function sideOf(entrance, boundary) {
+export function sideOf(entrance, boundary, north = 0) {
   if (!entrance || !boundary) return "";
-  const side = SIDES.find((s) => JSON.stringify(entranceOf(s, boundary)) === JSON.stringify(entrance));
+  const side = SIDES.find((s) => JSON.stringify(entranceOf(s, boundary, north))
+    === JSON.stringify(entrance));
   return side ?? "custom";
 }
 

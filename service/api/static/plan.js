@@ -147,15 +147,18 @@ export function drawPlan(svg, problem, layout = null, source = "problem") {
     el("circle", { cx: x, cy: -y, r: pad / 3 }, g);
     el("title", {}, g).textContent = "entrance";
   }
-  if (arrow) addNorth(svg, e.maxX + pad + arrow / 2, -e.maxY, arrow);
+  if (arrow) addNorth(svg, e.maxX + pad + arrow / 2, -e.maxY, arrow, Number(problem.north) || 0);
   svg.dataset.source = source;
   svg.dataset.drawn = String(Number(svg.dataset.drawn ?? 0) + 1);
 }
 
-/** A north arrow `size` wide, its tip at (x, y) in drawing units (north is up: the
- * plan's y grows north), in a strip right of the outline. */
-function addNorth(svg, x, y, size) {
+/** A north arrow `size` wide, its tip at (x, y) in drawing units, in a strip right of
+ * the outline, turned `north` degrees clockwise (the brief's `north`; 0: the plan's y
+ * grows north, up). */
+function addNorth(svg, x, y, size, north = 0) {
   const g = el("g", { class: "north", "aria-hidden": "true" }, svg);
+  g.dataset.north = String(north);
+  if (north) g.setAttribute("transform", `rotate(${north} ${x} ${y + size * 0.8})`);
   el("polygon", { points: `${x},${y} ${x - size * 0.3},${y + size} ${x},${y + size * 0.75} `
     + `${x + size * 0.3},${y + size}` }, g);
   const n = el("text", { x, y: y + size * 1.6, "font-size": size * 0.5, "text-anchor": "middle" }, g);

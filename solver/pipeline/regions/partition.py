@@ -272,4 +272,4 @@ def region_problem(problem: Problem, regions: Sequence[Region], time_limit: floa
         "time_limit": time_limit, "regions_above": 0, "require_connected": False})
     return Problem(name=f"{problem.name} regions", boundary=problem.boundary,
                    obstacles=problem.obstacles, rooms=rooms, adjacency=adjacency,
-                   weights=problem.weights, options=options)
+                   weights=problem.weights, options=options, north=problem.north)

@@ -12,6 +12,7 @@ from typing import Any
 
 import pytest
 
+from tests.browser import click_plan
 from tests.servers import Server
 from tests.service.web.conftest import expect, screenshot
 
@@ -20,20 +21,6 @@ ROWS = "[data-testid=room-row]"
 
 def brief(tab: Any) -> dict[str, Any]:
     return json.loads(tab.input_value("#problem"))
-
-
-def click_plan(tab: Any, x: float, y: float) -> None:
-    """Clicks the plan at the point (x, y) in metres (y north), through the drawing's own
-    transform."""
-    tab.locator("#plan").scroll_into_view_if_needed()
-    at = tab.evaluate("""([x, y]) => {
-      const svg = document.getElementById("plan");
-      const p = svg.createSVGPoint();
-      p.x = x; p.y = -y;
-      const s = p.matrixTransform(svg.getScreenCTM());
-      return [s.x, s.y];
-    }""", [x, y])
-    tab.mouse.click(*at)
 
 
 @pytest.mark.slow
@@ -140,3 +127,115 @@ def test_outlines_entrance_obstacles_drawing_and_the_adjacency_matrix_make_a_val
     assert brief(page)["boundary"] == [[0, 0], [6, 0], [6, 4], [0, 4]]
     expect(page.locator("[data-testid=outline-shape]")).to_have_value("rectangle")
     expect(page.locator("[data-testid=outline-width]")).to_have_value("6")
+
+
+@pytest.mark.slow
+def test_north_is_set_in_the_editor_turns_the_arrow_and_the_sides_and_is_checked(
+        page: Any, server: Server) -> None:
+    page.goto(server.url)
+    page.select_option("#example", "template:flat-6")
+    expect(page.locator(ROWS)).to_have_count(6)
+    page.select_option("[data-testid=outline-shape]", "rectangle")
+    page.fill("[data-testid=outline-width]", "10")
+    page.fill("[data-testid=outline-depth]", "8")
+    arrow = page.locator("#plan g.north")
+    expect(arrow).to_have_attribute("data-north", "0")
+    assert "north" not in brief(page)  # the default is left out
+    page.select_option("#entrance-side", "north")
+    assert brief(page)["entrance"] == [5, 8]
+
+    # North along the plan's +x: the brief says so, the arrow turns a quarter clockwise,
+    # and the entrance "in the middle of the north side" moves to the plan's east side.
+    page.fill("[data-testid=north]", "90")
+    assert brief(page)["north"] == 90
+    expect(arrow).to_have_attribute("data-north", "90")
+    assert (arrow.get_attribute("transform") or "").startswith("rotate(90 ")
+    assert brief(page)["entrance"] == [10, 4]
+    page.click("#validate")
+    expect(page.locator("#messages")).to_contain_text("No problem found")
+    page.reload()  # read back from the JSON view: the field and the side as they were
+    page.select_option("#example", "template:flat-6")
+    page.click("#json-view summary")
+    page.fill("#problem", json.dumps({**brief(page), "boundary": [[0, 0], [10, 0], [10, 8],
+                                      [0, 8]], "north": 90, "entrance": [10, 4]}))
+    expect(page.locator("[data-testid=north]")).to_have_value("90")
+    expect(page.locator("#entrance-side")).to_have_value("north")
+
+    # Out of a turn: refused as you type, on the field, saying what to write.
+    page.fill("[data-testid=north]", "400")
+    expect(page.locator("[data-testid=north]")).to_have_attribute("aria-invalid", "true",
+                                                                  timeout=10_000)
+    expect(page.locator("#outline-errors")).to_contain_text("360")
+    page.fill("[data-testid=north]", "330")
+    expect(page.locator("[data-testid=north]")).not_to_have_attribute("aria-invalid", "true",
+                                                                      timeout=10_000)
+    assert brief(page)["north"] == 330
+
+
+@pytest.mark.slow
+def test_a_programme_line_adds_that_many_rooms_and_a_target_takes_an_area_or_a_size(
+        page: Any, server: Server) -> None:
+    page.goto(server.url)
+    page.select_option("#example", "template:flat-6")
+    expect(page.locator(ROWS)).to_have_count(6)
+    page.select_option("[data-testid=add-type]", "bedroom")
+    page.fill("[data-testid=add-count]", "2")
+    page.click("[data-testid=add-room]")
+    expect(page.locator(ROWS)).to_have_count(8)
+    rooms = brief(page)["rooms"]
+    assert [(r["id"], r["type"]) for r in rooms[6:]] == [("bedroom1", "bedroom"),
+                                                        ("bedroom2", "bedroom")]
+    expect(page.locator("[data-testid=add-count]")).to_have_value("1")
+    page.select_option("[data-testid=add-type]", "study")
+    page.click("[data-testid=add-room]")  # one: left for its name
+    expect(page.locator(ROWS)).to_have_count(9)
+    assert brief(page)["rooms"][8]["type"] == "study" and "id" not in brief(page)["rooms"][8]
+    page.locator(ROWS).nth(8).locator("[data-testid=room-name]").fill("study")
+
+    # A target as width x depth is sent as such; an area as a square the template shapes.
+    page.locator(ROWS).nth(6).locator("[data-testid=room-area]").fill("3.2 x 4")
+    page.locator(ROWS).nth(7).locator("[data-testid=room-area]").fill("12.25")
+    rooms = brief(page)["rooms"]
+    assert rooms[6]["target_size"] == [3.2, 4] and rooms[7]["target_size"] == [3.5, 3.5]
+    page.fill("[data-testid=outline-width]", "14")
+    page.click("#validate")
+    expect(page.locator("#messages")).to_contain_text("No problem found")
+
+
+@pytest.mark.slow
+def test_the_bubble_diagram_pairs_rooms_like_the_matrix_by_mouse_and_by_keyboard(
+        page: Any, server: Server) -> None:
+    page.goto(server.url)
+    page.select_option("#example", "template:flat-6")
+    expect(page.locator(ROWS)).to_have_count(6)
+    bubbles = page.locator("[data-testid=bubble]")
+    expect(bubbles).to_have_count(6)
+    bed1, bath = (page.locator(f"[data-testid=bubble][data-room={n}]") for n in ("bed1", "bath"))
+    # A bigger target, a bigger bubble.
+    page.locator(ROWS).nth(1).locator("[data-testid=room-area]").fill("40")
+    page.locator(ROWS).nth(5).locator("[data-testid=room-area]").fill("4")
+    living = float(page.locator("[data-room=living] circle").get_attribute("r"))
+    assert living > float(bath.locator("circle").get_attribute("r"))
+
+    bed1.click()
+    expect(bed1).to_have_attribute("aria-pressed", "true")
+    bath.click()
+    assert {"a": "bed1", "b": "bath"} in brief(page)["adjacency"]
+    expect(page.locator("[data-testid=adjacency-pair][data-a=bed1][data-b=bath]")).to_be_checked()
+    expect(page.locator("#bubbles .bond[data-pair='bath|bed1']")).to_have_count(1)
+    expect(page.locator("#bubble-note")).to_contain_text("bed1 and bath paired")
+
+    # By keyboard: Enter on bath, then on bed1, unpairs them; the focus stays on bed1.
+    bath.focus()
+    page.keyboard.press("Enter")
+    page.locator("[data-testid=bubble][data-room=bed1]").focus()
+    page.keyboard.press("Enter")
+    assert {"a": "bed1", "b": "bath"} not in brief(page).get("adjacency", [])
+    expect(page.locator("[data-testid=adjacency-pair][data-a=bed1][data-b=bath]")).not_to_be_checked()
+    expect(page.locator("#bubbles .bond[data-pair='bath|bed1']")).to_have_count(0)
+    assert page.evaluate("document.activeElement.dataset.room") == "bed1"
+    # A tick in the matrix is a line between the bubbles.
+    page.locator("[data-testid=adjacency-pair][data-a=kitchen][data-b=bed2]").check()
+    expect(page.locator("#bubbles .bond[data-pair='bed2|kitchen']")).to_have_count(1)
+    page.set_viewport_size({"width": 390, "height": 844})
+    assert page.evaluate("document.documentElement.scrollWidth") <= 390

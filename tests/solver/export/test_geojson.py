@@ -106,3 +106,24 @@ def test_the_command_line_writes_wgs84_with_origin(tmp_path: Path) -> None:
 def _bounds(points: list[tuple[float, float]]) -> tuple[float, float, float, float]:
     xs, ys = [x for x, _ in points], [y for _, y in points]
     return min(xs), min(ys), max(xs), max(ys)
+
+
+def test_a_plan_whose_north_is_plus_x_is_turned_onto_the_map(
+        example: tuple[Problem, Layout]) -> None:
+    # `north: 90`: true north points along the plan's +x, so the plan's +y points west.
+    problem, layout = example
+    turned = problem.model_copy(update={"north": 90.0})
+    layout = Layout.model_validate({
+        **layout.model_dump(), "windows": [{"room": "living", "segment": [[1, 0], [3, 0]]}],
+        "doors": [{"between": ["living", "dining"], "segment": [[5, 1], [5, 2]]}]})
+    features = to_geojson(turned, layout, ORIGIN)["features"]
+    window = next(f for f in features if f["properties"]["kind"] == "window")
+    (lon_a, lat_a), (lon_b, lat_b) = window["geometry"]["coordinates"]
+    assert lon_a == pytest.approx(lon_b, abs=1e-8) and lat_b > lat_a  # along x: due north
+    door = next(f for f in features if f["properties"]["kind"] == "door")
+    (lon_a, lat_a), (lon_b, lat_b) = door["geometry"]["coordinates"]
+    assert lat_a == pytest.approx(lat_b, abs=1e-8) and lon_b < lon_a  # along y: due west
+    # Turning keeps every length: the outline's area on the map is the plan's.
+    frame = geopandas.GeoDataFrame.from_features(features, crs="EPSG:4326").to_crs(LOCAL)
+    outline = frame[frame["kind"] == "outline"].geometry.iloc[0]
+    assert outline.area == pytest.approx(problem.outline().area, rel=1e-3)

@@ -169,3 +169,17 @@ def test_the_storey_height_is_an_option() -> None:
         "Height"] == pytest.approx(7.0)
     with pytest.raises(ValueError, match="storey_height"):
         to_ifc(problem, layout, storey_height=2.0)
+
+
+def test_true_north_is_the_problems() -> None:
+    problem = Problem.model_validate_json((EXAMPLES / "apartment-5.json").read_text())
+    layout = Layout.model_validate_json((EXAMPLES / "apartment-5.layout.json").read_text())
+    for north, direction in ((0.0, (0.0, 1.0)), (90.0, (1.0, 0.0)), (330.0, (-0.5, 0.866))):
+        turned = problem.model_copy(update={"north": north})
+        model = ifcopenshell.file.from_string(to_ifc(turned, layout).decode())
+        context = next(c for c in model.by_type("IfcGeometricRepresentationContext")
+                       if not c.is_a("IfcGeometricRepresentationSubContext"))
+        assert context.TrueNorth.DirectionRatios == pytest.approx(direction, abs=1e-3)
+        logger = ifcopenshell.validate.json_logger()
+        ifcopenshell.validate.validate(model, logger)
+        assert logger.statements == []

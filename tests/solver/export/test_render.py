@@ -204,6 +204,11 @@ def test_doors_swing_into_their_room_windows_sit_in_walls_and_north_is_marked() 
     assert len(root.findall(".//svg:line[@class='window-pane']", ns)) == len(layout.windows)
     arrow = root.find(".//svg:g[@class='north-arrow']", ns)
     assert arrow is not None and "N" in "".join(arrow.itertext())
+    assert arrow.get("transform") is None  # north up: the problem's y grows north
+    # True north along the plan's +x (`north: 90`): the arrow turned a quarter clockwise.
+    turned = ET.fromstring(render_svg(problem.model_copy(update={"north": 90.0}), layout))
+    arrow = turned.find(".//svg:g[@class='north-arrow']", ns)
+    assert arrow is not None and (arrow.get("transform") or "").startswith("rotate(90 ")
 
 
 def test_partitions_are_drawn_once_with_thickness_and_the_facade_thicker(svg: ET.Element) -> None:
