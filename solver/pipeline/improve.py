@@ -8,7 +8,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from floorplan.models import ExtraRectangles, Problem
+from floorplan.models import ExtraRectangles
 from floorplan.solver.events import Phase
 from floorplan.solver.geometry import Box, Domain
 from floorplan.solver.heuristics.level_one import level_one_spec, reach_wing, wing_names
@@ -23,7 +23,6 @@ from floorplan.solver.heuristics.variety import pull_at_random
 from floorplan.solver.miqp.formulation import build_level
 from floorplan.solver.miqp.model import LevelModel
 from floorplan.solver.miqp.scip_run import Incumbent, LevelStatus, add_start
-from floorplan.solver.miqp.spec import LevelSpec
 from floorplan.solver.pipeline.absorb import absorbed
 from floorplan.solver.pipeline.run import Run, ScipAnswer, covered, goal_area
 
@@ -90,20 +89,6 @@ def _gap_wing(
     return None
 
 
-def improvement_spec(problem: Problem, spec: LevelSpec) -> LevelSpec:
-    """The level-1 model the improvement solves: `spec` (Eq. 12 under the user's
-    bounds), except for a solve that stops at its first good layout (a batch's,
-    `options.stop_when_good`) of at most `NEIGHBOURHOOD_SIZE` rooms, whose whole-floor
-    MIQP gets the coverage pass's growth term (`coverage_first`): a batch wants a
-    layout that covers the floor soon, not the last hundredths of Eq. 12, and with the
-    term SCIP's search covers first (apartment-5 x 200 through `floorplan batch`:
-    about 1 -> 2.1-2.7 layouts/s, 190-195 -> 200 valid; bench/NOTES.md, "Batches: the
-    whole-floor MIQP covers first")."""
-    if problem.options.stop_when_good and len(problem.rooms) <= NEIGHBOURHOOD_SIZE:
-        return coverage_first(spec)
-    return spec
-
-
 @dataclass(frozen=True)
 class _BeforeWing:
     """Level 1 as it stood before a gap wing: its model, rectangles, the floor they
@@ -123,9 +108,8 @@ def improve_level_one(
     neighbourhood search on the level-1 MIQP."""
     if deadline - time.monotonic() <= 0.1 or run.stopped():
         return first
-    lm = build_level(improvement_spec(
-        run.problem, level_one_spec(run.problem, domain, window=None, wings=run.wings,
-                                    soft=run.soft)))
+    lm = build_level(level_one_spec(run.problem, domain, window=None, wings=run.wings,
+                                    soft=run.soft))
     if run.problem.options.diverse:
         pull_at_random(lm, run.problem.options.seed)
     start = add_start(lm, first)
@@ -141,11 +125,9 @@ def improve_level_one(
         if direct.rects is None:
             return start.rects
         # The whole floor's MIQP under the user's bounds: what SCIP says of its answer
-        # is what the report may say, if this layout is the one returned (optimal only
-        # for Eq. 12 itself, not with a batch's growth term).
+        # is what the report may say, if this layout is the one returned.
         run.scip_answer = ScipAnswer(run.by_room(domain, direct.rects),
-                                     direct.status is LevelStatus.OPTIMAL
-                                     and not lm.spec.growth_weight,
+                                     direct.status is LevelStatus.OPTIMAL,
                                      _eq12_bound(run, lm, direct.dual_bound))
         return direct.rects
     def improved(rects: dict[str, Box]) -> None:

@@ -209,28 +209,3 @@ def test_redraws_lay_out_again_whole_until_good_within_the_time_limit() -> None:
         diverse=True, stop_when_good=True, time_limit=6, redraws=2, seed=3)
     layout, draws, _ = _level_ones(good)
     assert draws == 1 and layout.report.valid and layout.report.coverage >= 0.99
-
-
-def test_a_batch_solve_of_five_rooms_covers_first() -> None:
-    # Stopping at its first good layout (a batch's solve), a floor of five rooms solves
-    # its whole MIQP with the coverage pass's growth term; any other solve, Eq. 12 alone.
-    from floorplan.solver.geometry import make_domain
-    from floorplan.solver.heuristics.level_one import level_one_spec
-    from floorplan.solver.pipeline.improve import improvement_spec
-
-    problem = Problem.model_validate(APARTMENT)
-    spec = level_one_spec(problem, make_domain(problem), window=None, wings={})
-    batch = improvement_spec(problem.with_options(diverse=True, stop_when_good=True), spec)
-    assert batch.growth_weight == spec.cover_weight > 0
-    assert improvement_spec(problem, spec).growth_weight == 0
-    assert improvement_spec(problem.with_options(diverse=True), spec).growth_weight == 0
-
-
-@pytest.mark.slow
-def test_batch_solves_of_five_rooms_end_good_at_every_seed() -> None:
-    # Limits far above need: each solve ends at its first good layout, never at the limit.
-    for seed in range(4):
-        layout = solve(Problem.model_validate(APARTMENT).with_options(
-            seed=seed, time_limit=60, diverse=True, stop_when_good=True))
-        assert layout.report.valid and layout.report.coverage >= 0.99, seed
-        assert layout.report.termination.value == "interrupted", seed
