@@ -62,3 +62,14 @@ def click_plan(tab: Any, x: float, y: float) -> None:
     tests and scripts/web_screenshots.py)."""
     tab.locator("#plan").scroll_into_view_if_needed()
     tab.mouse.click(*plan_point(tab, x, y))
+
+
+def click_room(tab: Any, room: str) -> None:
+    """Clicks a point inside the plan's room `room`: Playwright's own click aims at the
+    middle of the room's box, which for an L-shaped room may lie in a neighbour."""
+    import shapely
+
+    ring = tab.locator(f"#plan .room[data-room='{room}'] polygon").first.get_attribute("points")
+    svg = [tuple(float(v) for v in p.split(",")) for p in ring.split()]
+    inside = shapely.Polygon([(x, -y) for x, y in svg]).representative_point()
+    click_plan(tab, inside.x, inside.y)

@@ -17,6 +17,7 @@ import httpx2 as httpx
 import pytest
 
 from floorplan.models import Problem
+from tests.browser import click_room
 from tests.paths import EXAMPLES
 from tests.servers import Server
 from tests.service.web.conftest import (
@@ -290,7 +291,7 @@ def test_variants_pick_fix_rooms_edit_a_target_resolve_compare_and_undo(
     before = {room: page.locator(f"#plan .room[data-room='{room}'] polygon")
               .get_attribute("points") for room in kept}
     for room in kept:
-        page.click(f"#plan .room[data-room='{room}']")
+        click_room(page, room)
         expect(page.locator(f"#plan .room[data-room='{room}']")).to_have_class(
             re.compile("locked"))
     expect(page.locator("#locked-count")).to_have_text("3")
