@@ -36,11 +36,16 @@ class Recorder:
 
     def __init__(self) -> None:
         self.calls: list[tuple[int, list[float], LevelSpec]] = []
+        self.stops: list[float | None] = []
+        self.incumbents: list[float] = []
 
-    def __call__(self, lm: LevelModel, limit: float) -> LevelResult:
+    def __call__(self, lm: LevelModel, limit: float, *,
+                 stop_at: float | None = None) -> LevelResult:
         m = lm.model
         self.calls.append((m.getNSols(), [m.getSolObjVal(s) for s in m.getSols()], lm.spec))
-        return run_level(lm, time_limit=limit)
+        self.stops.append(stop_at)
+        return run_level(lm, time_limit=limit, stop_at=stop_at,
+                         on_incumbent=lambda inc: self.incumbents.append(inc.objective))
 
 
 def test_a_step_starts_from_the_layout_in_closed_form() -> None:
@@ -66,3 +71,33 @@ def test_a_layout_the_step_refuses_is_answered_without_a_solve() -> None:
     assert step.calls == []
     assert result.status is LevelStatus.INFEASIBLE and result.rects is None
     assert candidate == moved
+
+
+def test_a_step_with_a_gain_ends_at_its_first_incumbent_that_lowers_the_start_by_it() -> None:
+    # Four rooms freed: run to its limit, SCIP's search goes on past its first gain.
+    whole = Recorder()
+    _, full = _solve_neighbourhood(spec(), LAYOUT, set(ROOMS), (), time.monotonic() + 60,
+                                   whole)
+    [(_, [start], _)] = whole.calls
+    assert full.objective is not None and full.objective < start - 0.1
+    # A tenth of what the whole step gains: the start alone never reaches it.
+    gain = (start - full.objective) / 10
+    step = Recorder()
+    candidate, result = _solve_neighbourhood(spec(), LAYOUT, set(ROOMS), (),
+                                             time.monotonic() + 60, step, gain=gain)
+    [stop_at] = step.stops
+    assert stop_at == pytest.approx(start - gain)
+    # Ended by the gain (an incumbent, not the caller's interruption), and no solution
+    # sought after the first that reached it.
+    assert result.status is LevelStatus.FEASIBLE
+    assert result.objective is not None and result.objective <= stop_at + 1e-9
+    reached = [objective for objective in step.incumbents if objective <= stop_at + 1e-9]
+    assert reached == [step.incumbents[-1]]
+    assert level_objective(spec(), candidate) <= level_objective(spec(), LAYOUT) - gain + 1e-6
+
+
+def test_a_gain_beyond_the_optimum_leaves_the_step_to_prove_it() -> None:
+    step = Recorder()
+    _, result = _solve_neighbourhood(spec(), LAYOUT, {"a", "b"}, (), time.monotonic() + 60,
+                                     step, gain=1e6)
+    assert result.status is LevelStatus.OPTIMAL
