@@ -14,7 +14,7 @@ from typing import Protocol
 
 import shapely
 
-from floorplan.solver.budget import STALL_GAIN, STALL_GAIN_ABS
+from floorplan.solver.budget import STALL_GAIN_ABS
 from floorplan.solver.geometry import Box, Domain, bounding_box, unusable_space
 from floorplan.solver.miqp.formulation import build_level
 from floorplan.solver.miqp.model import LevelModel
@@ -27,6 +27,8 @@ NEIGHBOURHOOD_SIZE = 5
 MAX_NEIGHBOURHOOD_SIZE = 10
 #: Seconds one neighbourhood solve may take at most.
 STEP_LIMIT = 0.5
+#: A step ends at its first incumbent that lowers its start's objective by this much.
+STEP_GAIN = STALL_GAIN_ABS
 #: Relative objective gain below which a step counts as no improvement.
 MIN_GAIN = 1e-6
 #: Uncovered parts smaller than this (m²) do not attract a neighbourhood.
@@ -123,13 +125,10 @@ def search_neighbourhoods(
 
 
 def step_gain(objective: float) -> float:
-    """The lowering of the objective `objective` at which a neighbourhood step ends: a
-    significant one, as the stall rule counts it (`budget.significant_gain`). SCIP's
-    improving incumbents in a step come 0.3-0.48 s into its 0.5 s on house-13; the
-    search is better served by taking the first that counts and re-choosing rooms
-    around the new layout than by polishing the same rooms for the rest of the step
-    (bench/NOTES.md, "A neighbourhood step ends at its first significant gain")."""
-    return max(STALL_GAIN * abs(objective), STALL_GAIN_ABS)
+    """The lowering of the objective `objective` at which a neighbourhood step ends:
+    its first incumbent better than the start by more than noise (`STEP_GAIN`), the
+    start itself never counting."""
+    return STEP_GAIN
 
 
 def _keeps_coverage(domain: Domain, candidate: dict[str, Box],
