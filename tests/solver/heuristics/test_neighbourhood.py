@@ -1,16 +1,23 @@
 """A neighbourhood step (`_solve_neighbourhood`) starts SCIP from the layout as it stands,
 computed in closed form: the model holds that start before its one solve, with the
 objective Eq. 12 gives at those boxes; a layout the step's model refuses is answered
-without any solve."""
+without any solve. Each step of the search asks SCIP to end at its first incumbent that
+betters the step's own start (`STEP_GAIN`; `run_level(stop_at=...)`,
+tests/solver/miqp/test_stop_at.py)."""
 
 from __future__ import annotations
 
+import random
 import time
 
 import pytest
 
-from floorplan.solver.geometry import Box
-from floorplan.solver.heuristics.neighbourhood import _solve_neighbourhood
+from floorplan.solver.geometry import Box, Domain
+from floorplan.solver.heuristics.neighbourhood import (
+    STEP_GAIN,
+    _solve_neighbourhood,
+    search_neighbourhoods,
+)
 from floorplan.solver.miqp.model import LevelModel
 from floorplan.solver.miqp.scip_run import LevelResult, LevelStatus, run_level
 from floorplan.solver.miqp.spec import ContactSpec, LevelSpec, RectSpec, level_objective
@@ -73,31 +80,11 @@ def test_a_layout_the_step_refuses_is_answered_without_a_solve() -> None:
     assert candidate == moved
 
 
-def test_a_step_with_a_gain_ends_at_its_first_incumbent_that_lowers_the_start_by_it() -> None:
-    # Four rooms freed: run to its limit, SCIP's search goes on past its first gain.
-    whole = Recorder()
-    _, full = _solve_neighbourhood(spec(), LAYOUT, set(ROOMS), (), time.monotonic() + 60,
-                                   whole)
-    [(_, [start], _)] = whole.calls
-    assert full.objective is not None and full.objective < start - 0.1
-    # A tenth of what the whole step gains: the start alone never reaches it.
-    gain = (start - full.objective) / 10
+def test_the_search_ends_each_step_at_its_first_gain_over_its_own_start() -> None:
     step = Recorder()
-    candidate, result = _solve_neighbourhood(spec(), LAYOUT, set(ROOMS), (),
-                                             time.monotonic() + 60, step, gain=gain)
-    [stop_at] = step.stops
-    assert stop_at == pytest.approx(start - gain)
-    # Ended by the gain (an incumbent, not the caller's interruption), and no solution
-    # sought after the first that reached it.
-    assert result.status is LevelStatus.FEASIBLE
-    assert result.objective is not None and result.objective <= stop_at + 1e-9
-    reached = [objective for objective in step.incumbents if objective <= stop_at + 1e-9]
-    assert reached == [step.incumbents[-1]]
-    assert level_objective(spec(), candidate) <= level_objective(spec(), LAYOUT) - gain + 1e-6
-
-
-def test_a_gain_beyond_the_optimum_leaves_the_step_to_prove_it() -> None:
-    step = Recorder()
-    _, result = _solve_neighbourhood(spec(), LAYOUT, {"a", "b"}, (), time.monotonic() + 60,
-                                     step, gain=1e6)
-    assert result.status is LevelStatus.OPTIMAL
+    domain = Domain(REGION, REGION.to_polygon(), (), ())
+    best = search_neighbourhoods(spec(), LAYOUT, domain, deadline=time.monotonic() + 60,
+                                 rng=random.Random(0), step=step, patience=2)
+    assert step.calls and best.steps == len(step.calls)
+    for (_, [start, *_], _), stop_at in zip(step.calls, step.stops, strict=True):
+        assert stop_at == pytest.approx(start - STEP_GAIN)
