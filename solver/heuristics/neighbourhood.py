@@ -10,11 +10,9 @@ import random
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Protocol
 
 import shapely
 
-from floorplan.solver.budget import STALL_GAIN_ABS
 from floorplan.solver.geometry import Box, Domain, bounding_box, unusable_space
 from floorplan.solver.miqp.formulation import build_level
 from floorplan.solver.miqp.model import LevelModel
@@ -27,8 +25,6 @@ NEIGHBOURHOOD_SIZE = 5
 MAX_NEIGHBOURHOOD_SIZE = 10
 #: Seconds one neighbourhood solve may take at most.
 STEP_LIMIT = 0.5
-#: A step ends at its first incumbent that lowers its start's objective by this much.
-STEP_GAIN = STALL_GAIN_ABS
 #: Relative objective gain below which a step counts as no improvement.
 MIN_GAIN = 1e-6
 #: Uncovered parts smaller than this (m²) do not attract a neighbourhood.
@@ -36,14 +32,7 @@ GAP_AREA = 1e-3
 #: A mover may be this much (metres) larger than the gap: it pushes its neighbours.
 MOVER_REACH = 0.5
 
-
-
-class Step(Protocol):
-    """One neighbourhood's solve: `lm` within `limit` seconds, ending at its first
-    incumbent of objective `stop_at` or below (`run_level`)."""
-
-    def __call__(self, lm: LevelModel, limit: float, *,
-                 stop_at: float | None = None) -> LevelResult: ...
+Step = Callable[[LevelModel, float], LevelResult]
 
 
 @dataclass(frozen=True)
@@ -95,8 +84,7 @@ def search_neighbourhoods(
                 break  # every neighbourhood of every size is exhausted
             size += 1
             continue
-        candidate, result = _solve_neighbourhood(spec, best.rects, free, gap, deadline, step,
-                                                 gain=step_gain(best.objective))
+        candidate, result = _solve_neighbourhood(spec, best.rects, free, gap, deadline, step)
         objective = level_objective(spec, candidate)
         gain = best.objective - objective
         improved = result.rects is not None and gain > MIN_GAIN * max(1.0, abs(best.objective))
@@ -124,13 +112,6 @@ def search_neighbourhoods(
     return best
 
 
-def step_gain(objective: float) -> float:
-    """The lowering of the objective `objective` at which a neighbourhood step ends:
-    its first incumbent better than the start by more than noise (`STEP_GAIN`), the
-    start itself never counting."""
-    return STEP_GAIN
-
-
 def _keeps_coverage(domain: Domain, candidate: dict[str, Box],
                     coverage: float) -> tuple[bool, float]:
     """Whether `candidate` covers no less than `coverage` (within a gap's area), and the
@@ -151,25 +132,17 @@ def _partners(spec: LevelSpec) -> dict[str, set[str]]:
 
 def _solve_neighbourhood(
     spec: LevelSpec, rects: dict[str, Box], free: set[str], gap: tuple[Box, ...],
-    deadline: float, step: Step, *, gain: float | None = None,
+    deadline: float, step: Step,
 ) -> tuple[dict[str, Box], LevelResult]:
     """One step: the rectangles `free` (and the `gap` they may grow into) re-solved with
-    everything else fixed; the layout with the step's result, and that result. With
-    `gain`, the step ends at its first incumbent that lowers the start's objective by
-    `gain` or more."""
+    everything else fixed; the layout with the step's result, and that result."""
     sub = neighbourhood_spec(spec, rects, free, extra=gap)
     lm = build_level(sub)
     limit = min(STEP_LIMIT, deadline - time.monotonic())
     # The layout as it stands is the step's start, in closed form: refused only when a
     # constraint of the step's model breaks at it (then the step is that answer).
     start = add_start(lm, {r.name: rects[r.name] for r in sub.rects if r.fixed is None})
-    if start.values is None:
-        result = start
-    else:
-        # The start's own objective: the held rooms' terms are constants of the step's
-        # model, so a lowering of it is the same lowering of the whole level's.
-        stop_at = None if gain is None or start.objective is None else start.objective - gain
-        result = step(lm, limit - start.seconds, stop_at=stop_at)
+    result = step(lm, limit - start.seconds) if start.values is not None else start
     candidate = dict(rects)
     if result.rects is not None:
         candidate.update({n: b for n, b in result.rects.items() if n in free})

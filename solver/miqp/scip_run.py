@@ -166,11 +166,8 @@ def run_level(
     seed: int = 0,
     on_incumbent: Callable[[Incumbent], None] | None = None,
     should_stop: Callable[[], bool] | None = None,
-    stop_at: float | None = None,
 ) -> LevelResult:
-    """Solve `lm` within `time_limit` seconds and read back every rectangle. With
-    `stop_at`, the solve ends at its first incumbent of objective `stop_at` or below
-    (SCIP interrupted from its new-incumbent event), and says FEASIBLE with it."""
+    """Solve `lm` within `time_limit` seconds and read back every rectangle."""
     m = lm.model
     m.setParam("limits/time", max(time_limit, 0.05))
     m.setParam("limits/memory", MEMORY_LIMIT_MB)
@@ -180,14 +177,10 @@ def run_level(
     tune(m, aggressive=lm.aggressive)
     started = time.monotonic()
     _install_hooks(lm)
-    lm.hooks.update(on_incumbent=on_incumbent, should_stop=should_stop, started=started,
-                    stop_at=stop_at, reached=False)
+    lm.hooks.update(on_incumbent=on_incumbent, should_stop=should_stop, started=started)
     m.optimize()
     seconds = time.monotonic() - started
     status = _status(m)
-    if status is LevelStatus.INTERRUPTED and lm.hooks["reached"]:
-        # Ended by `stop_at`, not by the caller: an incumbent at a limit of ours.
-        status = LevelStatus.FEASIBLE
     rects = None
     if m.getNSols() > 0 and status is not LevelStatus.INFEASIBLE:
         rects = _read_rects(m, m.getBestSol(), lm)
@@ -251,20 +244,15 @@ def _install_hooks(lm: LevelModel) -> None:
 
     def best_solution(model: Model, _event: object) -> None:
         report = hooks.get("on_incumbent")
-        # getPrimalbound() can be stale inside BESTSOLFOUND; read the solution itself.
-        sol = model.getBestSol()
-        objective = model.getSolObjVal(sol)
         if report is not None:
+            # getPrimalbound() can be stale inside BESTSOLFOUND; read the solution itself.
+            sol = model.getBestSol()
             report(Incumbent(
-                objective=objective,
+                objective=model.getSolObjVal(sol),
                 dual_bound=model.getDualbound(),
                 elapsed=time.monotonic() - hooks["started"],
                 rects=_read_rects(model, sol, lm),
             ))
-        stop_at = hooks.get("stop_at")
-        if stop_at is not None and objective <= stop_at and not hooks["reached"]:
-            hooks["reached"] = True
-            model.interruptSolve()
 
     def maybe_stop(model: Model, _event: object) -> None:
         should_stop = hooks.get("should_stop")

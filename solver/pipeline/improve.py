@@ -153,7 +153,7 @@ def improve_level_one(
         best = search_neighbourhoods(
             lm.spec, rects, domain,
             deadline=deadline, rng=rng,
-            step=run.run, should_stop=run.ending,
+            step=lambda model, limit: run.run(model, limit), should_stop=run.ending,
             keep_coverage=True, patience=_patience(run) if patient else None,
             on_improvement=improved,
         )
@@ -183,7 +183,7 @@ def _coverage_passes(
         # gaps absorbed, meets the coverage goal, or when it stalls.
         grown = search_neighbourhoods(
             coverage_first(lm.spec), rects, domain, deadline=middle, rng=rng,
-            step=run.run, should_stop=run.ending,
+            step=lambda model, limit: run.run(model, limit), should_stop=run.ending,
             on_improvement=improved, good_enough=good_enough, patience=COVER_PATIENCE,
             stall_seconds=stall,
         )

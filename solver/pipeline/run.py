@@ -253,11 +253,9 @@ class Run:
         return None
 
     def run(self, lm: LevelModel, limit: float, *,
-            on_incumbent: Callable[[Incumbent], None] | None = None,
-            stop_at: float | None = None) -> LevelResult:
+            on_incumbent: Callable[[Incumbent], None] | None = None) -> LevelResult:
         result = run_level(lm, time_limit=limit, seed=self.problem.options.seed,
-                           on_incumbent=on_incumbent, should_stop=self.ending,
-                           stop_at=stop_at)
+                           on_incumbent=on_incumbent, should_stop=self.ending)
         self.statuses.append(result.status)
         return result
 

@@ -1,23 +1,16 @@
 """A neighbourhood step (`_solve_neighbourhood`) starts SCIP from the layout as it stands,
 computed in closed form: the model holds that start before its one solve, with the
 objective Eq. 12 gives at those boxes; a layout the step's model refuses is answered
-without any solve. Each step of the search asks SCIP to end at its first incumbent that
-betters the step's own start (`STEP_GAIN`; `run_level(stop_at=...)`,
-tests/solver/miqp/test_stop_at.py)."""
+without any solve."""
 
 from __future__ import annotations
 
-import random
 import time
 
 import pytest
 
-from floorplan.solver.geometry import Box, Domain
-from floorplan.solver.heuristics.neighbourhood import (
-    STEP_GAIN,
-    _solve_neighbourhood,
-    search_neighbourhoods,
-)
+from floorplan.solver.geometry import Box
+from floorplan.solver.heuristics.neighbourhood import _solve_neighbourhood
 from floorplan.solver.miqp.model import LevelModel
 from floorplan.solver.miqp.scip_run import LevelResult, LevelStatus, run_level
 from floorplan.solver.miqp.spec import ContactSpec, LevelSpec, RectSpec, level_objective
@@ -43,16 +36,11 @@ class Recorder:
 
     def __init__(self) -> None:
         self.calls: list[tuple[int, list[float], LevelSpec]] = []
-        self.stops: list[float | None] = []
-        self.incumbents: list[float] = []
 
-    def __call__(self, lm: LevelModel, limit: float, *,
-                 stop_at: float | None = None) -> LevelResult:
+    def __call__(self, lm: LevelModel, limit: float) -> LevelResult:
         m = lm.model
         self.calls.append((m.getNSols(), [m.getSolObjVal(s) for s in m.getSols()], lm.spec))
-        self.stops.append(stop_at)
-        return run_level(lm, time_limit=limit, stop_at=stop_at,
-                         on_incumbent=lambda inc: self.incumbents.append(inc.objective))
+        return run_level(lm, time_limit=limit)
 
 
 def test_a_step_starts_from_the_layout_in_closed_form() -> None:
@@ -78,13 +66,3 @@ def test_a_layout_the_step_refuses_is_answered_without_a_solve() -> None:
     assert step.calls == []
     assert result.status is LevelStatus.INFEASIBLE and result.rects is None
     assert candidate == moved
-
-
-def test_the_search_ends_each_step_at_its_first_gain_over_its_own_start() -> None:
-    step = Recorder()
-    domain = Domain(REGION, REGION.to_polygon(), (), ())
-    best = search_neighbourhoods(spec(), LAYOUT, domain, deadline=time.monotonic() + 60,
-                                 rng=random.Random(0), step=step, patience=2)
-    assert step.calls and best.steps == len(step.calls)
-    for (_, [start, *_], _), stop_at in zip(step.calls, step.stops, strict=True):
-        assert stop_at == pytest.approx(start - STEP_GAIN)
