@@ -60,6 +60,17 @@ def screenshot(tab: Any, name: str) -> None:
     tab.screenshot(path=str(SCREENSHOTS / name), full_page=True)
 
 
+#: The rows of the editor's programme table, one per room.
+ROWS = "[data-testid=room-row]"
+
+
+def open_six_room_flat(tab: Any, url: str) -> None:
+    """The page at `url`, the six-room flat template in the editor."""
+    tab.goto(url)
+    tab.select_option("#example", "template:flat-6")
+    expect(tab.locator(ROWS)).to_have_count(6)
+
+
 def pick_example(tab: Any, name: str, *, time_limit: str) -> None:
     expect(tab.locator(f"#example option[value='{name}']")).to_be_attached()
     tab.select_option("#example", name)

@@ -18,9 +18,15 @@ from floorplan.models.template_rules import KNOWN_TYPES
 from tests.browser import click_room, plan_point
 from tests.paths import ROOT
 from tests.servers import Server
-from tests.service.web.conftest import download, expect, pick_example, screenshot
+from tests.service.web.conftest import (
+    ROWS,
+    download,
+    expect,
+    open_six_room_flat,
+    pick_example,
+    screenshot,
+)
 
-ROWS = "[data-testid=room-row]"
 #: The flat of the done-when: six rooms in 10 x 8 m, made in the form.
 FLAT = [  # name, type, target m2 (None: the template's), next to, outside wall
     ("hall", "hall", None, "", ""),
@@ -153,9 +159,7 @@ def test_json_and_field_errors_say_where_and_what_to_write_instead(
 @pytest.mark.slow
 def test_a_brief_saved_in_the_browser_opens_again_after_a_reload(
         page: Any, server: Server) -> None:
-    page.goto(server.url)
-    page.select_option("#example", "template:flat-6")
-    expect(page.locator(ROWS)).to_have_count(6)
+    open_six_room_flat(page, server.url)
     page.fill("[data-testid=outline-width]", "12")
     page.locator(ROWS).nth(3).locator("[data-testid=room-area]").fill("15")
     saved = json.loads(page.input_value("#problem"))

@@ -14,9 +14,7 @@ import pytest
 
 from tests.browser import click_plan
 from tests.servers import Server
-from tests.service.web.conftest import expect, screenshot
-
-ROWS = "[data-testid=room-row]"
+from tests.service.web.conftest import ROWS, expect, open_six_room_flat, screenshot
 
 
 def brief(tab: Any) -> dict[str, Any]:
@@ -26,9 +24,7 @@ def brief(tab: Any) -> dict[str, Any]:
 @pytest.mark.slow
 def test_outlines_entrance_obstacles_drawing_and_the_adjacency_matrix_make_a_valid_brief(
         page: Any, server: Server) -> None:
-    page.goto(server.url)
-    page.select_option("#example", "template:flat-6")
-    expect(page.locator(ROWS)).to_have_count(6)
+    open_six_room_flat(page, server.url)
 
     page.select_option("[data-testid=outline-shape]", "u")
     page.fill("[data-testid=outline-width]", "12")
@@ -132,9 +128,7 @@ def test_outlines_entrance_obstacles_drawing_and_the_adjacency_matrix_make_a_val
 @pytest.mark.slow
 def test_north_is_set_in_the_editor_turns_the_arrow_and_the_sides_and_is_checked(
         page: Any, server: Server) -> None:
-    page.goto(server.url)
-    page.select_option("#example", "template:flat-6")
-    expect(page.locator(ROWS)).to_have_count(6)
+    open_six_room_flat(page, server.url)
     page.select_option("[data-testid=outline-shape]", "rectangle")
     page.fill("[data-testid=outline-width]", "10")
     page.fill("[data-testid=outline-depth]", "8")
@@ -175,9 +169,7 @@ def test_north_is_set_in_the_editor_turns_the_arrow_and_the_sides_and_is_checked
 @pytest.mark.slow
 def test_a_programme_line_adds_that_many_rooms_and_a_target_takes_an_area_or_a_size(
         page: Any, server: Server) -> None:
-    page.goto(server.url)
-    page.select_option("#example", "template:flat-6")
-    expect(page.locator(ROWS)).to_have_count(6)
+    open_six_room_flat(page, server.url)
     page.select_option("[data-testid=add-type]", "bedroom")
     page.fill("[data-testid=add-count]", "2")
     page.click("[data-testid=add-room]")
@@ -205,9 +197,7 @@ def test_a_programme_line_adds_that_many_rooms_and_a_target_takes_an_area_or_a_s
 @pytest.mark.slow
 def test_the_bubble_diagram_pairs_rooms_like_the_matrix_by_mouse_and_by_keyboard(
         page: Any, server: Server) -> None:
-    page.goto(server.url)
-    page.select_option("#example", "template:flat-6")
-    expect(page.locator(ROWS)).to_have_count(6)
+    open_six_room_flat(page, server.url)
     bubbles = page.locator("[data-testid=bubble]")
     expect(bubbles).to_have_count(6)
     bed1, bath = (page.locator(f"[data-testid=bubble][data-room={n}]") for n in ("bed1", "bath"))
