@@ -199,6 +199,25 @@ class Cluster:
         self.workers.append(worker)
         return worker
 
+    def add_subdomain_worker(self, name: str = "sub",
+                             timeout: float = 60) -> subprocess.Popen[bytes]:
+        """A `floorplan worker --subdomains` process (logging at info), once its liveness
+        key is in Redis: it takes sub-domain tasks from then on."""
+        import redis
+
+        from floorplan.service.jobs.broker.config import Keys
+
+        worker = self.add_worker(name, "--subdomains", log_level="info")
+        client = redis.Redis.from_url(self.redis_url)
+        try:
+            deadline = time.monotonic() + timeout
+            while not list(client.scan_iter(f"{Keys(self.name).subdomain_workers}*")):
+                assert time.monotonic() < deadline, "the sub-domain worker did not start"
+                time.sleep(0.2)
+        finally:
+            client.close()
+        return worker
+
     def wait_for_workers(self, count: int, timeout: float = 60) -> None:
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:

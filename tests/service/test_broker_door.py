@@ -101,14 +101,8 @@ def test_a_sub_domain_task_beyond_the_time_limit_is_refused_or_killed_in_a_prefo
                       FLOORPLAN_SUBDOMAINS="celery", FLOORPLAN_MAX_TIME_LIMIT="1").start()
     celery = make_celery(Settings(redis_url=cluster.redis_url, namespace=cluster.name))
     try:
-        sub = cluster.add_worker("sub", "--subdomains", log_level="info")
+        sub = cluster.add_subdomain_worker(timeout=WAIT)
         keys = Keys(cluster.name)
-        client = redis.Redis.from_url(cluster.redis_url)
-        deadline = time.monotonic() + WAIT
-        while not list(client.scan_iter(f"{keys.subdomain_workers}*")):
-            assert time.monotonic() < deadline, "the sub-domain worker did not start"
-            time.sleep(0.2)
-        client.close()
         # Prefork: the worker's pool processes are its children (a thread pool has
         # none), where Celery's hard time limit applies.
         pool = children(sub.pid)

@@ -239,13 +239,7 @@ def test_sub_domains_go_as_celery_tasks_to_a_sub_domain_worker(tmp_path: Path) -
 
     cluster = Cluster(tmp_path, workers=1, WORKERS="1", FLOORPLAN_SUBDOMAINS="celery").start()
     try:
-        cluster.add_worker("sub", "--subdomains", log_level="info")
-        client_redis = redis.Redis.from_url(cluster.redis_url)
-        deadline = time.monotonic() + 60
-        while not list(client_redis.scan_iter(f"{cluster.name}:subworker:*")):
-            assert time.monotonic() < deadline, "the sub-domain worker did not start"
-            time.sleep(0.2)
-        client_redis.close()
+        cluster.add_subdomain_worker()
         with httpx.Client(base_url=cluster.url, timeout=30) as client:
             job = submit(client, TWO_WINGS)
             done = wait(client, job["id"])
