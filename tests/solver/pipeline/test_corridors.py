@@ -35,34 +35,48 @@ def _problem() -> Problem:
     )
 
 
+class _Raster:
+    """The corridors as 4-neighbour raster cells of side CELL: our own measure of walks,
+    independent of the report's."""
+
+    def __init__(self, corridors: Polygon) -> None:
+        x0, y0, x1, y1 = corridors.bounds
+        nx, ny = math.ceil((x1 - x0) / CELL), math.ceil((y1 - y0) / CELL)
+        self.gx, self.gy = np.meshgrid(
+            x0 + (np.arange(nx) + 0.5) * CELL, y0 + (np.arange(ny) + 0.5) * CELL, indexing="ij"
+        )
+        self.inside = shapely.contains_xy(corridors, self.gx, self.gy)
+        self.cells = np.argwhere(self.inside)
+
+    def nearest(self, p: tuple[float, float]) -> tuple[int, int, float]:
+        """The corridor cell nearest `p`, and the straight leg from `p` to its centre."""
+        d = np.hypot(self.gx[self.inside] - p[0], self.gy[self.inside] - p[1])
+        k = int(np.argmin(d))
+        return int(self.cells[k][0]), int(self.cells[k][1]), float(d[k])
+
+    def steps(self, sources: list[tuple[float, float]]) -> np.ndarray:
+        """Breadth-first steps from the cells nearest `sources` (-1: not reached)."""
+        nx, ny = self.inside.shape
+        steps = np.full((nx, ny), -1)
+        queue = deque()
+        for p in sources:
+            i, j, _ = self.nearest(p)
+            steps[i, j] = 0
+            queue.append((i, j))
+        while queue:
+            i, j = queue.popleft()
+            for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
+                if 0 <= a < nx and 0 <= b < ny and self.inside[a, b] and steps[a, b] < 0:
+                    steps[a, b] = steps[i, j] + 1
+                    queue.append((a, b))
+        return steps
+
+
 def _walks(corridors: Polygon, doors: dict[str, tuple[float, float]]) -> dict[str, float]:
     """Breadth-first over 4-neighbour raster cells from the exits' cells."""
-    x0, y0, x1, y1 = corridors.bounds
-    nx, ny = math.ceil((x1 - x0) / CELL), math.ceil((y1 - y0) / CELL)
-    gx, gy = np.meshgrid(
-        x0 + (np.arange(nx) + 0.5) * CELL, y0 + (np.arange(ny) + 0.5) * CELL, indexing="ij"
-    )
-    inside = shapely.contains_xy(corridors, gx, gy)
-
-    def cell(p: tuple[float, float]) -> tuple[int, int]:
-        cells = np.argwhere(inside)
-        d = np.hypot(gx[inside] - p[0], gy[inside] - p[1])
-        i, j = cells[int(np.argmin(d))]
-        return int(i), int(j)
-
-    steps = np.full((nx, ny), -1)
-    queue = deque()
-    for e in EXITS:
-        i, j = cell(e)
-        steps[i, j] = 0
-        queue.append((i, j))
-    while queue:
-        i, j = queue.popleft()
-        for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
-            if 0 <= a < nx and 0 <= b < ny and inside[a, b] and steps[a, b] < 0:
-                steps[a, b] = steps[i, j] + 1
-                queue.append((a, b))
-    return {room: float(steps[cell(p)]) * CELL for room, p in doors.items()}
+    raster = _Raster(corridors)
+    steps = raster.steps(EXITS)
+    return {room: float(steps[raster.nearest(p)[:2]]) * CELL for room, p in doors.items()}
 
 
 @pytest.mark.slow
@@ -101,29 +115,9 @@ def test_corridors_from_their_specification() -> None:
 def _walk_between(corridors: Polygon, a: tuple[float, float], b: tuple[float, float]) -> float:
     """Four-neighbour raster walk from the corridor cell nearest `a` to the one nearest
     `b`, plus the straight legs onto them."""
-    x0, y0, x1, y1 = corridors.bounds
-    nx, ny = math.ceil((x1 - x0) / CELL), math.ceil((y1 - y0) / CELL)
-    gx, gy = np.meshgrid(
-        x0 + (np.arange(nx) + 0.5) * CELL, y0 + (np.arange(ny) + 0.5) * CELL, indexing="ij"
-    )
-    inside = shapely.contains_xy(corridors, gx, gy)
-    cells = np.argwhere(inside)
-
-    def nearest(p: tuple[float, float]) -> tuple[int, int, float]:
-        d = np.hypot(gx[inside] - p[0], gy[inside] - p[1])
-        k = int(np.argmin(d))
-        return int(cells[k][0]), int(cells[k][1]), float(d[k])
-
-    (ai, aj, leg_a), (bi, bj, leg_b) = nearest(a), nearest(b)
-    steps = np.full((nx, ny), -1)
-    steps[ai, aj] = 0
-    queue = deque([(ai, aj)])
-    while queue:
-        i, j = queue.popleft()
-        for p, q in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
-            if 0 <= p < nx and 0 <= q < ny and inside[p, q] and steps[p, q] < 0:
-                steps[p, q] = steps[i, j] + 1
-                queue.append((p, q))
+    raster = _Raster(corridors)
+    (_, _, leg_a), (bi, bj, leg_b) = raster.nearest(a), raster.nearest(b)
+    steps = raster.steps([a])
     if steps[bi, bj] < 0:
         return math.inf
     return float(steps[bi, bj]) * CELL + leg_a + leg_b
