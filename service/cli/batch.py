@@ -3,7 +3,7 @@
 
     floorplan batch INPUT... --count N --out DIR [--processes P] [--seed S]
                     [--format json|svg|dxf|geojson] [--time-limit S] [--vary program]
-                    [--tolerance T | --full] [--distinct [--draws K]]
+                    [--tolerance T | --full] [--no-distinct | --draws K]
 
 Each brief (a file, every ``*.json`` brief in a folder, or a templated brief) is laid out
 N times, with seeds S, S+1, ... and ``options.diverse`` (service/batch.py). DIR gets
@@ -11,9 +11,10 @@ N times, with seeds S, S+1, ... and ``options.diverse`` (service/batch.py). DIR 
 (``.batch.jsonl``) of what is done: rerunning the same command skips every layout whose
 file and journal line exist. Ctrl-C stops handing out layouts, ends the running ones
 and writes the summary of what is done (exit 130); failed layouts (an error, a crashed
-or killed process) are rows with an error, and are tried again on a rerun. With
-``--distinct`` a good layout whose plan the batch holds already is laid out again under
-another draw (``LayoutTask.draw``), K times at most, in a hidden file until it is kept.
+or killed process) are rows with an error, and are tried again on a rerun. A good
+layout whose plan the batch holds already, once its walls were moved apart, is laid
+out again under another draw (``LayoutTask.draw``), K times at most, in a hidden file until
+it is kept (``--no-distinct``: never).
 """
 
 from __future__ import annotations
@@ -85,13 +86,15 @@ def add_batch(commands: Any) -> None:
                    help="stop each solve at its first good layout (valid, covering 99 %%) "
                    "(the default), or with T, once a brief has 4 good layouts, at its first "
                    "good layout whose Eq. 12 is within T (relative) of the brief's best so far")
-    p.add_argument("--distinct", action="store_true",
+    p.add_argument("--distinct", action="store_true", default=True,
                    help="lay a good layout out again, under another draw, when the batch "
                    "already holds its plan (--draws times at most; the first new plan is "
-                   "kept, else the first layout): more distinct plans for more solves")
+                   "kept, else the first layout): the default")
+    p.add_argument("--no-distinct", dest="distinct", action="store_false",
+                   help="keep a layout whose plan the batch holds (its walls moved apart "
+                   "where they could be): fewer solves, fewer distinct plans")
     p.add_argument("--draws", type=_positive, default=None, metavar="K",
-                   help="with --distinct, the draws a layout may have beyond its first "
-                   "(default 2)")
+                   help="the draws a layout may have beyond its first (default 2)")
     p.add_argument("--no-spread", dest="spread", action="store_false",
                    help="keep a good layout as its solve gave it when the batch already "
                    "holds its plan (by default its walls are moved apart from the plans "
@@ -169,7 +172,7 @@ def cmd_batch(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
     if args.tolerance is not None and args.tolerance < 0:
         raise UsageError("--tolerance: 0 or more")
     if args.draws is not None and not args.distinct:
-        raise UsageError("--draws: only with --distinct")
+        raise UsageError("--draws: not with --no-distinct")
     return run_batch(args, briefs, out, interrupted)
 
 

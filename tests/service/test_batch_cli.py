@@ -103,10 +103,10 @@ ONE_PLAN: dict = {
 
 
 @pytest.mark.slow
-def test_distinct_draws_again_for_a_plan_the_batch_holds_and_keeps_the_first(
+def test_a_plan_the_batch_holds_is_drawn_again_by_default_and_the_first_kept(
         tmp_path: Path) -> None:
     brief = write_problem(tmp_path, ONE_PLAN, "one.json")
-    done = floorplan("batch", brief, "-n", "3", "-o", "out", "--distinct", "--time-limit",
+    done = floorplan("batch", brief, "-n", "3", "-o", "out", "--time-limit",
                      "1", "--processes", "2", cwd=tmp_path)
     assert done.returncode == EXIT_OK, done.stderr
     out = tmp_path / "out"
@@ -124,11 +124,15 @@ def test_distinct_draws_again_for_a_plan_the_batch_holds_and_keeps_the_first(
     again = floorplan("batch", brief, "-n", "3", "-o", "out", "--distinct", "-q",
                       cwd=tmp_path)
     assert again.returncode == EXIT_OK and _summary(out)["layouts"] == 3
-    one_draw = floorplan("batch", brief, "-n", "2", "-o", "out1", "--distinct", "--draws",
+    one_draw = floorplan("batch", brief, "-n", "2", "-o", "out1", "--draws",
                          "1", "--time-limit", "1", "-q", cwd=tmp_path)
     assert one_draw.returncode == EXIT_OK and _summary(tmp_path / "out1")["redraws"] == 1
-    alone = floorplan("batch", brief, "-n", "2", "-o", "out2", "--draws", "1", cwd=tmp_path)
-    assert alone.returncode == 2 and "--draws: only with --distinct" in alone.stderr
+    kept = floorplan("batch", brief, "-n", "2", "-o", "out3", "--no-distinct",
+                     "--time-limit", "1", "-q", cwd=tmp_path)
+    assert kept.returncode == EXIT_OK and _summary(tmp_path / "out3")["redraws"] == 0
+    alone = floorplan("batch", brief, "-n", "2", "-o", "out2", "--draws", "1", "--no-distinct",
+                      cwd=tmp_path)
+    assert alone.returncode == 2 and "--draws: not with --no-distinct" in alone.stderr
 
 
 @pytest.mark.slow
@@ -165,7 +169,7 @@ def test_layouts_that_repeat_a_plan_have_their_walls_moved_apart(tmp_path: Path)
         assert layout["report"]["valid"]
         assert layout["report"]["objective"] == pytest.approx(row["objective"], abs=1e-5)
     plain = floorplan("batch", brief, "-n", "16", "-o", "plain", "--processes", "2",
-                      "--no-spread", "-q", "--time-limit", "20", cwd=tmp_path)
+                      "--no-spread", "--no-distinct", "-q", "--time-limit", "20", cwd=tmp_path)
     assert plain.returncode == EXIT_OK, plain.stderr
     unspread = _summary(tmp_path / "plain")
     assert unspread["spread"] == 0
