@@ -40,6 +40,8 @@ class Mesh:
     #: The grid lines' positions along x and y (cells may differ in size).
     xs: tuple[float, ...] = ()
     ys: tuple[float, ...] = ()
+    #: Per face, its grid cell's box (x0, y0, x1, y1), in the order of `faces`.
+    cells: list[tuple[float, float, float, float]] = field(default_factory=list)
 
     @property
     def lengths(self) -> list[float]:
@@ -112,6 +114,7 @@ def grid_mesh(
             edges.append((min(v, w), max(v, w)))
     opposite = []
     faces = []
+    cells = []
     for i in range(nx):
         for j in range(ny):
             for a, b in (((i, j, 0), (i, j + 1, 0)), ((i, j, 1), (i + 1, j, 1))):
@@ -125,7 +128,8 @@ def grid_mesh(
                     if k in edge_at
                 ]
                 faces.append(sides)
-    return Mesh(points, edges, opposite, (px, py), faces, tuple(xs), tuple(ys))
+                cells.append((xs[i], ys[j], xs[i + 1], ys[j + 1]))
+    return Mesh(points, edges, opposite, (px, py), faces, tuple(xs), tuple(ys), cells)
 
 
 def _lines(

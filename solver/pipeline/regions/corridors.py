@@ -151,19 +151,25 @@ def room_pitch(problem: Problem, width: float) -> tuple[float, float]:
 
 def grid_anchors(problem: Problem, corridors: Corridors) -> list[tuple[float, float]]:
     """The points the grid's lines run through: the exits first (the lines run from the
-    first one inside the floor), then two opposite corners of each obstacle an exit lies
-    on (a stair or lift core), so that the core's sides are grid lines where the cells
-    allow. Otherwise a core cut cells so that two beside it kept two sides each, each
-    facing an active edge across its neighbour (too close), and neither the start's
-    repair nor SCIP found a network (office-72-core). The sides of every obstacle
-    (mall-140's atria and stairs too) changed mall-140's grid and cost it 8-11 rooms'
-    doors (bench/NOTES.md, "Corridors")."""
+    first one inside the floor), then, for each obstacle an exit lies on (a stair or lift
+    core), its two sides across the exit's side: for an exit on its west or east side the
+    lines x = west and x = east, at the exit's y. Without them a core cut cells so that
+    two beside it kept two sides each, each facing an active edge across its neighbour
+    (too close), and no network was found (office-72-core). All four sides made the
+    cells beside an exit on a core's middle 2 m deep, the rows there 1.1 m (E_size
+    median 1.16-1.20); the sides of every obstacle (mall-140's atria and stairs too)
+    cost mall-140 8-11 rooms' doors (bench/NOTES.md, "Corridors")."""
     corners: list[tuple[float, float]] = []
     for obstacle in problem.obstacles:
         box = obstacle.to_box()
-        if any(box.exterior.distance(Point(e)) <= EXIT_TOLERANCE for e in corridors.exits):
-            x0, y0, x1, y1 = box.bounds
-            corners += [(x0, y0), (x1, y1)]
+        x0, y0, x1, y1 = box.bounds
+        for e in corridors.exits:
+            if box.exterior.distance(Point(e)) > EXIT_TOLERANCE:
+                continue
+            if min(abs(e[0] - x0), abs(e[0] - x1)) <= EXIT_TOLERANCE:
+                corners += [(x0, e[1]), (x1, e[1])]
+            if min(abs(e[1] - y0), abs(e[1] - y1)) <= EXIT_TOLERANCE:
+                corners += [(e[0], y0), (e[0], y1)]
     return [*corridors.exits, *corners]
 
 
@@ -221,7 +227,10 @@ def network_spec(
     (`_floor_corner`)."""
     free = problem.free_area()
     mesh = grid_mesh(free, pitch, anchors=grid_anchors(problem, corridors), thinnest=thinnest)
-    mesh = replace(mesh, faces=[f for f in mesh.faces if not _floor_corner(mesh, f, free)])
+    kept = [k for k, f in enumerate(mesh.faces)
+            if not _floor_corner(mesh, f, free) and not _cut_by_obstacle(mesh, k, free)]
+    mesh = replace(mesh, faces=[mesh.faces[k] for k in kept],
+                   cells=[mesh.cells[k] for k in kept] if mesh.cells else [])
     sinks = tuple(dict.fromkeys(mesh.nearest(e) for e in corridors.exits))
     half = corridors.width / 2
     pairs, limits = [], []
@@ -283,6 +292,23 @@ def _floor_corner(mesh: Mesh, sides: Sequence[int], free: BaseGeometry) -> bool:
     return all(
         wall.distance(LineString([corner, end])) <= 1e-6 for end in (p, q)
     )
+
+
+#: A cell an obstacle leaves less than this share of needs no corridor of its own.
+CUT_CELL_SHARE = 0.6
+
+
+def _cut_by_obstacle(mesh: Mesh, face: int, free: BaseGeometry) -> bool:
+    """Whether an obstacle (a core) takes more than 1 - `CUT_CELL_SHARE` of the cell of
+    `face`: what is left (a strip thinner than a room beside the core) need not lie on a
+    corridor; covering it forced a corridor along the core's far side, too close to the
+    next one, and no network was found (office-72-core). Its piece joins a strip
+    beside it (`_strips`)."""
+    if not mesh.cells:
+        return False
+    box = shapely.box(*mesh.cells[face])
+    inside = free.intersection(box).area
+    return inside < CUT_CELL_SHARE * box.area and not free.covers(box)
 
 
 def _corner_points(free: BaseGeometry) -> list[tuple[float, float]]:
