@@ -194,7 +194,8 @@ def walkable_pitch(
     )
     for sx, sy, thin in tries[:MESH_TRIES]:
         trial = (pitch[0] * sx, pitch[1] * sy)
-        mesh = grid_mesh(free, trial, anchors=grid_anchors(problem, corridors), thinnest=thin)
+        mesh = grid_mesh(free, trial, anchors=grid_anchors(problem, corridors), thinnest=thin,
+                         spread=True)
         if _walkable(mesh, corridors.exits, cap):
             return trial, thin
     return pitch, 0.5
@@ -226,7 +227,8 @@ def network_spec(
     The cells in the floor's outer corners need no corridor on a side of their own
     (`_floor_corner`)."""
     free = problem.free_area()
-    mesh = grid_mesh(free, pitch, anchors=grid_anchors(problem, corridors), thinnest=thinnest)
+    mesh = grid_mesh(free, pitch, anchors=grid_anchors(problem, corridors), thinnest=thinnest,
+                     spread=True)
     kept = [k for k, f in enumerate(mesh.faces)
             if not _floor_corner(mesh, f, free) and not _cut_by_obstacle(mesh, k, free)]
     mesh = replace(mesh, faces=[mesh.faces[k] for k in kept],
