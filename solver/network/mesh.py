@@ -73,7 +73,7 @@ def grid_mesh(
     *,
     anchors: Sequence[XY] = (),
     thinnest: float = 0.5,
-    spread: bool = False,
+    spread: bool | tuple[bool, bool] = False,
 ) -> Mesh:
     """The grid mesh of `free` at about `pitch` metres (one for both axes, or per axis:
     x, y). Along an axis with an anchor (an exit) strictly inside the floor's extent, the
@@ -83,12 +83,12 @@ def grid_mesh(
     their own where the cells allow, `_onto_anchors`); else the extent is cut into whole
     cells, the count the nearest to the pitch, preferring counts that put the anchors
     on grid lines. With `spread`, each stretch between two anchors' lines (or an anchor's
-    and the floor's edge) is cut into whole cells instead (`_spread`)."""
+    and the floor's edge) is cut into whole cells instead (`_spread`; per axis: x, y)."""
     x0, y0, x1, y1 = free.bounds
     ax, ay = pitch if isinstance(pitch, tuple) else (pitch, pitch)
-    lines = _spread if spread else _lines
-    xs = lines(x0, x1, ax, [a[0] for a in anchors], thinnest)
-    ys = lines(y0, y1, ay, [a[1] for a in anchors], thinnest)
+    sx, sy = spread if isinstance(spread, tuple) else (spread, spread)
+    xs = (_spread if sx else _lines)(x0, x1, ax, [a[0] for a in anchors], thinnest)
+    ys = (_spread if sy else _lines)(y0, y1, ay, [a[1] for a in anchors], thinnest)
     nx, ny = len(xs) - 1, len(ys) - 1
     px, py = (x1 - x0) / nx, (y1 - y0) / ny
     grown = free.buffer(EPS, join_style="mitre")

@@ -152,14 +152,34 @@ def room_pitch(problem: Problem, width: float) -> tuple[float, float]:
 def grid_anchors(problem: Problem, corridors: Corridors) -> list[tuple[float, float]]:
     """The points the grid's lines run through: the exits first (the lines run from the
     first one inside the floor), then, for each obstacle an exit lies on (a stair or lift
-    core), its two sides across the exit's side: for an exit on its west or east side the
-    lines x = west and x = east, at the exit's y. Without them a core cut cells so that
-    two beside it kept two sides each, each facing an active edge across its neighbour
-    (too close), and no network was found (office-72-core). All four sides made the
-    cells beside an exit on a core's middle 2 m deep, the rows there 1.1 m (E_size
-    median 1.16-1.20); the sides of every obstacle (mall-140's atria and stairs too)
-    cost mall-140 8-11 rooms' doors (bench/NOTES.md, "Corridors")."""
-    corners: list[tuple[float, float]] = []
+    core), its two sides across the exit's side (`_core_sides`)."""
+    return [*corridors.exits, *(p for pair, _ in _core_sides(problem, corridors) for p in pair)]
+
+
+def spread_axes(problem: Problem, corridors: Corridors) -> tuple[bool, bool]:
+    """Per axis (x, y), whether the grid's lines are spread evenly between the anchors'
+    lines (`grid_mesh`'s `spread`): on both axes once an exit lies on a core. Run from
+    one exit at the pitch, office-72-core's lines left 6.6 and 3.0 m columns at its ends
+    (rows 5.7 and 2.1 m deep for rooms 4 m wide); spread only along the axis of the
+    core's sides, office-60-two-cores got no network and office-96-l lost a door;
+    spread on mall-140 (exits on the outline only), no network in the time
+    (bench/NOTES.md, "Corridors")."""
+    cored = bool(_core_sides(problem, corridors))
+    return (cored, cored)
+
+
+def _core_sides(
+    problem: Problem, corridors: Corridors
+) -> list[tuple[tuple[tuple[float, float], tuple[float, float]], int]]:
+    """For each obstacle an exit lies on, two points on its sides across the exit's side
+    and the axis they fix: for an exit on its west or east side, x = west and x = east
+    at the exit's y (axis 0). Without them a core cut cells so that two beside it kept
+    two sides each, each facing an active edge across its neighbour (too close), and no
+    network was found (office-72-core). All four sides made the cells beside an exit on
+    a core's middle 2 m deep, the rows there 1.1 m (E_size median 1.16-1.20); the sides
+    of every obstacle (mall-140's atria and stairs too) cost mall-140 8-11 rooms' doors
+    (bench/NOTES.md, "Corridors")."""
+    out: list[tuple[tuple[tuple[float, float], tuple[float, float]], int]] = []
     for obstacle in problem.obstacles:
         box = obstacle.to_box()
         x0, y0, x1, y1 = box.bounds
@@ -167,10 +187,10 @@ def grid_anchors(problem: Problem, corridors: Corridors) -> list[tuple[float, fl
             if box.exterior.distance(Point(e)) > EXIT_TOLERANCE:
                 continue
             if min(abs(e[0] - x0), abs(e[0] - x1)) <= EXIT_TOLERANCE:
-                corners += [(x0, e[1]), (x1, e[1])]
+                out.append((((x0, e[1]), (x1, e[1])), 0))
             if min(abs(e[1] - y0), abs(e[1] - y1)) <= EXIT_TOLERANCE:
-                corners += [(e[0], y0), (e[0], y1)]
-    return [*corridors.exits, *corners]
+                out.append((((e[0], y0), (e[0], y1)), 1))
+    return out
 
 
 def walkable_pitch(
@@ -195,7 +215,7 @@ def walkable_pitch(
     for sx, sy, thin in tries[:MESH_TRIES]:
         trial = (pitch[0] * sx, pitch[1] * sy)
         mesh = grid_mesh(free, trial, anchors=grid_anchors(problem, corridors), thinnest=thin,
-                         spread=True)
+                         spread=spread_axes(problem, corridors))
         if _walkable(mesh, corridors.exits, cap):
             return trial, thin
     return pitch, 0.5
@@ -228,7 +248,7 @@ def network_spec(
     (`_floor_corner`)."""
     free = problem.free_area()
     mesh = grid_mesh(free, pitch, anchors=grid_anchors(problem, corridors), thinnest=thinnest,
-                     spread=True)
+                     spread=spread_axes(problem, corridors))
     kept = [k for k, f in enumerate(mesh.faces)
             if not _floor_corner(mesh, f, free) and not _cut_by_obstacle(mesh, k, free)]
     mesh = replace(mesh, faces=[mesh.faces[k] for k in kept],
