@@ -74,6 +74,7 @@ def grid_mesh(
     anchors: Sequence[XY] = (),
     thinnest: float = 0.5,
     spread: bool | tuple[bool, bool] = False,
+    moved: tuple[Sequence[tuple[float, float]], Sequence[tuple[float, float]]] = ((), ()),
 ) -> Mesh:
     """The grid mesh of `free` at about `pitch` metres (one for both axes, or per axis:
     x, y). Along an axis with an anchor (an exit) strictly inside the floor's extent, the
@@ -83,12 +84,15 @@ def grid_mesh(
     their own where the cells allow, `_onto_anchors`); else the extent is cut into whole
     cells, the count the nearest to the pitch, preferring counts that put the anchors
     on grid lines. With `spread`, each stretch between two anchors' lines (or an anchor's
-    and the floor's edge) is cut into whole cells instead (`_spread`; per axis: x, y)."""
+    and the floor's edge) is cut into whole cells instead (`_spread`; per axis: x, y).
+    `moved` (per axis, x then y): inner lines moved, (from, to); the lines are kept in
+    order, a line moved onto another is one."""
     x0, y0, x1, y1 = free.bounds
     ax, ay = pitch if isinstance(pitch, tuple) else (pitch, pitch)
     sx, sy = spread if isinstance(spread, tuple) else (spread, spread)
     xs = (_spread if sx else _lines)(x0, x1, ax, [a[0] for a in anchors], thinnest)
     ys = (_spread if sy else _lines)(y0, y1, ay, [a[1] for a in anchors], thinnest)
+    xs, ys = _moved(xs, moved[0]), _moved(ys, moved[1])
     nx, ny = len(xs) - 1, len(ys) - 1
     px, py = (x1 - x0) / nx, (y1 - y0) / ny
     grown = free.buffer(EPS, join_style="mitre")
@@ -153,6 +157,16 @@ def _lines(
     return _onto_anchors([lo, *inner, hi], inside, edge)
 
 
+def _moved(lines: list[float], moves: Sequence[tuple[float, float]]) -> list[float]:
+    """`lines` with each inner line at a move's `from` put at its `to` (`grid_mesh`)."""
+    out = list(lines)
+    for k in range(1, len(out) - 1):
+        for old, new in moves:
+            if abs(out[k] - old) <= EPS:
+                out[k] = new
+    return sorted({round(x, 9) for x in out})
+
+
 def _spread(
     lo: float, hi: float, pitch: float, anchors: Sequence[float], thinnest: float
 ) -> list[float]:
@@ -215,6 +229,29 @@ def _cells(length: float, pitch: float, offsets: Sequence[float]) -> int:
         return missed, abs(step - pitch)
 
     return min(choices, key=misses)
+
+
+def without(mesh: Mesh, removed: Sequence[int]) -> Mesh:
+    """`mesh` less the edges `removed` (indices renumbered; the vertices kept, so sinks
+    keep theirs): opposite pairs losing an edge go, and so does a cell left with no side
+    (nothing can cover it)."""
+    gone = set(removed)
+    renumber: dict[int, int] = {}
+    edges = []
+    for x, edge in enumerate(mesh.edges):
+        if x not in gone:
+            renumber[x] = len(edges)
+            edges.append(edge)
+    opposite = [(renumber[a], renumber[b]) for a, b in mesh.opposite
+                if a in renumber and b in renumber]
+    faces, cells = [], []
+    for k, sides in enumerate(mesh.faces):
+        kept = [renumber[x] for x in sides if x in renumber]
+        if kept:
+            faces.append(kept)
+            if mesh.cells:
+                cells.append(mesh.cells[k])
+    return Mesh(mesh.points, edges, opposite, mesh.pitch, faces, mesh.xs, mesh.ys, cells)
 
 
 def cell_polygon(

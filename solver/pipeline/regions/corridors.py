@@ -29,7 +29,7 @@ from floorplan.models import Corridors, Problem, Room
 from floorplan.models.corridors import EXIT_TOLERANCE
 from floorplan.solver.network import Feature, Mesh, NetworkSpec, grid_mesh, solve_network
 from floorplan.solver.network.measure import dead_ends, distances
-from floorplan.solver.network.mesh import cell_polygon
+from floorplan.solver.network.mesh import cell_polygon, without
 from floorplan.solver.network.solve import NetworkResult
 from floorplan.solver.openings import CORNER_CLEARANCE
 from floorplan.solver.pipeline.regions.aisles import (
@@ -38,6 +38,13 @@ from floorplan.solver.pipeline.regions.aisles import (
     AisleNetwork,
     aisle_pieces,
     clean_shape,
+)
+from floorplan.solver.pipeline.regions.corridor_feedback import (
+    Widening,
+    forbidden_edges,
+    least_side,
+    too_thin,
+    widening,
 )
 from floorplan.solver.pipeline.regions.corridor_strips import (
     CORNER_MARGIN,
@@ -71,6 +78,9 @@ class CorridorPlan:
     depth: float = math.inf
     #: Strips of one room (a floor's corner, `_corner_strip`), by their WKB.
     singles: frozenset[bytes] = frozenset()
+    #: The grid changed after a first network left a strip no room fits
+    #: (`corridor_feedback`), else empty.
+    widened: Widening = field(default_factory=Widening)
     _axes: dict[bytes, tuple[int, float]] = field(default_factory=dict, repr=False,
                                                   compare=False)
 
@@ -237,6 +247,7 @@ def network_spec(
     corridors: Corridors,
     pitch: float | tuple[float, float],
     thinnest: float = 0.5,
+    widened: Widening | None = None,
 ) -> NetworkSpec:
     """The IP for this floor: exits as sinks joined into one network, every cell along
     the network (a room in it opens onto a corridor), no corridors a cell
@@ -245,10 +256,14 @@ def network_spec(
     route as a pair of Eq. 7-8 between the grid vertices nearest its points, its walk
     limit less the straight legs from the points to them.
     The cells in the floor's outer corners need no corridor on a side of their own
-    (`_floor_corner`)."""
+    (`_floor_corner`). `widened`: the grid lines left out and the edges forbidden after
+    a first network left a strip no room fits (`corridor_feedback`)."""
     free = problem.free_area()
     mesh = grid_mesh(free, pitch, anchors=grid_anchors(problem, corridors), thinnest=thinnest,
-                     spread=spread_axes(problem, corridors))
+                     spread=spread_axes(problem, corridors),
+                     moved=widened.moved if widened else ((), ()))
+    if widened:
+        mesh = without(mesh, forbidden_edges(mesh, widened.forbid))
     kept = [k for k, f in enumerate(mesh.faces)
             if not _floor_corner(mesh, f, free) and not _cut_by_obstacle(mesh, k, free)]
     mesh = replace(mesh, faces=[mesh.faces[k] for k in kept],
@@ -349,12 +364,47 @@ def _corner_points(free: BaseGeometry) -> list[tuple[float, float]]:
 
 def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> CorridorPlan | None:
     """The corridor network of the floor and the blocks it leaves, or None when the IP
-    found no network in its time (or proved there is none)."""
+    found no network in its time (or proved there is none). Where the network leaves a
+    strip no room fits (shallower than every room's least side), a second network on a
+    grid widened there (`corridor_feedback`) in half the time, kept when it leaves less
+    such floor."""
     corridors = problem.corridors
     assert corridors is not None
     pitch, thinnest = walkable_pitch(problem, corridors, room_pitch(problem, corridors.width))
     spec = network_spec(problem, corridors, pitch, thinnest)
     seconds = min(NETWORK_SECONDS, time_limit * NETWORK_SHARE)
+    plan = _plan(problem, spec, seconds, seed)
+    least = least_side(problem)
+    if plan is None or least is None:
+        return plan
+    thin = _thin(plan, least)
+    if not thin:
+        return plan
+    anchors = grid_anchors(problem, corridors)
+    widened = widening(plan.mesh, plan.result.edges, plan.sinks,
+                       [(s, plan._across(s)[0]) for s in thin], corridors.width,
+                       ([a[0] for a in anchors], [a[1] for a in anchors]), pitch)
+    if not widened:
+        return plan
+    second = _plan(problem, network_spec(problem, corridors, pitch, thinnest, widened),
+                   seconds / 2, seed)
+    if second is None:
+        return plan
+    left = sum(s.area for s in _thin(second, least))
+    return replace(second, widened=widened) if left < sum(s.area for s in thin) else plan
+
+
+def _thin(plan: CorridorPlan, least: float) -> list[Polygon]:
+    """The plan's strips (not a corner's one-room strips) no room fits."""
+    strips = [s for s in plan.blocks.values() if s.wkb not in plan.singles]
+    return too_thin(strips, plan._across, least)
+
+
+def _plan(problem: Problem, spec: NetworkSpec, seconds: float, seed: int) -> CorridorPlan | None:
+    """The network of `spec` made into corridors and the strips between (None: no
+    network in `seconds`)."""
+    corridors = problem.corridors
+    assert corridors is not None
     try:
         result = solve_network(spec, time_limit=seconds, seed=seed)
     except ValueError:  # a route no grid path of its length joins (Eq. 7-8)
@@ -362,6 +412,7 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     if not result.found:
         return None
     free = problem.free_area()
+    least = least_side(problem)
     shape = clean_shape(cell_polygon(spec.mesh, result.edges, corridors.width, free))
     blocks: dict[str, Polygon] = {}
     narrow: list[BaseGeometry] = []
@@ -375,6 +426,10 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
             continue
         if piece.buffer(-NARROWEST_PART / 2 + 1e-6, join_style="mitre").is_empty:
             narrow.append(piece)  # too thin for a room: corridor floor
+        elif least is not None and _one_row(piece, least):
+            # One row between its corridors, not two strips of half a row each
+            # (bench/NOTES.md, "Corridors").
+            blocks[f"block-{len(blocks) + 1}"] = piece
         else:
             strips, floor = _strips(piece, spec.mesh, shape, NARROWEST_PART,
                                     corner=corner, singles=singles)
@@ -387,6 +442,13 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     depth = max(spec.mesh.pitch) - corridors.width / 2
     return CorridorPlan(spec.mesh, spec.sinks, result, shape, blocks, network, depth,
                         frozenset(p.wkb for p in singles))
+
+
+def _one_row(piece: Polygon, least: float) -> bool:
+    """Whether `piece` is a rectangle less than two rooms' least sides deep: a block
+    between two corridors too shallow for two rows."""
+    x0, y0, x1, y1 = piece.bounds
+    return piece.area >= (x1 - x0) * (y1 - y0) - 1e-6 and min(x1 - x0, y1 - y0) < 2 * least
 
 
 def planned_dead_ends(plan: CorridorPlan, width: float) -> list[float]:
