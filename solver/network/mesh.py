@@ -186,7 +186,8 @@ def _spread(
     fixed.sort()
     out = [lo]
     for a, b in itertools.pairwise(fixed):
-        n = max(1, round((b - a) / pitch))
+        n = min(range(1, max(2, math.ceil((b - a) / pitch)) + 1),
+                key=lambda n: abs((b - a) / n - pitch))
         out += [a + k * (b - a) / n for k in range(1, n + 1)]
     return out
 
