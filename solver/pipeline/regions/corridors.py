@@ -27,7 +27,14 @@ from shapely.geometry.polygon import orient
 
 from floorplan.models import Corridors, Problem, Room
 from floorplan.models.corridors import EXIT_TOLERANCE
-from floorplan.solver.network import Feature, Mesh, NetworkSpec, grid_mesh, solve_network
+from floorplan.solver.network import (
+    Feature,
+    Mesh,
+    NetworkSpec,
+    NetworkStatus,
+    grid_mesh,
+    solve_network,
+)
 from floorplan.solver.network.measure import dead_ends, distances
 from floorplan.solver.network.mesh import cell_polygon, without
 from floorplan.solver.network.solve import NetworkResult
@@ -373,7 +380,7 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     pitch, thinnest = walkable_pitch(problem, corridors, room_pitch(problem, corridors.width))
     spec = network_spec(problem, corridors, pitch, thinnest)
     seconds = min(NETWORK_SECONDS, time_limit * NETWORK_SHARE)
-    plan = _plan(problem, spec, seconds, seed)
+    plan = _plan(problem, spec, seconds, seed, patience=min(NETWORK_SECONDS, 2 * seconds))
     least = least_side(problem)
     if plan is None or least is None:
         return plan
@@ -400,13 +407,20 @@ def _thin(plan: CorridorPlan, least: float) -> list[Polygon]:
     return too_thin(strips, plan._across, least)
 
 
-def _plan(problem: Problem, spec: NetworkSpec, seconds: float, seed: int) -> CorridorPlan | None:
+def _plan(
+    problem: Problem, spec: NetworkSpec, seconds: float, seed: int, patience: float = 0.0
+) -> CorridorPlan | None:
     """The network of `spec` made into corridors and the strips between (None: no
-    network in `seconds`)."""
+    network in `seconds`, nor in `patience` seconds more when SCIP stopped without
+    one rather than proving there is none: on a 60-room floor under load the start's
+    repair needed 3.3 s of the 2.6 s its half of 5.25 s gave it, and a floor without
+    corridors is worth the rooms' time; bench/NOTES.md, "Corridors")."""
     corridors = problem.corridors
     assert corridors is not None
     try:
         result = solve_network(spec, time_limit=seconds, seed=seed)
+        if result.status == NetworkStatus.NO_SOLUTION and patience > 0:
+            result = solve_network(spec, time_limit=patience, seed=seed)
     except ValueError:  # a route no grid path of its length joins (Eq. 7-8)
         return None
     if not result.found:
