@@ -147,7 +147,8 @@ def solve_regions(
             return no_corridors(problem, time.monotonic() - started)
         progress.say(f"corridors: {len(plan.result.edges)} network edges "
                      f"({plan.result.status}), {plan.shape.area:.1f} m², "
-                     f"{len(plan.blocks)} blocks")
+                     f"{len(plan.blocks)} blocks"
+                     + (", grid widened where a strip fitted no room" if plan.widened else ""))
         shapes: dict[str, Polygon] = dict(plan.blocks)
         network = plan.network
     else:
