@@ -159,6 +159,8 @@ def _lines(
 
 def _moved(lines: list[float], moves: Sequence[tuple[float, float]]) -> list[float]:
     """`lines` with each inner line at a move's `from` put at its `to` (`grid_mesh`)."""
+    if not moves:
+        return lines
     out = list(lines)
     for k in range(1, len(out) - 1):
         for old, new in moves:
