@@ -83,12 +83,14 @@ def widening(
             inner = 0 < k < len(grid) - 1
             if inner and all(abs(grid[k] - f) > ALONG for f in anchored[axis]):
                 step = pitch[axis]
+                # Merged with the next line when the move gains nothing (a pitch no
+                # deeper than the strip) or comes within half a pitch of it.
                 if line > hi:  # the corridor beyond the strip's high side
                     to, nxt = lo + step, grid[k + 1]
-                    fits = to <= nxt - step / 2
+                    fits = grid[k] + ALONG < to <= nxt - step / 2
                 else:
                     to, nxt = hi - step, grid[k - 1]
-                    fits = to >= nxt + step / 2
+                    fits = nxt + step / 2 <= to < grid[k] - ALONG
                 moved[axis][grid[k]] = to if fits else nxt
                 continue
             for x in (x for x in range(len(mesh.edges))

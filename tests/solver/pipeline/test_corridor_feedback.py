@@ -7,11 +7,17 @@ smaller than its `min_size` (real SCIP)."""
 
 from __future__ import annotations
 
-from shapely.geometry import Polygon
+from shapely.geometry import Polygon, box
 
 from floorplan.models import Problem
+from floorplan.solver.network import grid_mesh
+from floorplan.solver.network.mesh import without
 from floorplan.solver.pipeline.dispatch import solve
-from floorplan.solver.pipeline.regions.corridor_feedback import least_side
+from floorplan.solver.pipeline.regions.corridor_feedback import (
+    forbidden_edges,
+    least_side,
+    widening,
+)
 from floorplan.solver.pipeline.regions.corridors import (
     _plan,
     _thin,
@@ -60,3 +66,30 @@ def test_a_strip_no_room_fits_gets_a_second_network() -> None:
     for room in layout.rooms:
         x0, y0, x1, y1 = Polygon(room.polygon).bounds
         assert min(x1 - x0, y1 - y0) >= LEAST - 1e-6
+
+
+def test_an_anchored_line_keeps_its_place_and_its_edges_along_the_strip_go() -> None:
+    """Geometry only: a 20 x 12 m grid at 4 m with lines run from an exit at (0, 2.6), a
+    corridor on y = 2.6 from the exit to x = 12 leaving a 1.7 m strip south of it. As a
+    free line, it moves to 4 m (the pitch) from the strip's far side; as an exit's line,
+    it stays and its edges along the strip are forbidden, but the one at the exit."""
+    mesh = grid_mesh(box(0, 0, 20, 12), (4.0, 4.0), anchors=[(0.0, 2.6)])
+    assert 2.6 in mesh.ys
+    along = [x for x, (i, j) in enumerate(mesh.edges)
+             if all(abs(mesh.points[v][1] - 2.6) < 1e-9 for v in (i, j))
+             and max(mesh.points[i][0], mesh.points[j][0]) <= 12.0 + 1e-9]
+    sink = mesh.nearest((0.0, 2.6))
+    strip = box(0.0, 0.0, 12.9, 1.7)
+    free = widening(mesh, along, [sink], [(strip, 1)], 1.8, ([], []), (4.0, 4.0))
+    assert free.moved == ((), ((2.6, 4.0),)) and not free.forbid
+    anchored = widening(mesh, along, [sink], [(strip, 1)], 1.8, ([], [2.6]), (4.0, 4.0))
+    assert not anchored.moved[1]
+    forbidden = forbidden_edges(mesh, anchored.forbid)
+    # Every edge of the line beside the strip (to 12.9 m), but the one at the exit.
+    beside = [x for x, (i, j) in enumerate(mesh.edges)
+              if all(abs(mesh.points[v][1] - 2.6) < 1e-9 for v in (i, j))
+              and min(mesh.points[i][0], mesh.points[j][0]) < 12.9 and sink not in (i, j)]
+    assert sorted(forbidden) == sorted(beside) and set(along) - set(forbidden) == {
+        x for x in along if sink in mesh.edges[x]}
+    assert without(mesh, forbidden).edges == [
+        e for x, e in enumerate(mesh.edges) if x not in forbidden]
