@@ -174,7 +174,8 @@ def _spread(
 ) -> list[float]:
     """The grid lines across [lo, hi] through every anchor that leaves no stretch
     thinner than `thinnest` pitches (in order of `anchors`), each stretch between two
-    of those lines cut into the whole number of equal cells nearest the pitch. Lines
+    of those lines cut into equal cells, as many as make their size nearest the pitch
+    (`round(length / pitch)` kept a 7 m stretch one cell at a 4.96 m pitch). Lines
     run from one exit at the pitch left a 6.6 m and a 3.0 m column at the ends of
     office-72-core (its exit on the core in the middle), rows 5.7 and 2.1 m deep for
     rooms 4 m wide (bench/NOTES.md, "Corridors")."""

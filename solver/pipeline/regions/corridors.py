@@ -263,7 +263,7 @@ def network_spec(
     route as a pair of Eq. 7-8 between the grid vertices nearest its points, its walk
     limit less the straight legs from the points to them.
     The cells in the floor's outer corners need no corridor on a side of their own
-    (`_floor_corner`). `widened`: the grid lines left out and the edges forbidden after
+    (`_floor_corner`). `widened`: the grid lines moved and the edges forbidden after
     a first network left a strip no room fits (`corridor_feedback`)."""
     free = problem.free_area()
     mesh = grid_mesh(free, pitch, anchors=grid_anchors(problem, corridors), thinnest=thinnest,
