@@ -369,9 +369,13 @@ def _corner_points(free: BaseGeometry) -> list[tuple[float, float]]:
     return out
 
 
-def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> CorridorPlan | None:
+def plan_corridors(
+    problem: Problem, time_limit: float, seed: int = 0, late: bool = False
+) -> CorridorPlan | None:
     """The corridor network of the floor and the blocks it leaves, or None when the IP
-    found no network in its time (or proved there is none). Where the network leaves a
+    found no network in its time (or proved there is none). With `late` (the limit is
+    our default, not the user's: a late layout rather than none, bench/NOTES.md, "A busy
+    machine"), a network SCIP stopped without gets a second try. Where the network leaves a
     strip no room fits (shallower than every room's least side), a second network on a
     grid widened there (`corridor_feedback`) in half the time, kept when it leaves less
     such floor."""
@@ -380,7 +384,8 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     pitch, thinnest = walkable_pitch(problem, corridors, room_pitch(problem, corridors.width))
     spec = network_spec(problem, corridors, pitch, thinnest)
     seconds = min(NETWORK_SECONDS, time_limit * NETWORK_SHARE)
-    plan = _plan(problem, spec, seconds, seed, patience=min(NETWORK_SECONDS, 2 * seconds))
+    patience = min(NETWORK_SECONDS, 2 * seconds) if late else 0.0
+    plan = _plan(problem, spec, seconds, seed, patience=patience)
     least = least_side(problem)
     if plan is None or least is None:
         return plan
