@@ -10,6 +10,7 @@ the edge running inwards from it. Pure geometry, no SCIP.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -40,6 +41,8 @@ class Mesh:
     #: The grid lines' positions along x and y (cells may differ in size).
     xs: tuple[float, ...] = ()
     ys: tuple[float, ...] = ()
+    #: Per face, its grid cell's box (x0, y0, x1, y1), in the order of `faces`.
+    cells: list[tuple[float, float, float, float]] = field(default_factory=list)
 
     @property
     def lengths(self) -> list[float]:
@@ -70,6 +73,8 @@ def grid_mesh(
     *,
     anchors: Sequence[XY] = (),
     thinnest: float = 0.5,
+    spread: bool | tuple[bool, bool] = False,
+    moved: tuple[Sequence[tuple[float, float]], Sequence[tuple[float, float]]] = ((), ()),
 ) -> Mesh:
     """The grid mesh of `free` at about `pitch` metres (one for both axes, or per axis:
     x, y). Along an axis with an anchor (an exit) strictly inside the floor's extent, the
@@ -78,11 +83,16 @@ def grid_mesh(
     keep the pitch, the outer ones up to 1 + `thinnest`; further anchors get a line of
     their own where the cells allow, `_onto_anchors`); else the extent is cut into whole
     cells, the count the nearest to the pitch, preferring counts that put the anchors
-    on grid lines."""
+    on grid lines. With `spread`, each stretch between two anchors' lines (or an anchor's
+    and the floor's edge) is cut into whole cells instead (`_spread`; per axis: x, y).
+    `moved` (per axis, x then y): inner lines moved, (from, to); the lines are kept in
+    order, a line moved onto another is one."""
     x0, y0, x1, y1 = free.bounds
     ax, ay = pitch if isinstance(pitch, tuple) else (pitch, pitch)
-    xs = _lines(x0, x1, ax, [a[0] for a in anchors], thinnest)
-    ys = _lines(y0, y1, ay, [a[1] for a in anchors], thinnest)
+    sx, sy = spread if isinstance(spread, tuple) else (spread, spread)
+    xs = (_spread if sx else _lines)(x0, x1, ax, [a[0] for a in anchors], thinnest)
+    ys = (_spread if sy else _lines)(y0, y1, ay, [a[1] for a in anchors], thinnest)
+    xs, ys = _moved(xs, moved[0]), _moved(ys, moved[1])
     nx, ny = len(xs) - 1, len(ys) - 1
     px, py = (x1 - x0) / nx, (y1 - y0) / ny
     grown = free.buffer(EPS, join_style="mitre")
@@ -112,6 +122,7 @@ def grid_mesh(
             edges.append((min(v, w), max(v, w)))
     opposite = []
     faces = []
+    cells = []
     for i in range(nx):
         for j in range(ny):
             for a, b in (((i, j, 0), (i, j + 1, 0)), ((i, j, 1), (i + 1, j, 1))):
@@ -125,7 +136,8 @@ def grid_mesh(
                     if k in edge_at
                 ]
                 faces.append(sides)
-    return Mesh(points, edges, opposite, (px, py), faces, tuple(xs), tuple(ys))
+                cells.append((xs[i], ys[j], xs[i + 1], ys[j + 1]))
+    return Mesh(points, edges, opposite, (px, py), faces, tuple(xs), tuple(ys), cells)
 
 
 def _lines(
@@ -143,6 +155,44 @@ def _lines(
     lines = [a + k * pitch for k in range(-below, above + 1)]
     inner = [x for x in lines if lo + edge - EPS < x < hi - edge + EPS]
     return _onto_anchors([lo, *inner, hi], inside, edge)
+
+
+def _moved(lines: list[float], moves: Sequence[tuple[float, float]]) -> list[float]:
+    """`lines` with each inner line at a move's `from` put at its `to` (`grid_mesh`)."""
+    if not moves:
+        return lines
+    out = list(lines)
+    for k in range(1, len(out) - 1):
+        for old, new in moves:
+            if abs(out[k] - old) <= EPS:
+                out[k] = new
+    return sorted({round(x, 9) for x in out})
+
+
+def _spread(
+    lo: float, hi: float, pitch: float, anchors: Sequence[float], thinnest: float
+) -> list[float]:
+    """The grid lines across [lo, hi] through every anchor that leaves no stretch
+    thinner than `thinnest` pitches (in order of `anchors`), each stretch between two
+    of those lines cut into equal cells, as many as make their size nearest the pitch
+    (`round(length / pitch)` kept a 7 m stretch one cell at a 4.96 m pitch). Lines
+    run from one exit at the pitch left a 6.6 m and a 3.0 m column at the ends of
+    office-72-core (its exit on the core in the middle), rows 5.7 and 2.1 m deep for
+    rooms 4 m wide (bench/NOTES.md, "Corridors")."""
+    edge = pitch * thinnest
+    fixed = [lo, hi]
+    for a in anchors:
+        if lo + edge <= a <= hi - edge and all(abs(a - f) >= edge for f in fixed):
+            fixed.append(a)
+    if len(fixed) == 2:
+        return _lines(lo, hi, pitch, anchors, thinnest)
+    fixed.sort()
+    out = [lo]
+    for a, b in itertools.pairwise(fixed):
+        n = min(range(1, max(2, math.ceil((b - a) / pitch)) + 1),
+                key=lambda n: abs((b - a) / n - pitch))
+        out += [a + k * (b - a) / n for k in range(1, n + 1)]
+    return out
 
 
 def _onto_anchors(lines: list[float], anchors: Sequence[float], edge: float) -> list[float]:
@@ -183,6 +233,29 @@ def _cells(length: float, pitch: float, offsets: Sequence[float]) -> int:
         return missed, abs(step - pitch)
 
     return min(choices, key=misses)
+
+
+def without(mesh: Mesh, removed: Sequence[int]) -> Mesh:
+    """`mesh` less the edges `removed` (indices renumbered; the vertices kept, so sinks
+    keep theirs): opposite pairs losing an edge go, and so does a cell left with no side
+    (nothing can cover it)."""
+    gone = set(removed)
+    renumber: dict[int, int] = {}
+    edges = []
+    for x, edge in enumerate(mesh.edges):
+        if x not in gone:
+            renumber[x] = len(edges)
+            edges.append(edge)
+    opposite = [(renumber[a], renumber[b]) for a, b in mesh.opposite
+                if a in renumber and b in renumber]
+    faces, cells = [], []
+    for k, sides in enumerate(mesh.faces):
+        kept = [renumber[x] for x in sides if x in renumber]
+        if kept:
+            faces.append(kept)
+            if mesh.cells:
+                cells.append(mesh.cells[k])
+    return Mesh(mesh.points, edges, opposite, mesh.pitch, faces, mesh.xs, mesh.ys, cells)
 
 
 def cell_polygon(

@@ -27,9 +27,16 @@ from shapely.geometry.polygon import orient
 
 from floorplan.models import Corridors, Problem, Room
 from floorplan.models.corridors import EXIT_TOLERANCE
-from floorplan.solver.network import Feature, Mesh, NetworkSpec, grid_mesh, solve_network
+from floorplan.solver.network import (
+    Feature,
+    Mesh,
+    NetworkSpec,
+    NetworkStatus,
+    grid_mesh,
+    solve_network,
+)
 from floorplan.solver.network.measure import dead_ends, distances
-from floorplan.solver.network.mesh import cell_polygon
+from floorplan.solver.network.mesh import cell_polygon, without
 from floorplan.solver.network.solve import NetworkResult
 from floorplan.solver.openings import CORNER_CLEARANCE
 from floorplan.solver.pipeline.regions.aisles import (
@@ -38,6 +45,13 @@ from floorplan.solver.pipeline.regions.aisles import (
     AisleNetwork,
     aisle_pieces,
     clean_shape,
+)
+from floorplan.solver.pipeline.regions.corridor_feedback import (
+    Widening,
+    forbidden_edges,
+    least_side,
+    too_thin,
+    widening,
 )
 from floorplan.solver.pipeline.regions.corridor_strips import (
     CORNER_MARGIN,
@@ -71,6 +85,9 @@ class CorridorPlan:
     depth: float = math.inf
     #: Strips of one room (a floor's corner, `_corner_strip`), by their WKB.
     singles: frozenset[bytes] = frozenset()
+    #: The grid changed after a first network left a strip no room fits
+    #: (`corridor_feedback`), else empty.
+    widened: Widening = field(default_factory=Widening)
     _axes: dict[bytes, tuple[int, float]] = field(default_factory=dict, repr=False,
                                                   compare=False)
 
@@ -151,20 +168,46 @@ def room_pitch(problem: Problem, width: float) -> tuple[float, float]:
 
 def grid_anchors(problem: Problem, corridors: Corridors) -> list[tuple[float, float]]:
     """The points the grid's lines run through: the exits first (the lines run from the
-    first one inside the floor), then two opposite corners of each obstacle an exit lies
-    on (a stair or lift core), so that the core's sides are grid lines where the cells
-    allow. Otherwise a core cut cells so that two beside it kept two sides each, each
-    facing an active edge across its neighbour (too close), and neither the start's
-    repair nor SCIP found a network (office-72-core). The sides of every obstacle
-    (mall-140's atria and stairs too) changed mall-140's grid and cost it 8-11 rooms'
-    doors (bench/NOTES.md, "Corridors")."""
-    corners: list[tuple[float, float]] = []
+    first one inside the floor), then, for each obstacle an exit lies on (a stair or lift
+    core), its two sides across the exit's side (`_core_sides`)."""
+    return [*corridors.exits, *(p for pair, _ in _core_sides(problem, corridors) for p in pair)]
+
+
+def spread_axes(problem: Problem, corridors: Corridors) -> tuple[bool, bool]:
+    """Per axis (x, y), whether the grid's lines are spread evenly between the anchors'
+    lines (`grid_mesh`'s `spread`): on both axes once an exit lies on a core. Run from
+    one exit at the pitch, office-72-core's lines left 6.6 and 3.0 m columns at its ends
+    (rows 5.7 and 2.1 m deep for rooms 4 m wide); spread only along the axis of the
+    core's sides, office-60-two-cores got no network and office-96-l lost a door;
+    spread on mall-140 (exits on the outline only), no network in the time
+    (bench/NOTES.md, "Corridors")."""
+    cored = bool(_core_sides(problem, corridors))
+    return (cored, cored)
+
+
+def _core_sides(
+    problem: Problem, corridors: Corridors
+) -> list[tuple[tuple[tuple[float, float], tuple[float, float]], int]]:
+    """For each obstacle an exit lies on, two points on its sides across the exit's side
+    and the axis they fix: for an exit on its west or east side, x = west and x = east
+    at the exit's y (axis 0). Without them a core cut cells so that two beside it kept
+    two sides each, each facing an active edge across its neighbour (too close), and no
+    network was found (office-72-core). All four sides made the cells beside an exit on
+    a core's middle 2 m deep, the rows there 1.1 m (E_size median 1.16-1.20); the sides
+    of every obstacle (mall-140's atria and stairs too) cost mall-140 8-11 rooms' doors
+    (bench/NOTES.md, "Corridors")."""
+    out: list[tuple[tuple[tuple[float, float], tuple[float, float]], int]] = []
     for obstacle in problem.obstacles:
         box = obstacle.to_box()
-        if any(box.exterior.distance(Point(e)) <= EXIT_TOLERANCE for e in corridors.exits):
-            x0, y0, x1, y1 = box.bounds
-            corners += [(x0, y0), (x1, y1)]
-    return [*corridors.exits, *corners]
+        x0, y0, x1, y1 = box.bounds
+        for e in corridors.exits:
+            if box.exterior.distance(Point(e)) > EXIT_TOLERANCE:
+                continue
+            if min(abs(e[0] - x0), abs(e[0] - x1)) <= EXIT_TOLERANCE:
+                out.append((((x0, e[1]), (x1, e[1])), 0))
+            if min(abs(e[1] - y0), abs(e[1] - y1)) <= EXIT_TOLERANCE:
+                out.append((((e[0], y0), (e[0], y1)), 1))
+    return out
 
 
 def walkable_pitch(
@@ -188,7 +231,8 @@ def walkable_pitch(
     )
     for sx, sy, thin in tries[:MESH_TRIES]:
         trial = (pitch[0] * sx, pitch[1] * sy)
-        mesh = grid_mesh(free, trial, anchors=grid_anchors(problem, corridors), thinnest=thin)
+        mesh = grid_mesh(free, trial, anchors=grid_anchors(problem, corridors), thinnest=thin,
+                         spread=spread_axes(problem, corridors))
         if _walkable(mesh, corridors.exits, cap):
             return trial, thin
     return pitch, 0.5
@@ -210,6 +254,7 @@ def network_spec(
     corridors: Corridors,
     pitch: float | tuple[float, float],
     thinnest: float = 0.5,
+    widened: Widening | None = None,
 ) -> NetworkSpec:
     """The IP for this floor: exits as sinks joined into one network, every cell along
     the network (a room in it opens onto a corridor), no corridors a cell
@@ -218,10 +263,18 @@ def network_spec(
     route as a pair of Eq. 7-8 between the grid vertices nearest its points, its walk
     limit less the straight legs from the points to them.
     The cells in the floor's outer corners need no corridor on a side of their own
-    (`_floor_corner`)."""
+    (`_floor_corner`). `widened`: the grid lines moved and the edges forbidden after
+    a first network left a strip no room fits (`corridor_feedback`)."""
     free = problem.free_area()
-    mesh = grid_mesh(free, pitch, anchors=grid_anchors(problem, corridors), thinnest=thinnest)
-    mesh = replace(mesh, faces=[f for f in mesh.faces if not _floor_corner(mesh, f, free)])
+    mesh = grid_mesh(free, pitch, anchors=grid_anchors(problem, corridors), thinnest=thinnest,
+                     spread=spread_axes(problem, corridors),
+                     moved=widened.moved if widened else ((), ()))
+    if widened:
+        mesh = without(mesh, forbidden_edges(mesh, widened.forbid))
+    kept = [k for k, f in enumerate(mesh.faces)
+            if not _floor_corner(mesh, f, free) and not _cut_by_obstacle(mesh, k, free)]
+    mesh = replace(mesh, faces=[mesh.faces[k] for k in kept],
+                   cells=[mesh.cells[k] for k in kept] if mesh.cells else [])
     sinks = tuple(dict.fromkeys(mesh.nearest(e) for e in corridors.exits))
     half = corridors.width / 2
     pairs, limits = [], []
@@ -285,6 +338,23 @@ def _floor_corner(mesh: Mesh, sides: Sequence[int], free: BaseGeometry) -> bool:
     )
 
 
+#: A cell an obstacle leaves less than this share of needs no corridor of its own.
+CUT_CELL_SHARE = 0.6
+
+
+def _cut_by_obstacle(mesh: Mesh, face: int, free: BaseGeometry) -> bool:
+    """Whether an obstacle (a core) takes more than 1 - `CUT_CELL_SHARE` of the cell of
+    `face`: what is left (a strip thinner than a room beside the core) need not lie on a
+    corridor; covering it forced a corridor along the core's far side, too close to the
+    next one, and no network was found (office-72-core). Its piece joins a strip
+    beside it (`_strips`)."""
+    if not mesh.cells:
+        return False
+    box = shapely.box(*mesh.cells[face])
+    inside = free.intersection(box).area
+    return inside < CUT_CELL_SHARE * box.area and not free.covers(box)
+
+
 def _corner_points(free: BaseGeometry) -> list[tuple[float, float]]:
     """The convex corners of the free floor's outline: where a cell may have two sides
     along the outline and no corridor of its own (`_floor_corner`)."""
@@ -299,21 +369,69 @@ def _corner_points(free: BaseGeometry) -> list[tuple[float, float]]:
     return out
 
 
-def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> CorridorPlan | None:
+def plan_corridors(
+    problem: Problem, time_limit: float, seed: int = 0, late: bool = False
+) -> CorridorPlan | None:
     """The corridor network of the floor and the blocks it leaves, or None when the IP
-    found no network in its time (or proved there is none)."""
+    found no network in its time (or proved there is none). With `late` (the limit is
+    our default, not the user's: a late layout rather than none, bench/NOTES.md, "A busy
+    machine"), a network SCIP stopped without gets a second try. Where the network leaves a
+    strip no room fits (shallower than every room's least side), a second network on a
+    grid widened there (`corridor_feedback`) in half the time, kept when it leaves less
+    such floor."""
     corridors = problem.corridors
     assert corridors is not None
     pitch, thinnest = walkable_pitch(problem, corridors, room_pitch(problem, corridors.width))
     spec = network_spec(problem, corridors, pitch, thinnest)
     seconds = min(NETWORK_SECONDS, time_limit * NETWORK_SHARE)
+    patience = min(NETWORK_SECONDS, 2 * seconds) if late else 0.0
+    plan = _plan(problem, spec, seconds, seed, patience=patience)
+    least = least_side(problem)
+    if plan is None or least is None:
+        return plan
+    thin = _thin(plan, least)
+    if not thin:
+        return plan
+    anchors = grid_anchors(problem, corridors)
+    widened = widening(plan.mesh, plan.result.edges, plan.sinks,
+                       [(s, plan._across(s)[0]) for s in thin], corridors.width,
+                       ([a[0] for a in anchors], [a[1] for a in anchors]), pitch)
+    if not widened:
+        return plan
+    second = _plan(problem, network_spec(problem, corridors, pitch, thinnest, widened),
+                   seconds / 2, seed)
+    if second is None:
+        return plan
+    left = sum(s.area for s in _thin(second, least))
+    return replace(second, widened=widened) if left < sum(s.area for s in thin) else plan
+
+
+def _thin(plan: CorridorPlan, least: float) -> list[Polygon]:
+    """The plan's strips (not a corner's one-room strips) no room fits."""
+    strips = [s for s in plan.blocks.values() if s.wkb not in plan.singles]
+    return too_thin(strips, plan._across, least)
+
+
+def _plan(
+    problem: Problem, spec: NetworkSpec, seconds: float, seed: int, patience: float = 0.0
+) -> CorridorPlan | None:
+    """The network of `spec` made into corridors and the strips between (None: no
+    network in `seconds`, nor in `patience` seconds more when SCIP stopped without
+    one rather than proving there is none: on a 60-room floor under load the start's
+    repair needed 3.3 s of the 2.6 s its half of 5.25 s gave it, and a floor without
+    corridors is worth the rooms' time; bench/NOTES.md, "Corridors")."""
+    corridors = problem.corridors
+    assert corridors is not None
     try:
         result = solve_network(spec, time_limit=seconds, seed=seed)
+        if result.status == NetworkStatus.NO_SOLUTION and patience > 0:
+            result = solve_network(spec, time_limit=patience, seed=seed)
     except ValueError:  # a route no grid path of its length joins (Eq. 7-8)
         return None
     if not result.found:
         return None
     free = problem.free_area()
+    least = least_side(problem)
     shape = clean_shape(cell_polygon(spec.mesh, result.edges, corridors.width, free))
     blocks: dict[str, Polygon] = {}
     narrow: list[BaseGeometry] = []
@@ -327,6 +445,10 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
             continue
         if piece.buffer(-NARROWEST_PART / 2 + 1e-6, join_style="mitre").is_empty:
             narrow.append(piece)  # too thin for a room: corridor floor
+        elif least is not None and _one_row(piece, least):
+            # One row between its corridors, not two strips of half a row each
+            # (bench/NOTES.md, "Corridors").
+            blocks[f"block-{len(blocks) + 1}"] = piece
         else:
             strips, floor = _strips(piece, spec.mesh, shape, NARROWEST_PART,
                                     corner=corner, singles=singles)
@@ -339,6 +461,13 @@ def plan_corridors(problem: Problem, time_limit: float, seed: int = 0) -> Corrid
     depth = max(spec.mesh.pitch) - corridors.width / 2
     return CorridorPlan(spec.mesh, spec.sinks, result, shape, blocks, network, depth,
                         frozenset(p.wkb for p in singles))
+
+
+def _one_row(piece: Polygon, least: float) -> bool:
+    """Whether `piece` is a rectangle less than two rooms' least sides deep: a block
+    between two corridors too shallow for two rows."""
+    x0, y0, x1, y1 = piece.bounds
+    return piece.area >= (x1 - x0) * (y1 - y0) - 1e-6 and min(x1 - x0, y1 - y0) < 2 * least
 
 
 def planned_dead_ends(plan: CorridorPlan, width: float) -> list[float]:

@@ -142,12 +142,14 @@ def solve_regions(
     given: Sequence[Region] = ()
     if problem.corridors is not None:
         # Corridors from what they must do: the network IP's corridors, blocks between.
-        plan = plan_corridors(problem, limit, problem.options.seed or 0)
+        plan = plan_corridors(problem, limit, problem.options.seed or 0,
+                              late=problem.options.time_limit is None)
         if plan is None:
             return no_corridors(problem, time.monotonic() - started)
         progress.say(f"corridors: {len(plan.result.edges)} network edges "
                      f"({plan.result.status}), {plan.shape.area:.1f} m², "
-                     f"{len(plan.blocks)} blocks")
+                     f"{len(plan.blocks)} blocks"
+                     + (", grid widened where a strip fitted no room" if plan.widened else ""))
         shapes: dict[str, Polygon] = dict(plan.blocks)
         network = plan.network
     else:

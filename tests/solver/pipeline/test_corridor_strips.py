@@ -6,6 +6,8 @@ dealt by how their depth suits a strip."""
 
 from __future__ import annotations
 
+import itertools
+
 import shapely
 from shapely.geometry import LineString, box
 
@@ -147,10 +149,13 @@ def test_rooms_are_dealt_by_how_their_depth_suits_a_strip() -> None:
     assert {r.id[0] for r in by_area[0]} != {"s"}
 
 
-def test_a_cores_sides_are_grid_lines() -> None:
+def test_a_cores_sides_are_grid_lines_and_its_rows_room_deep() -> None:
     """A 48 x 24 m floor with a 6 x 4 m core at (21, 10) and an exit on its west side:
-    the planning grid has lines along all four sides of the core, so no cell is cut by
-    it (two cells cut by it each kept two sides, and no network was found)."""
+    the planning grid has lines along the core's west and east sides (two cells cut by
+    it each kept two sides, and no network was found), but none along its south and
+    north sides (2 m from the exit's line: rows 1.1 m deep beside the core); the cells
+    the core leaves thin need no corridor of their own, and the lines are spread evenly
+    between the anchors' (no 6.6 m or 3 m end columns)."""
     problem = Problem.model_validate({
         "name": "core",
         "boundary": [[0, 0], [48, 0], [48, 24], [0, 24]],
@@ -162,5 +167,10 @@ def test_a_cores_sides_are_grid_lines() -> None:
     mesh = network_spec(problem, problem.corridors, (4.8, 3.9)).mesh
     for x in (21.0, 27.0):
         assert any(abs(line - x) < 1e-9 for line in mesh.xs)
-    for y in (10.0, 14.0):
-        assert any(abs(line - y) < 1e-9 for line in mesh.ys)
+    assert not any(0 < abs(line - 12.0) < 3.0 for line in mesh.ys)
+    for lines, pitch in ((mesh.xs, 4.8), (mesh.ys, 3.9)):
+        cells = [b - a for a, b in itertools.pairwise(lines)
+                 if not (a >= 21.0 - 1e-9 and b <= 27.0 + 1e-9 and lines is mesh.xs)]
+        assert all(0.8 * pitch <= c <= 1.2 * pitch for c in cells), cells
+    core = box(21, 10, 27, 14)
+    assert not any(box(*cell).intersection(core).area > 0 for cell in mesh.cells)
