@@ -14,7 +14,14 @@ import shapely
 from bench.planted import draw
 from floorplan.models import Layout, Problem, Termination
 from floorplan.solver import solve
-from floorplan.solver.budget import FloorBudget, judge_seconds, significant_gain, stall_window
+from floorplan.solver.budget import (
+    FloorBudget,
+    default_time_limit,
+    judge_seconds,
+    late_allowance,
+    significant_gain,
+    stall_window,
+)
 from floorplan.solver.events import Phase, SolveEvent
 from floorplan.solver.geometry import Box, make_domain
 from floorplan.solver.pipeline.assemble import same_layout, termination
@@ -223,10 +230,21 @@ def test_the_floor_budget_hands_out_the_limit_in_order(rooms: int, limit: float)
     assert budget.shifted(100.0 + 2 * limit) == budget
 
 
+@pytest.mark.parametrize(("rooms", "limit", "allowance"), [
+    (5, 5.0, 10.0), (13, 5.0, 22.0), (14, 5.0, 24.4), (20, 5.0, 24.4), (40, 10.0, 24.4),
+    (154, 38.5, 77.0)])
+def test_the_default_limit_is_the_paper_s_and_a_first_layout_may_come_later(
+        rooms: int, limit: float, allowance: float) -> None:
+    # Sec. 5.4: 5 s up to 20 rooms, then in proportion; a dozen rooms' first layout may
+    # take until twice 5 s + 1.2 s a room from 8 to 14.
+    assert default_time_limit(rooms) == pytest.approx(limit)
+    assert late_allowance(rooms) == pytest.approx(allowance)
+
+
 def test_a_late_first_layout_keeps_the_later_stages_their_shares_within_the_allowance(
 ) -> None:
-    budget = FloorBudget.of(100.0, 10.0, 13, late=True)
-    assert budget.late_by == pytest.approx(budget.judge_end + 10.0)
+    budget = FloorBudget.of(100.0, 5.0, 13, late=True)
+    assert budget.late_by == pytest.approx(budget.judge_end + late_allowance(13) - 5.0)
     later = budget.shifted(budget.level_one_end + 3.0)
     assert later.search_end - later.level_one_end == pytest.approx(
         budget.search_end - budget.level_one_end)
