@@ -142,6 +142,8 @@ def solve_floor(
     pieces = run.better_of(domain, pieces)
     run.deadline = budget.end
     pieces = reshaped(run, domain, pieces, budget.end)
+    if late and not run.stopped() and not covers(domain, room_boxes(pieces)):
+        pieces, levels = _covered_late(run, domain, pieces, subdomains, budget, levels)
     pieces = better_final(run, domain, pieces, candidate)
     if good is not None and good.rooms is not None:
         pieces = as_pieces(good.rooms)  # good during the refinement or the reshaping
@@ -199,6 +201,31 @@ def _refined(run: Run, domain: Domain, pieces: list[Piece],
     if covered(domain, room_boxes(filled)) > covered(domain, room_boxes(again)):
         return filled, levels  # the rooms laid out afresh came nearer the goal
     return again, levels
+
+
+def _covered_late(run: Run, domain: Domain, pieces: list[Piece],
+                  subdomains: SubdomainExecutor | None, budget: FloorBudget, levels: int
+                  ) -> tuple[list[Piece], int]:
+    """Under the default limit, a layout still short of the coverage goal after the
+    reshaping: the refinement and the reshaping again, each with the share it had, while
+    the late allowance (`solver.budget.late_allowance`) leaves a round's time and each
+    round covers more. A busy machine then slows the answer rather than leaving floor
+    bare; a covering layout never waits for this."""
+    while not run.stopped() and not covers(domain, room_boxes(pieces)):
+        budget = budget.shifted(time.monotonic())  # from now, each later stage its share
+        if budget.end - time.monotonic() < budget.end - budget.search_end + 0.05:
+            break  # the allowance leaves no round's time
+        run.emit(Phase.LEVEL, detail="short of the coverage goal at the limit: the levels "
+                 "and the reshaping again (the default limit's late allowance)")
+        run.deadline, run.end, run.judge_end = budget.search_end, budget.end, budget.judge_end
+        again, levels = _refined(run, domain, pieces, subdomains, budget.short_end)
+        again = run.better_of(domain, again)
+        run.deadline = budget.end
+        again = reshaped(run, domain, again, budget.end)
+        if covered(domain, room_boxes(again)) <= covered(domain, room_boxes(pieces)) + GAP_AREA:
+            break  # a round that covers no more: another would not either
+        pieces = again
+    return pieces, levels
 
 
 def _slid(run: Run, domain: Domain, pieces: list[Piece]) -> list[Piece]:

@@ -5,6 +5,7 @@ of the answer (solver/pipeline/judge.py). Real SCIP throughout."""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Any
 
@@ -24,9 +25,11 @@ from floorplan.solver.budget import (
 )
 from floorplan.solver.events import Phase, SolveEvent
 from floorplan.solver.geometry import Box, make_domain
+from floorplan.solver.pipeline import floor
 from floorplan.solver.pipeline.assemble import same_layout, termination
+from floorplan.solver.pipeline.hierarchy import as_pieces, room_boxes
 from floorplan.solver.pipeline.judge import final_spec, judged
-from floorplan.solver.pipeline.run import Run, ScipAnswer, layout_objective
+from floorplan.solver.pipeline.run import Run, ScipAnswer, covered, layout_objective
 from floorplan.solver.verify.checker import check_layout
 from tests.paths import CASES, EXAMPLES
 
@@ -303,3 +306,35 @@ def test_a_whole_floor_miqp_that_stalls_ends_the_solve_without_the_later_stages(
     assert not [e for e in events if e.detail and ("reshaping" in e.detail
                                                     or "guillotine" in e.detail)]
     assert drawn_as(layout, last_incumbent(events))
+
+
+#: Two rooms side by side with a strip of floor between them that room a may grow into.
+GAP_BETWEEN = Problem.model_validate({
+    "name": "gap-between",
+    "boundary": [[0, 0], [4, 0], [4, 2], [0, 2]],
+    "rooms": [
+        {"id": "a", "min_size": [1, 2], "max_size": [4, 2], "target_size": [2, 2]},
+        {"id": "b", "min_size": [1, 2], "max_size": [2, 2], "target_size": [2, 2]},
+    ],
+})
+
+
+def _late_run(problem: Problem, allowance: float) -> tuple[Run, FloorBudget]:
+    now = time.monotonic()
+    budget = FloorBudget.of(now - 5.0, 5.0, len(problem.rooms), late=True)
+    budget = dataclasses.replace(budget, late_by=budget.judge_end + allowance)
+    run = Run(problem, budget.search_end, budget.started, None, None, end=budget.end,
+              judge_end=budget.judge_end, late_by=budget.late_by)
+    return run, budget
+
+
+def test_a_layout_short_of_the_coverage_goal_at_the_limit_gets_another_round() -> None:
+    domain = make_domain(GAP_BETWEEN)
+    short = as_pieces({"a": [Box(0, 0, 1.5, 2)], "b": [Box(2, 0, 4, 2)]})
+    run, budget = _late_run(GAP_BETWEEN, allowance=30.0)
+    pieces, _ = floor._covered_late(run, domain, short, None, budget, 1)
+    assert covered(domain, room_boxes(pieces)) == pytest.approx(8.0, abs=1e-3)
+    assert check_layout(GAP_BETWEEN, room_boxes(pieces)).valid
+    # With the allowance spent, the layout stays as it was: the limit has passed.
+    run, budget = _late_run(GAP_BETWEEN, allowance=0.0)
+    assert floor._covered_late(run, domain, short, None, budget, 1)[0] == short
