@@ -170,6 +170,15 @@ class FloorBudget:
                            self.search_end + by, self.short_end + by, self.end + by,
                            self.judge_end + by, self.late_by)
 
+    def hard(self, now: float, rooms: int) -> FloorBudget:
+        """Under the default limit, after a first layout found at `now`, past level 1's
+        share: a hard brief, whose later stages get the shares of `late_limit` (the
+        longer time a dozen rooms may need), shifted to start now where even those have
+        passed, never past `late_by`."""
+        longer = FloorBudget.of(self.started, max(self.limit, late_limit(rooms)), rooms,
+                                late=True)
+        return longer.shifted(now) if now > longer.level_one_end else longer
+
     def table(self) -> str:
         """The shares as seconds from the start, one line each (for logs and docs)."""
         rows = [("level 1", self.level_one_end), ("refinement", self.search_end),

@@ -257,6 +257,20 @@ def test_a_late_first_layout_keeps_the_later_stages_their_shares_within_the_allo
         budget.late_by)
 
 
+def test_a_late_first_layout_gives_a_hard_brief_the_longer_shares() -> None:
+    budget = FloorBudget.of(100.0, 5.0, 13, late=True)
+    longer = FloorBudget.of(100.0, 11.0, 13, late=True)  # late_limit(13)
+    # Past the 5 s level 1 but within the longer one: the longer budget as it is.
+    assert budget.hard(budget.level_one_end + 0.5, 13) == longer
+    # Past even that: shifted to start now, within the same allowance.
+    hard = budget.hard(longer.level_one_end + 2.0, 13)
+    assert hard.judge_end == pytest.approx(longer.judge_end + 2.0)
+    assert hard.late_by == pytest.approx(budget.late_by, abs=0.2)
+    # From 49 rooms on the limit is the longer time: a late layout only shifts it.
+    large = FloorBudget.of(100.0, 38.5, 154, late=True)
+    assert large.hard(large.level_one_end + 1.0, 154) == large.shifted(large.level_one_end + 1.0)
+
+
 @pytest.mark.slow
 def test_under_the_default_limit_a_slow_first_layout_comes_late_instead_of_never(
         monkeypatch: pytest.MonkeyPatch) -> None:
