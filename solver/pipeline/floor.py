@@ -127,10 +127,12 @@ def solve_floor(
         assert failure is not None
         return failure
     if time.monotonic() > budget.level_one_end:
-        # A late first layout: the later stages keep their shares from now; under the
-        # default limit it marks a hard brief, whose stages get the longer shares.
+        # Level 1 ended late: the later stages keep their shares from now; under the
+        # default limit a first layout found after level 1's share marks a hard brief,
+        # whose stages get the longer shares.
         now = time.monotonic()
-        budget = budget.hard(now, len(problem.rooms)) if late else budget.shifted(now)
+        hard = late and run.first_at is not None and run.first_at > budget.level_one_end
+        budget = budget.hard(now, len(problem.rooms)) if hard else budget.shifted(now)
         run.deadline, run.end, run.judge_end = budget.search_end, budget.end, budget.judge_end
     if good is not None and good.rooms is not None:
         # Stopped when good: that layout, not whatever SCIP reported after it.
