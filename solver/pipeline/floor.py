@@ -127,8 +127,12 @@ def solve_floor(
         assert failure is not None
         return failure
     if time.monotonic() > budget.level_one_end:
-        # A late first layout: the later stages keep their shares from now.
-        budget = budget.shifted(time.monotonic())
+        # Level 1 ended late: the later stages keep their shares from now; under the
+        # default limit a first layout found after level 1's share marks a hard brief,
+        # whose stages get the longer shares.
+        now = time.monotonic()
+        hard = late and run.first_at is not None and run.first_at > budget.level_one_end
+        budget = budget.hard(now, len(problem.rooms)) if hard else budget.shifted(now)
         run.deadline, run.end, run.judge_end = budget.search_end, budget.end, budget.judge_end
     if good is not None and good.rooms is not None:
         # Stopped when good: that layout, not whatever SCIP reported after it.
@@ -142,6 +146,8 @@ def solve_floor(
     pieces = run.better_of(domain, pieces)
     run.deadline = budget.end
     pieces = reshaped(run, domain, pieces, budget.end)
+    if late and not run.stopped() and not covers(domain, room_boxes(pieces)):
+        pieces, levels = _covered_late(run, domain, pieces, subdomains, budget, levels)
     pieces = better_final(run, domain, pieces, candidate)
     if good is not None and good.rooms is not None:
         pieces = as_pieces(good.rooms)  # good during the refinement or the reshaping
@@ -199,6 +205,31 @@ def _refined(run: Run, domain: Domain, pieces: list[Piece],
     if covered(domain, room_boxes(filled)) > covered(domain, room_boxes(again)):
         return filled, levels  # the rooms laid out afresh came nearer the goal
     return again, levels
+
+
+def _covered_late(run: Run, domain: Domain, pieces: list[Piece],
+                  subdomains: SubdomainExecutor | None, budget: FloorBudget, levels: int
+                  ) -> tuple[list[Piece], int]:
+    """Under the default limit, a layout still short of the coverage goal after the
+    reshaping: the refinement and the reshaping again, each with the share it had, while
+    the late allowance (`solver.budget.late_allowance`) leaves a round's time and each
+    round covers more. A busy machine then slows the answer rather than leaving floor
+    bare; a covering layout never waits for this."""
+    while not run.stopped() and not covers(domain, room_boxes(pieces)):
+        budget = budget.shifted(time.monotonic())  # from now, each later stage its share
+        if budget.end - time.monotonic() < budget.end - budget.search_end + 0.05:
+            break  # the allowance leaves no round's time
+        run.emit(Phase.LEVEL, detail="short of the coverage goal at the limit: the levels "
+                 "and the reshaping again (the default limit's late allowance)")
+        run.deadline, run.end, run.judge_end = budget.search_end, budget.end, budget.judge_end
+        again, levels = _refined(run, domain, pieces, subdomains, budget.short_end)
+        again = run.better_of(domain, again)
+        run.deadline = budget.end
+        again = reshaped(run, domain, again, budget.end)
+        if covered(domain, room_boxes(again)) <= covered(domain, room_boxes(pieces)) + GAP_AREA:
+            break  # a round that covers no more: another would not either
+        pieces = again
+    return pieces, levels
 
 
 def _slid(run: Run, domain: Domain, pieces: list[Piece]) -> list[Piece]:

@@ -110,6 +110,8 @@ class Run:
     late_by: float = 0.0
     #: The rooms of the last incumbent announced (gaps absorbed), if any.
     announced: dict[str, list[Box]] | None = None
+    #: When the first layout was found (`time.monotonic()`), if yet.
+    first_at: float | None = None
 
     def room_of(self, rect: str) -> str:
         """The room a level-1 rectangle belongs to."""
@@ -216,6 +218,8 @@ class Run:
         """Keep the layout if it is the best covering one so far, and announce it with
         its Eq. 12 value, as the report counts it: gaps absorbed, as `solve` would
         return it if stopped now."""
+        if self.first_at is None:
+            self.first_at = time.monotonic()
         rooms = absorbed(self.problem, domain, rooms)
         objective = layout_objective(self.problem, domain, rooms, soft=self.soft)
         if covers(domain, rooms) and (self.best_objective is None

@@ -48,7 +48,7 @@ from floorplan.models.storeys import (
     user_path,
     verticals_on,
 )
-from floorplan.solver.budget import LATE_FIRST_FACTOR, default_time_limit
+from floorplan.solver.budget import default_time_limit, late_allowance
 from floorplan.solver.events import EventSink, Solve, SolveEvent
 from floorplan.solver.geometry import Box, bounding_box
 from floorplan.solver.pipeline.subdomains import SubdomainExecutor
@@ -74,10 +74,10 @@ def job_time_limit(problem: Problem) -> float:
 
 def job_ceiling(problem: Problem) -> float:
     """The longest the job may run: `job_time_limit`, and for one floor under the
-    default limit the first layout's late allowance (`LATE_FIRST_FACTOR`)."""
+    default limit the first layout's late allowance (`solver.budget.late_allowance`)."""
     limit = job_time_limit(problem)
     if problem.options.time_limit is None and problem.floors is None:
-        return LATE_FIRST_FACTOR * limit
+        return max(limit, late_allowance(len(problem.rooms)))
     return limit
 
 

@@ -5,6 +5,7 @@ of the answer (solver/pipeline/judge.py). Real SCIP throughout."""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Any
 
@@ -14,12 +15,21 @@ import shapely
 from bench.planted import draw
 from floorplan.models import Layout, Problem, Termination
 from floorplan.solver import solve
-from floorplan.solver.budget import FloorBudget, judge_seconds, significant_gain, stall_window
+from floorplan.solver.budget import (
+    FloorBudget,
+    default_time_limit,
+    judge_seconds,
+    late_allowance,
+    significant_gain,
+    stall_window,
+)
 from floorplan.solver.events import Phase, SolveEvent
 from floorplan.solver.geometry import Box, make_domain
+from floorplan.solver.pipeline import floor
 from floorplan.solver.pipeline.assemble import same_layout, termination
+from floorplan.solver.pipeline.hierarchy import as_pieces, room_boxes
 from floorplan.solver.pipeline.judge import final_spec, judged
-from floorplan.solver.pipeline.run import Run, ScipAnswer, layout_objective
+from floorplan.solver.pipeline.run import Run, ScipAnswer, covered, layout_objective
 from floorplan.solver.verify.checker import check_layout
 from tests.paths import CASES, EXAMPLES
 
@@ -223,10 +233,21 @@ def test_the_floor_budget_hands_out_the_limit_in_order(rooms: int, limit: float)
     assert budget.shifted(100.0 + 2 * limit) == budget
 
 
+@pytest.mark.parametrize(("rooms", "limit", "allowance"), [
+    (5, 5.0, 10.0), (13, 5.0, 22.0), (14, 5.0, 24.4), (20, 5.0, 24.4), (40, 10.0, 24.4),
+    (154, 38.5, 77.0)])
+def test_the_default_limit_is_the_paper_s_and_a_first_layout_may_come_later(
+        rooms: int, limit: float, allowance: float) -> None:
+    # Sec. 5.4: 5 s up to 20 rooms, then in proportion; a dozen rooms' first layout may
+    # take until twice 5 s + 1.2 s a room from 8 to 14.
+    assert default_time_limit(rooms) == pytest.approx(limit)
+    assert late_allowance(rooms) == pytest.approx(allowance)
+
+
 def test_a_late_first_layout_keeps_the_later_stages_their_shares_within_the_allowance(
 ) -> None:
-    budget = FloorBudget.of(100.0, 10.0, 13, late=True)
-    assert budget.late_by == pytest.approx(budget.judge_end + 10.0)
+    budget = FloorBudget.of(100.0, 5.0, 13, late=True)
+    assert budget.late_by == pytest.approx(budget.judge_end + late_allowance(13) - 5.0)
     later = budget.shifted(budget.level_one_end + 3.0)
     assert later.search_end - later.level_one_end == pytest.approx(
         budget.search_end - budget.level_one_end)
@@ -234,6 +255,20 @@ def test_a_late_first_layout_keeps_the_later_stages_their_shares_within_the_allo
     # Never past the allowance, however late the layout came.
     assert budget.shifted(budget.level_one_end + 60.0).judge_end == pytest.approx(
         budget.late_by)
+
+
+def test_a_late_first_layout_gives_a_hard_brief_the_longer_shares() -> None:
+    budget = FloorBudget.of(100.0, 5.0, 13, late=True)
+    longer = FloorBudget.of(100.0, 11.0, 13, late=True)  # late_limit(13)
+    # Past the 5 s level 1 but within the longer one: the longer budget as it is.
+    assert budget.hard(budget.level_one_end + 0.5, 13) == longer
+    # Past even that: shifted to start now, within the same allowance.
+    hard = budget.hard(longer.level_one_end + 2.0, 13)
+    assert hard.judge_end == pytest.approx(longer.judge_end + 2.0)
+    assert hard.late_by == pytest.approx(budget.late_by, abs=0.2)
+    # From 49 rooms on the limit is the longer time: a late layout only shifts it.
+    large = FloorBudget.of(100.0, 38.5, 154, late=True)
+    assert large.hard(large.level_one_end + 1.0, 154) == large.shifted(large.level_one_end + 1.0)
 
 
 @pytest.mark.slow
@@ -285,3 +320,35 @@ def test_a_whole_floor_miqp_that_stalls_ends_the_solve_without_the_later_stages(
     assert not [e for e in events if e.detail and ("reshaping" in e.detail
                                                     or "guillotine" in e.detail)]
     assert drawn_as(layout, last_incumbent(events))
+
+
+#: Two rooms side by side with a strip of floor between them that room a may grow into.
+GAP_BETWEEN = Problem.model_validate({
+    "name": "gap-between",
+    "boundary": [[0, 0], [4, 0], [4, 2], [0, 2]],
+    "rooms": [
+        {"id": "a", "min_size": [1, 2], "max_size": [4, 2], "target_size": [2, 2]},
+        {"id": "b", "min_size": [1, 2], "max_size": [2, 2], "target_size": [2, 2]},
+    ],
+})
+
+
+def _late_run(problem: Problem, allowance: float) -> tuple[Run, FloorBudget]:
+    now = time.monotonic()
+    budget = FloorBudget.of(now - 5.0, 5.0, len(problem.rooms), late=True)
+    budget = dataclasses.replace(budget, late_by=budget.judge_end + allowance)
+    run = Run(problem, budget.search_end, budget.started, None, None, end=budget.end,
+              judge_end=budget.judge_end, late_by=budget.late_by)
+    return run, budget
+
+
+def test_a_layout_short_of_the_coverage_goal_at_the_limit_gets_another_round() -> None:
+    domain = make_domain(GAP_BETWEEN)
+    short = as_pieces({"a": [Box(0, 0, 1.5, 2)], "b": [Box(2, 0, 4, 2)]})
+    run, budget = _late_run(GAP_BETWEEN, allowance=30.0)
+    pieces, _ = floor._covered_late(run, domain, short, None, budget, 1)
+    assert covered(domain, room_boxes(pieces)) == pytest.approx(8.0, abs=1e-3)
+    assert check_layout(GAP_BETWEEN, room_boxes(pieces)).valid
+    # With the allowance spent, the layout stays as it was: the limit has passed.
+    run, budget = _late_run(GAP_BETWEEN, allowance=0.0)
+    assert floor._covered_late(run, domain, short, None, budget, 1)[0] == short
