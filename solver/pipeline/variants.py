@@ -28,9 +28,11 @@ import itertools
 import time
 from collections.abc import Callable
 
+from shapely import shortest_line
 from shapely.geometry import Polygon
 
 from floorplan.models import Adjacency, Layout, Problem, VariantInfo
+from floorplan.models.options import StartRect, StartRoom
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import shared_wall_length
 from floorplan.solver.pipeline.fixed import relaid
@@ -41,7 +43,7 @@ from floorplan.solver.pipeline.subdomains import SubdomainExecutor
 #: Two rooms are neighbours in the topology when they share this much wall (metres).
 TOPOLOGY_CONTACT = 0.9
 #: The whole search for k variants takes at most this many times one layout's limit.
-VARIANT_TIME_FACTOR = 3.0
+VARIANT_TIME_FACTOR = 2.0
 #: A further search is not started with less than this share of one layout's limit left.
 MIN_ATTEMPT_SHARE = 0.15
 #: Further searches tried per variant asked, at most.
@@ -52,6 +54,11 @@ ATTEMPTS_PER_VARIANT = 3
 MIN_VARIANT_COVERAGE = 0.99
 #: Rooms further apart than this (metres) in the best layout are not asked to touch.
 MAX_GAP = 4.0
+#: A local variant lays out again at most this many rooms (the pair made to touch and
+#: their nearest neighbours); the others stay where the first layout has them.
+LOCAL_ROOMS = 7
+#: Time limit of a local variant's solve (seconds): its edit ends sooner when it covers.
+LOCAL_SECONDS = 2.0
 #: Seeds of further searches: the problem's seed plus multiples of this.
 SEED_STEP = 7919
 
@@ -118,38 +125,63 @@ def solve_variants(
              f"{problem.options.seed})")
     deadline = started + VARIANT_TIME_FACTOR * limit
     coverage_floor = min(first.report.coverage, MIN_VARIANT_COVERAGE)
-    pairs = iter(missing_walls(problem, first)) if problem.floors is None and not regions_apply(
+    pairs = missing_walls(problem, first) if problem.floors is None and not regions_apply(
         problem) else None
-    share = max(limit * (VARIANT_TIME_FACTOR - 1) / max(wanted - 1, 1),
-                MIN_ATTEMPT_SHARE * limit)
     stopped = should_stop or (lambda: False)
-    for attempt in range(1, ATTEMPTS_PER_VARIANT * (wanted - 1) + 1):
-        left = deadline - time.monotonic()
+
+    def enough() -> bool:
         covering = [f for f in found if f[0].report.coverage >= coverage_floor]
-        if len(covering) >= wanted or left < MIN_ATTEMPT_SHARE * limit or stopped():
-            break
-        seed = (problem.options.seed + attempt * SEED_STEP) % 2**31
-        asked = one.with_options(seed=seed, time_limit=min(share, left))
-        pair = next(pairs, None) if pairs is not None else None
-        if pair is not None:
-            while pair is not None and any(pair in g for _, g, _ in found):
-                pair = next(pairs, None)
-            if pair is not None:
-                extra = Adjacency(a=pair[0], b=pair[1], min_contact=TOPOLOGY_CONTACT)
-                asked = asked.model_copy(update={"adjacency": [*asked.adjacency, extra]})
-        layout = solve(asked, should_stop=should_stop, subdomains=subdomains)
+        return len(covering) >= wanted or stopped()
+
+    def add(layout: Layout, seed: int, how: str) -> None:
+        """Keep `layout` when it is valid and of a topology not found before."""
         if not usable(layout):
-            continue
-        if pair is not None:
-            layout = relaid(one, layout)
-            if not usable(layout):
-                continue
+            return
         graph = topology(layout)
         if any(graph == g for _, g, _ in found):
-            continue
+            return
         found.append((layout, graph, seed))
         announce(on_event, started, layout,
-                 f"variant {len(found)} found, {wanted} asked (seed {seed})")
+                 f"variant {len(found)} found, {wanted} asked ({how}, seed {seed})")
+
+    tried: set[tuple[str, str]] = set()
+    if pairs is not None:
+        # Local re-layouts first: each a fraction of a whole solve.
+        for pair in pairs:
+            if (enough() or len(tried) >= ATTEMPTS_PER_VARIANT * (wanted - 1)
+                    or deadline - time.monotonic() < LOCAL_SECONDS):
+                break
+            if any(pair in g for _, g, _ in found):
+                continue
+            tried.add(pair)
+            seed = (problem.options.seed + (len(tried)) * SEED_STEP) % 2**31
+            local = local_problem(one, first, pair, seed=seed,
+                                  seconds=min(LOCAL_SECONDS, deadline - time.monotonic()))
+            layout = solve(local, should_stop=should_stop, subdomains=subdomains)
+            if usable(layout):
+                add(relaid(one, layout), seed, f"{pair[0]}-{pair[1]} made to touch, "
+                    f"{len(free_rooms(first, pair))} rooms laid out again")
+    # Whole solves with the time left, each demanding a wall no variant has (when
+    # there is one) or with another seed.
+    whole_pairs = iter([p for p in missing_walls(problem, first) if p not in tried]
+                       if pairs is not None else [])
+    for attempt in range(1, ATTEMPTS_PER_VARIANT * (wanted - 1) + 1):
+        left = deadline - time.monotonic()
+        if enough() or left < MIN_ATTEMPT_SHARE * limit:
+            break
+        seed = (problem.options.seed + (len(tried) + attempt) * SEED_STEP) % 2**31
+        missing = wanted - sum(f[0].report.coverage >= coverage_floor for f in found)
+        share = max(left / max(missing, 1), MIN_ATTEMPT_SHARE * limit)
+        asked = one.with_options(seed=seed, time_limit=min(share, left))
+        pair = next(whole_pairs, None)
+        while pair is not None and any(pair in g for _, g, _ in found):
+            pair = next(whole_pairs, None)
+        if pair is not None:
+            extra = Adjacency(a=pair[0], b=pair[1], min_contact=TOPOLOGY_CONTACT)
+            asked = asked.model_copy(update={"adjacency": [*asked.adjacency, extra]})
+        layout = solve(asked, should_stop=should_stop, subdomains=subdomains)
+        if usable(layout):
+            add(relaid(one, layout) if pair is not None else layout, seed, "whole solve")
     # Those covering enough first; those with holes only to make up the number.
     found.sort(key=lambda f: f[0].report.coverage < coverage_floor)
     return ranked(found[:wanted], elapsed=time.monotonic() - started)
@@ -177,6 +209,44 @@ def missing_walls(problem: Problem, layout: Layout) -> list[tuple[str, str]]:
         if pair not in graph and gap <= MAX_GAP and not {a, b} <= fixed:
             near.append((round(gap, 3), pair))
     return [pair for _, pair in sorted(near)]
+
+
+def free_rooms(layout: Layout, pair: tuple[str, str]) -> list[str]:
+    """The rooms a local variant lays out again to make `pair` touch: the pair, then
+    the rooms touching either of them (or lying on the line between them), those
+    nearest that line first, `LOCAL_ROOMS` in all at most."""
+    shapes = {r.id: Polygon(r.polygon) for r in layout.rooms if len(r.polygon) >= 3}
+    graph = topology(layout)
+    between = shortest_line(shapes[pair[0]], shapes[pair[1]])
+    near = []
+    for room_id, shape in shapes.items():
+        if room_id in pair:
+            continue
+        touching = any(tuple(sorted((room_id, p))) in graph for p in pair)
+        gap = shape.distance(between)
+        if touching or gap <= TOPOLOGY_CONTACT:
+            near.append((round(gap, 3), not touching, room_id))
+    return [*pair, *(room_id for *_, room_id in sorted(near)[:LOCAL_ROOMS - 2])]
+
+
+def local_problem(problem: Problem, layout: Layout, pair: tuple[str, str], *, seed: int,
+                  seconds: float) -> Problem:
+    """`problem` with `pair` made to touch and only `free_rooms` of `layout` free: every
+    other room fixed at its polygon in `layout`, which is the free rooms' warm start
+    (an edit, `solver.pipeline.edit`, with `seconds` for its time limit)."""
+    free = set(free_rooms(layout, pair))
+    polygons = {r.id: [list(p) for p in r.polygon] for r in layout.rooms}
+    rooms = [room if room.id in free or room.fixed is not None
+             else room.model_copy(update={"fixed": polygons[room.id]})
+             for room in problem.rooms]
+    extra = Adjacency(a=pair[0], b=pair[1], min_contact=TOPOLOGY_CONTACT)
+    start = [StartRoom(id=r.id, rectangles=[
+        StartRect(x=b.x, y=b.y, width=b.width, depth=b.depth) for b in r.rectangles])
+        for r in layout.rooms]
+    options = problem.options.model_copy(update={
+        "seed": seed, "time_limit": seconds, "start": start, "variants": 1})
+    return problem.model_copy(update={"rooms": rooms, "options": options,
+                                      "adjacency": [*problem.adjacency, extra]})
 
 
 def ranked(found: list[tuple[Layout, Graph, int]], *, elapsed: float) -> Layout:
