@@ -31,11 +31,11 @@ from collections.abc import Callable
 from shapely import shortest_line
 from shapely.geometry import Polygon
 
-from floorplan.models import Adjacency, Layout, Problem, VariantInfo
+from floorplan.models import Adjacency, Layout, Problem, Termination, VariantInfo
 from floorplan.models.options import StartRect, StartRoom
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import shared_wall_length
-from floorplan.solver.pipeline.fixed import relaid
+from floorplan.solver.pipeline.fixed import MIN_SECONDS, relaid
 from floorplan.solver.pipeline.regions import regions_apply
 from floorplan.solver.pipeline.storeys import job_time_limit
 from floorplan.solver.pipeline.subdomains import SubdomainExecutor
@@ -57,6 +57,11 @@ MAX_GAP = 4.0
 #: A local variant lays out again at most this many rooms (the pair made to touch and
 #: their nearest neighbours); the others stay where the first layout has them.
 LOCAL_ROOMS = 7
+#: A local variant demands this many walls at most (the pair and others among its rooms).
+LOCAL_WALLS = 3
+#: A local variant is kept only when its topology differs from every variant's by this
+#: much (`difference`): a variant that moved one wall is no design alternative.
+MIN_LOCAL_DIFFERENCE = 0.15
 #: Time limit of a local variant's solve (seconds): its edit ends sooner when it covers.
 LOCAL_SECONDS = 2.0
 #: Seeds of further searches: the problem's seed plus multiples of this.
@@ -133,12 +138,13 @@ def solve_variants(
         covering = [f for f in found if f[0].report.coverage >= coverage_floor]
         return len(covering) >= wanted or stopped()
 
-    def add(layout: Layout, seed: int, how: str) -> None:
-        """Keep `layout` when it is valid and of a topology not found before."""
+    def add(layout: Layout, seed: int, how: str, least: float = 0.0) -> None:
+        """Keep `layout` when it is valid and its topology differs from every one found
+        before (by more than `least`)."""
         if not usable(layout):
             return
         graph = topology(layout)
-        if any(graph == g for _, g, _ in found):
+        if any(graph == g or difference(graph, g) < least for _, g, _ in found):
             return
         found.append((layout, graph, seed))
         announce(on_event, started, layout,
@@ -149,18 +155,22 @@ def solve_variants(
         # Local re-layouts first: each a fraction of a whole solve.
         for pair in pairs:
             if (enough() or len(tried) >= ATTEMPTS_PER_VARIANT * (wanted - 1)
-                    or deadline - time.monotonic() < LOCAL_SECONDS):
+                    or deadline - time.monotonic() < LOCAL_SECONDS + MIN_SECONDS):
                 break
             if any(pair in g for _, g, _ in found):
                 continue
             tried.add(pair)
             seed = (problem.options.seed + (len(tried)) * SEED_STEP) % 2**31
-            local = local_problem(one, first, pair, seed=seed,
-                                  seconds=min(LOCAL_SECONDS, deadline - time.monotonic()))
+            free = free_rooms(first, pair)
+            walls = local_walls(problem, first, pair, free,
+                                set().union(*(g for _, g, _ in found)))
+            local = local_problem(one, first, free, walls, seed=seed,
+                                  seconds=LOCAL_SECONDS)
             layout = solve(local, should_stop=should_stop, subdomains=subdomains)
             if usable(layout):
-                add(relaid(one, layout), seed, f"{pair[0]}-{pair[1]} made to touch, "
-                    f"{len(free_rooms(first, pair))} rooms laid out again")
+                add(local_report(relaid(one, layout)), seed, f"{len(free)} rooms laid out "
+                    "again, " + ", ".join(f"{a}-{b}" for a, b in walls) + " made to touch",
+                    least=MIN_LOCAL_DIFFERENCE)
     # Whole solves with the time left, each demanding a wall no variant has (when
     # there is one) or with another seed.
     whole_pairs = iter([p for p in missing_walls(problem, first) if p not in tried]
@@ -229,24 +239,41 @@ def free_rooms(layout: Layout, pair: tuple[str, str]) -> list[str]:
     return [*pair, *(room_id for *_, room_id in sorted(near)[:LOCAL_ROOMS - 2])]
 
 
-def local_problem(problem: Problem, layout: Layout, pair: tuple[str, str], *, seed: int,
-                  seconds: float) -> Problem:
-    """`problem` with `pair` made to touch and only `free_rooms` of `layout` free: every
-    other room fixed at its polygon in `layout`, which is the free rooms' warm start
-    (an edit, `solver.pipeline.edit`, with `seconds` for its time limit)."""
-    free = set(free_rooms(layout, pair))
+def local_walls(problem: Problem, layout: Layout, pair: tuple[str, str],
+                free: list[str], taken: set[tuple[str, str]]) -> list[tuple[str, str]]:
+    """The walls a local variant demands: `pair`, then other missing walls of `layout`
+    between two of its `free` rooms that no variant has (`taken`), nearest first,
+    `LOCAL_WALLS` in all at most: one new wall alone changes one adjacency of a dozen."""
+    inside = set(free)
+    more = [p for p in missing_walls(problem, layout)
+            if p != pair and set(p) <= inside and p not in taken]
+    return [pair, *more[:LOCAL_WALLS - 1]]
+
+
+def local_problem(problem: Problem, layout: Layout, free: list[str],
+                  walls: list[tuple[str, str]], *, seed: int, seconds: float) -> Problem:
+    """`problem` with `walls` demanded and only the `free` rooms of `layout` free:
+    every other room fixed at its polygon in `layout`, which is the free rooms' warm
+    start (an edit, `solver.pipeline.edit`, with `seconds` for its time limit)."""
     polygons = {r.id: [list(p) for p in r.polygon] for r in layout.rooms}
     rooms = [room if room.id in free or room.fixed is not None
              else room.model_copy(update={"fixed": polygons[room.id]})
              for room in problem.rooms]
-    extra = Adjacency(a=pair[0], b=pair[1], min_contact=TOPOLOGY_CONTACT)
+    extra = [Adjacency(a=a, b=b, min_contact=TOPOLOGY_CONTACT) for a, b in walls]
     start = [StartRoom(id=r.id, rectangles=[
         StartRect(x=b.x, y=b.y, width=b.width, depth=b.depth) for b in r.rectangles])
         for r in layout.rooms]
     options = problem.options.model_copy(update={
         "seed": seed, "time_limit": seconds, "start": start, "variants": 1})
     return problem.model_copy(update={"rooms": rooms, "options": options,
-                                      "adjacency": [*problem.adjacency, extra]})
+                                      "adjacency": [*problem.adjacency, *extra]})
+
+
+def local_report(layout: Layout) -> Layout:
+    """`layout`, a local re-layout, reported as what it is: a layout of the whole problem
+    from one neighbourhood's MIQP, so `stalled` and without a bound for the whole."""
+    return layout.model_copy(update={"report": layout.report.model_copy(update={
+        "termination": Termination.STALLED, "bound": None, "gap": None})})
 
 
 def ranked(found: list[tuple[Layout, Graph, int]], *, elapsed: float) -> Layout:
