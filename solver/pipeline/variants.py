@@ -42,8 +42,11 @@ from floorplan.solver.pipeline.subdomains import SubdomainExecutor
 
 #: Two rooms are neighbours in the topology when they share this much wall (metres).
 TOPOLOGY_CONTACT = 0.9
-#: The whole search for k variants takes at most this many times one layout's limit.
-VARIANT_TIME_FACTOR = 2.0
+#: The whole search for k variants takes at most this many times one layout's limit ...
+VARIANT_TIME_FACTOR = 3.0
+#: ... or this many on a single floor without regions, where further variants are local
+#: re-layouts of the first (and at most as long as the first took, `solve_variants`).
+LOCAL_TIME_FACTOR = 2.0
 #: A further search is not started with less than this share of one layout's limit left.
 MIN_ATTEMPT_SHARE = 0.15
 #: Further searches tried per variant asked, at most.
@@ -56,12 +59,10 @@ MIN_VARIANT_COVERAGE = 0.99
 MAX_GAP = 4.0
 #: A local variant lays out again at most this many rooms (the pair made to touch and
 #: their nearest neighbours); the others stay where the first layout has them.
-LOCAL_ROOMS = 7
-#: A local variant demands this many walls at most (the pair and others among its rooms).
-LOCAL_WALLS = 3
+LOCAL_ROOMS = 6
 #: A local variant is kept only when its topology differs from every variant's by this
 #: much (`difference`): a variant that moved one wall is no design alternative.
-MIN_LOCAL_DIFFERENCE = 0.15
+MIN_LOCAL_DIFFERENCE = 0.1
 #: Time limit of a local variant's solve (seconds): its edit ends sooner when it covers.
 LOCAL_SECONDS = 2.0
 #: Seeds of further searches: the problem's seed plus multiples of this.
@@ -71,10 +72,19 @@ Solver = Callable[..., Layout]
 Graph = frozenset[tuple[str, str]]
 
 
+def local_variants_apply(problem: Problem) -> bool:
+    """Whether further variants of `problem` are local re-layouts of the first: on a
+    single floor without regions (elsewhere they are whole solves)."""
+    return problem.floors is None and not regions_apply(problem)
+
+
 def variant_time_factor(problem: Problem) -> float:
-    """How many times one layout's time limit the job may take: `VARIANT_TIME_FACTOR`
-    with variants asked, else 1."""
-    return VARIANT_TIME_FACTOR if problem.options.variants > 1 else 1.0
+    """How many times one layout's time limit the job may take: with variants asked,
+    `LOCAL_TIME_FACTOR` where they are local re-layouts, else `VARIANT_TIME_FACTOR`;
+    1 without."""
+    if problem.options.variants == 1:
+        return 1.0
+    return LOCAL_TIME_FACTOR if local_variants_apply(problem) else VARIANT_TIME_FACTOR
 
 
 def topology(layout: Layout) -> Graph:
@@ -128,10 +138,15 @@ def solve_variants(
     found: list[tuple[Layout, Graph, int]] = [(first, topology(first), problem.options.seed)]
     announce(on_event, started, first, f"variant 1 found, {wanted} asked (seed "
              f"{problem.options.seed})")
-    deadline = started + VARIANT_TIME_FACTOR * limit
+    deadline = started + variant_time_factor(problem) * limit
+    pairs = None
+    if local_variants_apply(problem):
+        # Further variants take as long as the first layout took (at least a local
+        # search's time each), never past the job's bound.
+        took = time.monotonic() - started
+        deadline = min(deadline, started + took + max(took, (wanted - 1) * LOCAL_SECONDS))
+        pairs = missing_walls(problem, first)
     coverage_floor = min(first.report.coverage, MIN_VARIANT_COVERAGE)
-    pairs = missing_walls(problem, first) if problem.floors is None and not regions_apply(
-        problem) else None
     stopped = should_stop or (lambda: False)
 
     def enough() -> bool:
@@ -162,15 +177,12 @@ def solve_variants(
             tried.add(pair)
             seed = (problem.options.seed + (len(tried)) * SEED_STEP) % 2**31
             free = free_rooms(first, pair)
-            walls = local_walls(problem, first, pair, free,
-                                set().union(*(g for _, g, _ in found)))
-            local = local_problem(one, first, free, walls, seed=seed,
+            local = local_problem(one, first, free, pair, seed=seed,
                                   seconds=LOCAL_SECONDS)
             layout = solve(local, should_stop=should_stop, subdomains=subdomains)
             if usable(layout):
-                add(local_report(relaid(one, layout)), seed, f"{len(free)} rooms laid out "
-                    "again, " + ", ".join(f"{a}-{b}" for a, b in walls) + " made to touch",
-                    least=MIN_LOCAL_DIFFERENCE)
+                add(local_report(relaid(one, layout)), seed, f"{pair[0]}-{pair[1]} made to "
+                    f"touch, {len(free)} rooms laid out again", least=MIN_LOCAL_DIFFERENCE)
     # Whole solves with the time left, each demanding a wall no variant has (when
     # there is one) or with another seed.
     whole_pairs = iter([p for p in missing_walls(problem, first) if p not in tried]
@@ -239,34 +251,23 @@ def free_rooms(layout: Layout, pair: tuple[str, str]) -> list[str]:
     return [*pair, *(room_id for *_, room_id in sorted(near)[:LOCAL_ROOMS - 2])]
 
 
-def local_walls(problem: Problem, layout: Layout, pair: tuple[str, str],
-                free: list[str], taken: set[tuple[str, str]]) -> list[tuple[str, str]]:
-    """The walls a local variant demands: `pair`, then other missing walls of `layout`
-    between two of its `free` rooms that no variant has (`taken`), nearest first,
-    `LOCAL_WALLS` in all at most: one new wall alone changes one adjacency of a dozen."""
-    inside = set(free)
-    more = [p for p in missing_walls(problem, layout)
-            if p != pair and set(p) <= inside and p not in taken]
-    return [pair, *more[:LOCAL_WALLS - 1]]
-
-
 def local_problem(problem: Problem, layout: Layout, free: list[str],
-                  walls: list[tuple[str, str]], *, seed: int, seconds: float) -> Problem:
-    """`problem` with `walls` demanded and only the `free` rooms of `layout` free:
+                  pair: tuple[str, str], *, seed: int, seconds: float) -> Problem:
+    """`problem` with `pair` made to touch and only the `free` rooms of `layout` free:
     every other room fixed at its polygon in `layout`, which is the free rooms' warm
     start (an edit, `solver.pipeline.edit`, with `seconds` for its time limit)."""
     polygons = {r.id: [list(p) for p in r.polygon] for r in layout.rooms}
     rooms = [room if room.id in free or room.fixed is not None
              else room.model_copy(update={"fixed": polygons[room.id]})
              for room in problem.rooms]
-    extra = [Adjacency(a=a, b=b, min_contact=TOPOLOGY_CONTACT) for a, b in walls]
+    extra = Adjacency(a=pair[0], b=pair[1], min_contact=TOPOLOGY_CONTACT)
     start = [StartRoom(id=r.id, rectangles=[
         StartRect(x=b.x, y=b.y, width=b.width, depth=b.depth) for b in r.rectangles])
         for r in layout.rooms]
     options = problem.options.model_copy(update={
         "seed": seed, "time_limit": seconds, "start": start, "variants": 1})
     return problem.model_copy(update={"rooms": rooms, "options": options,
-                                      "adjacency": [*problem.adjacency, *extra]})
+                                      "adjacency": [*problem.adjacency, extra]})
 
 
 def local_report(layout: Layout) -> Layout:
