@@ -3,20 +3,35 @@ layouts of one problem, pairwise different in topology, ranked by Eq. 12.
 
 The topology of a layout is its adjacency graph: the pairs of rooms sharing at least
 `TOPOLOGY_CONTACT` metres of wall. The first layout is solved as usual (the time
-limit, the seed); then further searches run, each with a share of up to twice that
-time again, and a layout joins the variants when it is valid and its graph differs
-from every one found before; the search goes on until it has enough that cover at
-least 99 % of the floor (or as much as the first), and variants covering less only
-make up the number when time runs out. Other seeds alone seldom change the topology (the MIQP
-of a small floor has one best arrangement), so on a single floor without regions each
-further search also *demands* one wall that no variant found so far has: a hard
-adjacency between two rooms that are near each other in the best layout but do not
-touch (nearest pairs first). Whatever it finds then differs from every variant before,
-and is a layout of the problem as asked (a constraint was added, none removed); its
-report is made again for that problem (`solver.pipeline.fixed.relaid`). The variants are ranked by
-`report.objective` (Eq. 12 plus the soft shortfalls), best first; the best is the
-answer itself. Each variant's report says how far its graph is from every other's
-(`VariantInfo.difference`: the share of adjacencies in one graph and not the other).
+limit, the seed). Other seeds alone seldom change the topology (the MIQP of a small
+floor has one best arrangement), so each further variant *demands* one wall that no
+variant found so far has: a hard adjacency between two rooms that are near each other
+in the first layout but do not touch (nearest pairs first). Whatever it finds then
+differs from every variant before, and is a layout of the problem as asked (a
+constraint was added, none removed); its report is made again for that problem
+(`solver.pipeline.fixed.relaid`).
+
+On a single floor without regions a further variant is a *local re-layout* of the first
+layout: the demanded pair and the rooms around it (`free_rooms`, `LOCAL_ROOMS` in all)
+are laid out again and every other room is held where the first layout has it, as an
+edit (`solver.pipeline.edit`: `Room.fixed`, the first layout as `options.start`), which
+ends as soon as it covers its floor: about a second each, where a whole solve took
+the first layout's time again. A local variant joins when it is valid and at least
+`MIN_LOCAL_DIFFERENCE` of its graph differs from every variant's (one moved wall is no
+design alternative); its report says `stalled` without a bound, the optimum of one
+neighbourhood's MIQP being no proof for the whole. The further variants take at most
+as long as the first layout took (`LOCAL_TIME_FACTOR`); whole solves with the wall
+demanded use what the local ones leave. In a building or with regions each further
+variant is a whole solve with another seed (the wall demanded on a single floor), with
+a share of up to `VARIANT_TIME_FACTOR` - 1 times the limit.
+
+A layout joins the variants when it is valid and its graph differs from every one
+found before; the search goes on until it has enough that cover at least 99 % of the
+floor (or as much as the first), and variants covering less only make up the number
+when time runs out. The variants are ranked by `report.objective` (Eq. 12 plus the
+soft shortfalls), best first; the best is the answer itself. Each variant's report says
+how far its graph is from every other's (`VariantInfo.difference`: the share of
+adjacencies in one graph and not the other).
 
 Sub-problems (the floors of a building, the regions) are solved with `variants` 1: the
 variants are of the whole answer.
