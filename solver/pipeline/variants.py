@@ -46,17 +46,21 @@ from collections.abc import Callable
 from shapely import shortest_line
 from shapely.geometry import Polygon
 
-from floorplan.models import Adjacency, Layout, Problem, Termination, VariantInfo
+from floorplan.models import Adjacency, Layout, Problem, Report, Termination, VariantInfo
 from floorplan.models.options import StartRect, StartRoom
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import shared_wall_length
-from floorplan.solver.pipeline.fixed import MIN_SECONDS, relaid
+from floorplan.solver.pipeline.edit import solve_edit
+from floorplan.solver.pipeline.fixed import fixed_boxes, fixed_layout, relaid, start_boxes
 from floorplan.solver.pipeline.regions import regions_apply
 from floorplan.solver.pipeline.storeys import job_time_limit
 from floorplan.solver.pipeline.subdomains import SubdomainExecutor
 
 #: Two rooms are neighbours in the topology when they share this much wall (metres).
 TOPOLOGY_CONTACT = 0.9
+#: Rounding in a shared wall's length (metres): a wall demanded at `TOPOLOGY_CONTACT`
+#: comes back as 0.8999999999999999 m.
+CONTACT_TOLERANCE = 1e-6
 #: The whole search for k variants takes at most this many times one layout's limit ...
 VARIANT_TIME_FACTOR = 3.0
 #: ... or this many on a single floor without regions, where further variants are local
@@ -111,7 +115,7 @@ def topology(layout: Layout) -> Graph:
     for prefix, rooms in groups:
         shapes = [(prefix + r.id, Polygon(r.polygon)) for r in rooms if len(r.polygon) >= 3]
         for (a, pa), (b, pb) in itertools.combinations(shapes, 2):
-            if shared_wall_length(pa, pb) >= TOPOLOGY_CONTACT:
+            if shared_wall_length(pa, pb) >= TOPOLOGY_CONTACT - CONTACT_TOLERANCE:
                 pairs.add((a, b) if a < b else (b, a))
     return frozenset(pairs)
 
@@ -185,19 +189,18 @@ def solve_variants(
         # Local re-layouts first: each a fraction of a whole solve.
         for pair in pairs:
             if (enough() or len(tried) >= ATTEMPTS_PER_VARIANT * (wanted - 1)
-                    or deadline - time.monotonic() < LOCAL_SECONDS + MIN_SECONDS):
+                    or deadline - time.monotonic() < LOCAL_SECONDS):
                 break
             if any(pair in g for _, g, _ in found):
                 continue
             tried.add(pair)
             seed = (problem.options.seed + (len(tried)) * SEED_STEP) % 2**31
             free = free_rooms(first, pair)
-            local = local_problem(one, first, free, pair, seed=seed,
-                                  seconds=LOCAL_SECONDS)
-            layout = solve(local, should_stop=should_stop, subdomains=subdomains)
-            if usable(layout):
-                add(local_report(relaid(one, layout)), seed, f"{pair[0]}-{pair[1]} made to "
-                    f"touch, {len(free)} rooms laid out again", least=MIN_LOCAL_DIFFERENCE)
+            local = local_variant(one, first, free, pair, seed=seed, deadline=deadline,
+                                  should_stop=should_stop)
+            if local is not None:
+                add(local, seed, f"{pair[0]}-{pair[1]} made to touch, {len(free)} rooms "
+                    "laid out again", least=MIN_LOCAL_DIFFERENCE)
     # Whole solves with the time left, each demanding a wall no variant has (when
     # there is one) or with another seed.
     whole_pairs = iter([p for p in missing_walls(problem, first) if p not in tried]
@@ -267,10 +270,10 @@ def free_rooms(layout: Layout, pair: tuple[str, str]) -> list[str]:
 
 
 def local_problem(problem: Problem, layout: Layout, free: list[str],
-                  pair: tuple[str, str], *, seed: int, seconds: float) -> Problem:
+                  pair: tuple[str, str], *, seed: int) -> Problem:
     """`problem` with `pair` made to touch and only the `free` rooms of `layout` free:
     every other room fixed at its polygon in `layout`, which is the free rooms' warm
-    start (an edit, `solver.pipeline.edit`, with `seconds` for its time limit)."""
+    start (an edit, `solver.pipeline.edit`)."""
     polygons = {r.id: [list(p) for p in r.polygon] for r in layout.rooms}
     rooms = [room if room.id in free or room.fixed is not None
              else room.model_copy(update={"fixed": polygons[room.id]})
@@ -280,15 +283,34 @@ def local_problem(problem: Problem, layout: Layout, free: list[str],
         StartRect(x=b.x, y=b.y, width=b.width, depth=b.depth) for b in r.rectangles])
         for r in layout.rooms]
     options = problem.options.model_copy(update={
-        "seed": seed, "time_limit": seconds, "start": start, "variants": 1})
+        "seed": seed, "time_limit": LOCAL_SECONDS, "start": start, "variants": 1})
     return problem.model_copy(update={"rooms": rooms, "options": options,
                                       "adjacency": [*problem.adjacency, extra]})
 
 
-def local_report(layout: Layout) -> Layout:
-    """`layout`, a local re-layout, reported as what it is: a layout of the whole problem
-    from one neighbourhood's MIQP, so `stalled` and without a bound for the whole."""
-    return layout.model_copy(update={"report": layout.report.model_copy(update={
+def local_variant(problem: Problem, layout: Layout, free: list[str], pair: tuple[str, str],
+                  *, seed: int, deadline: float,
+                  should_stop: StopFlag | None = None) -> Layout | None:
+    """A variant of `problem` (one layout, one floor) from `layout`: the `free` rooms laid
+    out again around the others with `pair` made to touch, by the edit's MIQP alone
+    (`solver.pipeline.edit.solve_edit`, at most `LOCAL_SECONDS` and never past
+    `deadline`); None when it finds no valid layout. The whole pipeline around the fixed
+    rooms, an edit's fallback, would take seconds where another pair takes one. The
+    report is made for `problem` and says `stalled` without a bound: the optimum of one
+    neighbourhood's MIQP is no proof for the whole."""
+    started = time.monotonic()
+    local = local_problem(problem, layout, free, pair, seed=seed)
+    result = solve_edit(local, fixed_boxes(local), deadline=min(deadline, started + LOCAL_SECONDS),
+                        start=start_boxes(local), should_stop=should_stop)
+    if result.rooms is None:
+        return None
+    report = Report(coverage=0.0, uncovered_area=0.0, levels=result.levels,
+                    termination=Termination.STALLED, valid=True)
+    edited = fixed_layout(local, result.rooms, report, started)
+    if not edited.report.valid:
+        return None
+    variant = relaid(problem, edited)
+    return variant.model_copy(update={"report": variant.report.model_copy(update={
         "termination": Termination.STALLED, "bound": None, "gap": None})})
 
 
