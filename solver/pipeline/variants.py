@@ -82,6 +82,9 @@ LOCAL_ROOMS = 6
 #: A local variant is kept only when its topology differs from every variant's by this
 #: much (`difference`): a variant that moved one wall is no design alternative.
 MIN_LOCAL_DIFFERENCE = 0.1
+#: Local re-layouts end after this many in a row found no new variant (on some floors
+#: the edit finds none: residential-15), leaving the time to whole solves.
+LOCAL_MISSES = 3
 #: Time limit of a local variant's solve (seconds): its edit ends sooner when it covers.
 LOCAL_SECONDS = 2.0
 #: Seeds of further searches: the problem's seed plus multiples of this.
@@ -172,24 +175,26 @@ def solve_variants(
         covering = [f for f in found if f[0].report.coverage >= coverage_floor]
         return len(covering) >= wanted or stopped()
 
-    def add(layout: Layout, seed: int, how: str, least: float = 0.0) -> None:
+    def add(layout: Layout, seed: int, how: str, least: float = 0.0) -> bool:
         """Keep `layout` when it is valid and its topology differs from every one found
-        before (by more than `least`)."""
+        before (by more than `least`); whether it was kept."""
         if not usable(layout):
-            return
+            return False
         graph = topology(layout)
         if any(graph == g or difference(graph, g) < least for _, g, _ in found):
-            return
+            return False
         found.append((layout, graph, seed))
         announce(on_event, started, layout,
                  f"variant {len(found)} found, {wanted} asked ({how}, seed {seed})")
+        return True
 
     tried: set[tuple[str, str]] = set()
+    misses = 0  # local re-layouts in a row that found no new variant
     if pairs is not None:
         # Local re-layouts first: each a fraction of a whole solve.
         for pair in pairs:
             if (enough() or len(tried) >= ATTEMPTS_PER_VARIANT * (wanted - 1)
-                    or deadline - time.monotonic() < LOCAL_SECONDS):
+                    or misses >= LOCAL_MISSES or deadline - time.monotonic() < LOCAL_SECONDS):
                 break
             if any(pair in g for _, g, _ in found):
                 continue
@@ -198,9 +203,10 @@ def solve_variants(
             free = free_rooms(first, pair)
             local = local_variant(one, first, free, pair, seed=seed, deadline=deadline,
                                   should_stop=should_stop)
-            if local is not None:
-                add(local, seed, f"{pair[0]}-{pair[1]} made to touch, {len(free)} rooms "
-                    "laid out again", least=MIN_LOCAL_DIFFERENCE)
+            kept = local is not None and add(
+                local, seed, f"{pair[0]}-{pair[1]} made to touch, {len(free)} rooms laid "
+                "out again", least=MIN_LOCAL_DIFFERENCE)
+            misses = 0 if kept else misses + 1
     # Whole solves with the time left, each demanding a wall no variant has (when
     # there is one) or with another seed.
     whole_pairs = iter([p for p in missing_walls(problem, first) if p not in tried]
@@ -210,8 +216,11 @@ def solve_variants(
         if enough() or left < MIN_ATTEMPT_SHARE * limit:
             break
         seed = (problem.options.seed + (len(tried) + attempt) * SEED_STEP) % 2**31
+        # After local re-layouts, what they left goes to one whole solve at a time (a
+        # share of it would seldom cover); elsewhere each variant missing gets its share.
         missing = wanted - sum(f[0].report.coverage >= coverage_floor for f in found)
-        share = max(left / max(missing, 1), MIN_ATTEMPT_SHARE * limit)
+        share = left if pairs is not None else max(left / max(missing, 1),
+                                                   MIN_ATTEMPT_SHARE * limit)
         asked = one.with_options(seed=seed, time_limit=min(share, left))
         pair = next(whole_pairs, None)
         while pair is not None and any(pair in g for _, g, _ in found):
