@@ -19,12 +19,13 @@ ends as soon as it covers its floor: about a second each, where a whole solve to
 the first layout's time again. A local variant joins when it is valid and at least
 `MIN_LOCAL_DIFFERENCE` of its graph differs from every variant's (one moved wall is no
 design alternative); its report says `stalled` without a bound, the optimum of one
-neighbourhood's MIQP being no proof for the whole. The local re-layouts take at most
-as long as the first layout took, and end after `LOCAL_MISSES` in a row found nothing
-new (on some floors the edit finds no layout in its second: residential-15). When they
-found too few, whole solves with a wall demanded take over until the job's bound,
-`VARIANT_TIME_FACTOR` times the limit, each missing variant a share of the time left.
-In a building or with regions every further variant is a whole solve with another seed.
+neighbourhood's MIQP being no proof for the whole. The local re-layouts end after
+`LOCAL_MISSES` in a row found nothing new (on some floors the edit finds no layout in
+its second: residential-15); whole solves with a wall demanded then get what they left,
+one at a time. All further variants together take at most as long as the first layout
+took (the job at most `LOCAL_TIME_FACTOR` times the limit). In a building or with
+regions each further variant is a whole solve with another seed, with a share of up to
+`VARIANT_TIME_FACTOR` - 1 times the limit.
 
 A layout joins the variants when it is valid and its graph differs from every one
 found before; the search goes on until it has enough that cover at least 99 % of the
@@ -62,8 +63,11 @@ TOPOLOGY_CONTACT = 0.9
 #: Rounding in a shared wall's length (metres): a wall demanded at `TOPOLOGY_CONTACT`
 #: comes back as 0.8999999999999999 m.
 CONTACT_TOLERANCE = 1e-6
-#: The whole search for k variants takes at most this many times one layout's limit.
+#: The whole search for k variants takes at most this many times one layout's limit ...
 VARIANT_TIME_FACTOR = 3.0
+#: ... or this many on a single floor without regions, where further variants are local
+#: re-layouts of the first (and at most as long as the first took, `solve_variants`).
+LOCAL_TIME_FACTOR = 2.0
 #: A further search is not started with less than this share of one layout's limit left.
 MIN_ATTEMPT_SHARE = 0.15
 #: Further searches tried per variant asked, at most.
@@ -99,9 +103,12 @@ def local_variants_apply(problem: Problem) -> bool:
 
 
 def variant_time_factor(problem: Problem) -> float:
-    """How many times one layout's time limit the job may take: `VARIANT_TIME_FACTOR`
-    with variants asked, else 1."""
-    return VARIANT_TIME_FACTOR if problem.options.variants > 1 else 1.0
+    """How many times one layout's time limit the job may take: with variants asked,
+    `LOCAL_TIME_FACTOR` where they are local re-layouts, else `VARIANT_TIME_FACTOR`;
+    1 without."""
+    if problem.options.variants == 1:
+        return 1.0
+    return LOCAL_TIME_FACTOR if local_variants_apply(problem) else VARIANT_TIME_FACTOR
 
 
 def topology(layout: Layout) -> Graph:
@@ -155,13 +162,13 @@ def solve_variants(
     found: list[tuple[Layout, Graph, int]] = [(first, topology(first), problem.options.seed)]
     announce(on_event, started, first, f"variant 1 found, {wanted} asked (seed "
              f"{problem.options.seed})")
-    deadline = local_end = started + VARIANT_TIME_FACTOR * limit
+    deadline = started + variant_time_factor(problem) * limit
     pairs = None
     if local_variants_apply(problem):
-        # Local re-layouts take at most as long as the first layout took (at least a
-        # local search's time each); whole solves, should they find too few, the rest.
+        # Further variants take as long as the first layout took (at least a local
+        # search's time each), never past the job's bound.
         took = time.monotonic() - started
-        local_end = min(deadline, started + took + max(took, (wanted - 1) * LOCAL_SECONDS))
+        deadline = min(deadline, started + took + max(took, (wanted - 1) * LOCAL_SECONDS))
         pairs = missing_walls(problem, first)
     coverage_floor = min(first.report.coverage, MIN_VARIANT_COVERAGE)
     stopped = should_stop or (lambda: False)
@@ -189,14 +196,14 @@ def solve_variants(
         # Local re-layouts first: each a fraction of a whole solve.
         for pair in pairs:
             if (enough() or len(tried) >= ATTEMPTS_PER_VARIANT * (wanted - 1)
-                    or misses >= LOCAL_MISSES or local_end - time.monotonic() < LOCAL_SECONDS):
+                    or misses >= LOCAL_MISSES or deadline - time.monotonic() < LOCAL_SECONDS):
                 break
             if any(pair in g for _, g, _ in found):
                 continue
             tried.add(pair)
             seed = (problem.options.seed + (len(tried)) * SEED_STEP) % 2**31
             free = free_rooms(first, pair)
-            local = local_variant(one, first, free, pair, seed=seed, deadline=local_end,
+            local = local_variant(one, first, free, pair, seed=seed, deadline=deadline,
                                   should_stop=should_stop)
             kept = local is not None and add(
                 local, seed, f"{pair[0]}-{pair[1]} made to touch, {len(free)} rooms laid "
@@ -211,8 +218,11 @@ def solve_variants(
         if enough() or left < MIN_ATTEMPT_SHARE * limit:
             break
         seed = (problem.options.seed + (len(tried) + attempt) * SEED_STEP) % 2**31
+        # After local re-layouts, what they left goes to one whole solve at a time (a
+        # share of it would seldom cover); elsewhere each variant missing gets its share.
         missing = wanted - sum(f[0].report.coverage >= coverage_floor for f in found)
-        share = max(left / max(missing, 1), MIN_ATTEMPT_SHARE * limit)
+        share = left if pairs is not None else max(left / max(missing, 1),
+                                                   MIN_ATTEMPT_SHARE * limit)
         asked = one.with_options(seed=seed, time_limit=min(share, left))
         pair = next(whole_pairs, None)
         while pair is not None and any(pair in g for _, g, _ in found):

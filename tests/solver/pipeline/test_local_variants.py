@@ -1,6 +1,6 @@
 """Design variants as local re-layouts, on the real SCIP: a further variant of a single
 floor lays out again only the rooms around one demanded wall, the others stay exactly
-where the first layout has them.
+where the first layout has them, and the job's time bound says so.
 
 Nothing asserts on wall time."""
 
@@ -14,6 +14,7 @@ from shapely.geometry import Polygon
 from floorplan.models import Layout, Problem, Termination
 from floorplan.solver.pipeline.variants import (
     LOCAL_ROOMS,
+    LOCAL_TIME_FACTOR,
     VARIANT_TIME_FACTOR,
     free_rooms,
     local_variant,
@@ -54,8 +55,8 @@ def test_a_local_variant_makes_the_pair_touch_and_keeps_the_other_rooms() -> Non
     raise AssertionError(f"none of {missing[:3]} could be made to touch")
 
 
-def test_a_job_with_variants_may_take_three_layouts_time() -> None:
-    # The service's hard limit: local re-layouts usually end far sooner, but whole
-    # solves take over when they find too few (residential-15).
+def test_the_job_bound_is_twice_a_layout_on_one_floor_and_three_times_for_buildings() -> None:
     assert variant_time_factor(HOUSE) == 1
-    assert variant_time_factor(HOUSE.with_options(variants=4)) == VARIANT_TIME_FACTOR == 3
+    assert variant_time_factor(HOUSE.with_options(variants=4)) == LOCAL_TIME_FACTOR == 2
+    building = Problem.model_validate_json((EXAMPLES / "two-storey-house.json").read_text())
+    assert variant_time_factor(building.with_options(variants=4)) == VARIANT_TIME_FACTOR
