@@ -60,3 +60,14 @@ def test_the_job_bound_is_twice_a_layout_on_one_floor_and_three_times_for_buildi
     assert variant_time_factor(HOUSE.with_options(variants=4)) == LOCAL_TIME_FACTOR == 2
     building = Problem.model_validate_json((EXAMPLES / "two-storey-house.json").read_text())
     assert variant_time_factor(building.with_options(variants=4)) == VARIANT_TIME_FACTOR
+
+
+def test_the_service_bounds_a_job_with_variants_by_twice_its_limit() -> None:
+    from floorplan.service.timing import effective_time_limit
+
+    problem = HOUSE.with_options(variants=4, time_limit=10)
+    asked, job_limit = effective_time_limit(problem, 100)
+    assert (asked.options.time_limit, job_limit) == (10, 20)
+    # Under a lower ceiling one layout's limit is cut so that the job stays under it.
+    asked, job_limit = effective_time_limit(problem, 12)
+    assert (asked.options.time_limit, job_limit) == (6, 12)
