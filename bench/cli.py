@@ -7,6 +7,7 @@
     python -m bench planted [options]   # planted briefs: bench/planted_report.py
     python -m bench batch [options]     # layouts per second of a batch: bench/batch.py
     python -m bench edits [options]     # edits around fixed rooms: bench/edits.py
+    python -m bench variants [options]  # design variants against one layout: bench/variants.py
 
 Cases run one after another, and on each case the solvers run one after another
 (never two at once), repeat after repeat, so they share the machine equally.
@@ -28,6 +29,7 @@ from bench.evaluate import RunRecord, evaluate
 from bench.planted_report import main as planted_main
 from bench.report import build_results, has_matplotlib, machine_info, write_outputs
 from bench.solvers import BASELINE_CAP, SOLVERS, baseline_limit, our_limit, run_guarded
+from bench.variants import main as variants_main
 from floorplan.models import Problem
 from floorplan.solver.geometry import make_domain
 
@@ -94,6 +96,8 @@ def main(argv: list[str] | None = None) -> int:
         return batch_main(argv[1:])
     if argv[:1] == ["edits"]:  # edits around fixed rooms
         return edits_main(argv[1:])
+    if argv[:1] == ["variants"]:  # design variants against one layout
+        return variants_main(argv[1:])
     args = parse_args(argv)
     if args.report_only:
         return rewrite_report(args.out, args.cases)

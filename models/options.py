@@ -96,8 +96,8 @@ class Options(StrictModel):
         1, description="how many design variants to return (1-12): up to this many valid "
         "layouts whose topologies differ (the graph of rooms sharing at least 0.9 m of wall "
         "is not the same), ranked by Eq. 12, best first, in `Layout.variants`; the search "
-        "takes up to 3x the time limit. Fewer come back when no more distinct ones are "
-        "found in time",
+        "takes up to 2x the time limit on a single floor (3x in a building or with "
+        "regions). Fewer come back when no more distinct ones are found in time",
     )
     start: Annotated[list[StartRoom], Field(max_length=MAX_START_ROOMS)] | None = Field(
         None, description="a previous layout as a warm start for the free rooms of an edit "
