@@ -61,6 +61,15 @@ def late_limit(rooms: int) -> float:
     return max(mid, default_time_limit(rooms))
 
 
+def first_pass_end(started: float, rooms: int) -> float:
+    """Under the default limit, when the first pass of the search for a first layout
+    ends (the late allowance's second pass may follow): where SCIP's check would end
+    under `late_limit`. A hard brief's first layout comes after 5-10 s; a first pass cut
+    at the 5 s limit's end and started again lost planted-12-1029's in 3 runs of 3."""
+    limit = late_limit(rooms)
+    return started + limit - min(FINISH_SHARE * limit, FINISH_SECONDS_PER_ROOM * rooms)
+
+
 def late_allowance(rooms: int) -> float:
     """Seconds a one-floor solve under the default limit may run when its first layout
     comes late: `LATE_FIRST_FACTOR` x `late_limit`."""

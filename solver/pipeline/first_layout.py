@@ -74,7 +74,7 @@ def first_level(
     if not has_soft(problem):
         # Nothing else needs the time when there is no first layout: the search for
         # one may go on until the solve's end (SCIP's check of the answer included).
-        first_by = max(deadline, run.judge_end or run.end)
+        first_by = max(deadline, run.first_by, run.judge_end or run.end)
         pieces, failure = _level_one(run, domain, deadline, first_by=first_by)
         if (pieces is None and failure is not None and run.late_by - time.monotonic() > 0.1
                 and failure.report.termination is Termination.NO_SOLUTION):

@@ -18,6 +18,7 @@ from floorplan.solver import solve
 from floorplan.solver.budget import (
     FloorBudget,
     default_time_limit,
+    first_pass_end,
     judge_seconds,
     late_allowance,
     significant_gain,
@@ -242,6 +243,10 @@ def test_the_default_limit_is_the_paper_s_and_a_first_layout_may_come_later(
     # take until twice 5 s + 1.2 s a room from 8 to 14.
     assert default_time_limit(rooms) == pytest.approx(limit)
     assert late_allowance(rooms) == pytest.approx(allowance)
+    # The first pass for a first layout ends where SCIP's check would under the longer
+    # time, not the 5 s limit's.
+    longer = FloorBudget.of(0.0, allowance / 2, rooms)
+    assert first_pass_end(0.0, rooms) == pytest.approx(longer.judge_end)
 
 
 def test_a_late_first_layout_keeps_the_later_stages_their_shares_within_the_allowance(
