@@ -186,12 +186,13 @@ def _drawn_until_good(
 
 
 def _refined(run: Run, domain: Domain, pieces: list[Piece],
-             subdomains: SubdomainExecutor | None, later: float) -> tuple[list[Piece], int]:
+             subdomains: SubdomainExecutor | None, later: float, *, after: int = 1
+             ) -> tuple[list[Piece], int]:
     """The hierarchy's levels, their last gaps absorbed; when they end short of the
     coverage goal (level 1 took most of the time), a second round until `later`, taken
     from the reshaping: coverage decides whether the layout is valid, the reshaping only
     polishes its sizes."""
-    pieces, levels = refine(run, domain, pieces, subdomains)
+    pieces, levels = refine(run, domain, pieces, subdomains, after=after)
     filled = _slid(run, domain, absorb_gaps(run.problem, domain, pieces))
     if run.stopped() or covers(domain, room_boxes(filled)):
         return filled, levels
@@ -223,7 +224,8 @@ def _covered_late(run: Run, domain: Domain, pieces: list[Piece],
         run.emit(Phase.LEVEL, detail="short of the coverage goal at the limit: the levels "
                  "and the reshaping again (the default limit's late allowance)")
         run.deadline, run.end, run.judge_end = budget.search_end, budget.end, budget.judge_end
-        again, levels = _refined(run, domain, pieces, subdomains, budget.short_end)
+        again, levels = _refined(run, domain, pieces, subdomains, budget.short_end,
+                                 after=levels)
         again = run.better_of(domain, again)
         run.deadline = budget.end
         again = reshaped(run, domain, again, budget.end)
