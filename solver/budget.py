@@ -23,12 +23,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 #: Seconds per job up to `BASE_ROOMS` rooms, then in proportion (Sec. 5.4: 5 s for up to
-#: 20 rooms). For 9 to 14 rooms this was 1.2 s more a room (12.2 s at 14) until the
-#: solve stopped when stalled; with the limit 5 s again, 36 planted briefs side by side
-#: kept 33 of 34 valid and 30 of 32 within 2x their plan's area error in 30 % less time
-#: (bench/NOTES.md, "5 s again, and a long late allowance"). What the extra time
-#: bought was mostly a first layout for the hardest briefs: the late allowance below
-#: keeps it.
+#: 20 rooms). For 9 to 14 rooms this was 1.2 s more a room (12.2 s at 14); what that
+#: bought was above all a first layout for the hardest briefs, which the late allowance
+#: below keeps. With 5 s, 36 planted briefs (medians of three seeds) kept 36 of 36 valid
+#: and 32 of 34 within 2x their plan's area error in a quarter less time (bench/NOTES.md,
+#: "The paper's 5 s again, with a long late allowance").
 BASE_TIME = 5.0
 BASE_ROOMS = 20
 #: A solve under the default limit that has no layout yet when its search's share ends
