@@ -47,7 +47,7 @@ from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import Box, domain_lines, rectangles_of, snap_rooms
 from floorplan.solver.openings import connection_demands
 from floorplan.solver.pipeline.assemble import drawn_rooms, remade_report
-from floorplan.solver.pipeline.edit import edit_applies, most_fixed, solve_edit
+from floorplan.solver.pipeline.edit import EditResult, edit_applies, most_fixed, solve_edit
 from floorplan.solver.pipeline.run import OUTPUT_SNAP
 from floorplan.solver.pipeline.subdomains import SubdomainExecutor
 from floorplan.solver.verify.checker import COVERAGE_GOAL, check_layout
@@ -230,15 +230,22 @@ def last_edit(problem: Problem, start: Mapping[str, list[Box]], until: float, st
     result = solve_edit(problem, fixed_boxes(problem), deadline=until, start=start,
                         on_event=on_event, should_stop=should_stop,
                         seconds=until - time.monotonic(), first=True)
+    layout = edit_layout(problem, result, started, result.termination)
+    if layout is not None:
+        _done(on_event, layout, started)
+    return layout
+
+
+def edit_layout(problem: Problem, result: EditResult, started: float,
+                termination: Termination) -> Layout | None:
+    """An edit's `result` as a layout of the whole `problem`, checked (`fixed_layout`);
+    None when the edit found no rooms or its layout fails the checker."""
     if result.rooms is None:
         return None
     report = Report(coverage=0.0, uncovered_area=0.0, levels=result.levels,
-                    termination=result.termination, valid=True)
+                    termination=termination, valid=True)
     layout = fixed_layout(problem, result.rooms, report, started)
-    if not layout.report.valid:
-        return None
-    _done(on_event, layout, started)
-    return layout
+    return layout if layout.report.valid else None
 
 
 def start_layout(problem: Problem, start: Mapping[str, list[Box]],

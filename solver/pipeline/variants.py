@@ -48,12 +48,12 @@ from collections.abc import Callable
 from shapely import shortest_line
 from shapely.geometry import Polygon
 
-from floorplan.models import Adjacency, Layout, Problem, Report, Termination, VariantInfo
+from floorplan.models import Adjacency, Layout, Problem, Termination, VariantInfo
 from floorplan.models.options import StartRect, StartRoom
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import shared_wall_length
 from floorplan.solver.pipeline.edit import solve_edit
-from floorplan.solver.pipeline.fixed import fixed_boxes, fixed_layout, relaid, start_boxes
+from floorplan.solver.pipeline.fixed import edit_layout, fixed_boxes, relaid, start_boxes
 from floorplan.solver.pipeline.regions import regions_apply
 from floorplan.solver.pipeline.storeys import job_time_limit
 from floorplan.solver.pipeline.subdomains import SubdomainExecutor
@@ -313,12 +313,8 @@ def local_variant(problem: Problem, layout: Layout, free: list[str], pair: tuple
     local = local_problem(problem, layout, free, pair, seed=seed)
     result = solve_edit(local, fixed_boxes(local), deadline=min(deadline, started + LOCAL_SECONDS),
                         start=start_boxes(local), should_stop=should_stop)
-    if result.rooms is None:
-        return None
-    report = Report(coverage=0.0, uncovered_area=0.0, levels=result.levels,
-                    termination=Termination.STALLED, valid=True)
-    edited = fixed_layout(local, result.rooms, report, started)
-    if not edited.report.valid:
+    edited = edit_layout(local, result, started, Termination.STALLED)
+    if edited is None:
         return None
     variant = relaid(problem, edited)
     return variant.model_copy(update={"report": variant.report.model_copy(update={
