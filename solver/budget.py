@@ -65,8 +65,7 @@ def first_pass_end(started: float, rooms: int) -> float:
     ends (the late allowance's second pass may follow): where SCIP's check would end
     under `late_limit`. A hard brief's first layout comes after 5-10 s; a first pass cut
     at the 5 s limit's end and started again lost planted-12-1029's in 3 runs of 3."""
-    limit = late_limit(rooms)
-    return started + limit - min(FINISH_SHARE * limit, FINISH_SECONDS_PER_ROOM * rooms)
+    return FloorBudget.of(started, late_limit(rooms), rooms).judge_end
 
 
 def late_allowance(rooms: int) -> float:

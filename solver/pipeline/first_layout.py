@@ -10,6 +10,7 @@ import time
 from collections.abc import Mapping
 
 from floorplan.models import ExtraRectangles, Infeasibility, Layout, Problem, Termination
+from floorplan.solver.budget import first_pass_end
 from floorplan.solver.events import Phase
 from floorplan.solver.geometry import Box, Domain
 from floorplan.solver.heuristics.construct import construct
@@ -73,8 +74,11 @@ def first_level(
     problem = run.problem
     if not has_soft(problem):
         # Nothing else needs the time when there is no first layout: the search for
-        # one may go on until the solve's end (SCIP's check of the answer included).
-        first_by = max(deadline, run.first_by, run.judge_end or run.end)
+        # one may go on until the solve's end (SCIP's check of the answer included),
+        # and under the default limit (a late allowance) as long as under `late_limit`.
+        first_by = max(deadline, run.judge_end or run.end)
+        if run.late_by:
+            first_by = max(first_by, first_pass_end(run.started, len(problem.rooms)))
         pieces, failure = _level_one(run, domain, deadline, first_by=first_by)
         if (pieces is None and failure is not None and run.late_by - time.monotonic() > 0.1
                 and failure.report.termination is Termination.NO_SOLUTION):

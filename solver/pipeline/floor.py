@@ -13,7 +13,7 @@ import time
 
 from floorplan.models import Infeasibility, Layout, Problem, Termination
 from floorplan.models.options import REDRAW_SEED_STEP as WHOLE_REDRAW_SEED_STEP
-from floorplan.solver.budget import FloorBudget, default_time_limit, first_pass_end
+from floorplan.solver.budget import FloorBudget, default_time_limit
 from floorplan.solver.events import EventSink, Phase, SolveEvent, StopFlag
 from floorplan.solver.geometry import Domain, make_domain
 from floorplan.solver.heuristics.variety import (
@@ -80,8 +80,7 @@ def solve_floor(
     budget = FloorBudget.of(started, limit, len(problem.rooms), late=late)
     run = Run(problem, budget.search_end, started, on_event, should_stop, asked=asked,
               end=budget.end, judge_end=budget.judge_end,
-              late_by=budget.late_by if late else 0.0,
-              first_by=first_pass_end(started, len(problem.rooms)) if late else 0.0)
+              late_by=budget.late_by if late else 0.0)
     domain = make_domain(problem)
     findings = find_impossibilities(problem, domain)  # soft constraints never refuse
     if findings:
@@ -219,8 +218,8 @@ def _covered_late(run: Run, domain: Domain, pieces: list[Piece],
     bare; a covering layout never waits for this."""
     while not run.stopped() and not covers(domain, room_boxes(pieces)):
         budget = budget.shifted(time.monotonic())  # from now, each later stage its share
-        if budget.end - time.monotonic() < budget.end - budget.search_end + 0.05:
-            break  # the allowance leaves no round's time
+        if budget.search_end - time.monotonic() < 0.05:
+            break  # the allowance leaves the levels no time
         run.emit(Phase.LEVEL, detail="short of the coverage goal at the limit: the levels "
                  "and the reshaping again (the default limit's late allowance)")
         run.deadline, run.end, run.judge_end = budget.search_end, budget.end, budget.judge_end

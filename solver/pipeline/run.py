@@ -108,9 +108,6 @@ class Run:
     #: A search with no first layout may go on until then (`FloorBudget.late_by`); 0:
     #: no late allowance (the user gave the limit, or the search is not the floor's own).
     late_by: float = 0.0
-    #: Under the default limit, the first pass for a first layout may go on until then
-    #: (`solver.budget.first_pass_end`); 0: until SCIP's check would end.
-    first_by: float = 0.0
     #: The rooms of the last incumbent announced (gaps absorbed), if any.
     announced: dict[str, list[Box]] | None = None
     #: When the first layout was found (`time.monotonic()`), if yet.
